@@ -1,0 +1,257 @@
+//! Risk contours (Section IV: eq. (10) `rc_s_cheby`, static; eq. (12) `rc_d_cheby`,
+//! dynamic) — layer L1.
+//!
+//! For an obstacle `{x : P(x, ω, t) ≥ 0}` the contour polynomials are E[P] and E[P²]
+//! in (x, t), computed once from the moments of ω and kept ([`RiskContour`]). For a
+//! risk level Δ they give the two constraints of algorithms.md §2.2,
+//!
+//! ```text
+//! g1 = E[P]² − (1−Δ)·E[P²] ≥ 0      (Cantelli, Theorem 1)
+//! g2 = −E[P] ≥ 0                    (mean on the safe side)
+//! ```
+//!
+//! and, at a point, the bound `(E[P²] − E[P]²) / E[P²]` on the probability of
+//! collision where `E[P] ≤ 0` (1 elsewhere). The guarantee is per obstacle and per
+//! instant (§2.1, §8.13).
+
+use crate::poly::{rational_to_f64, Poly, QPoly, Var};
+use num_rational::BigRational;
+use num_traits::{One, Signed, Zero};
+use thiserror::Error;
+
+/// Why a contour could not be built.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ContourError {
+    /// A moment of a parameter was unavailable (for instance, too few raw moments).
+    #[error("the moment E[{param}^{order}] is not available")]
+    MissingMoment {
+        /// Parameter name.
+        param: String,
+        /// Moment order.
+        order: u32,
+    },
+}
+
+/// Layout of the variables of a scene's polynomials: `x1..x{dim}` are `0..dim`,
+/// `t` is `dim`, parameters come after.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// Spatial dimension n.
+    pub dim: usize,
+}
+
+impl Layout {
+    /// The time variable.
+    pub fn t(&self) -> Var {
+        self.dim as Var
+    }
+    /// Whether `v` is an uncertain parameter.
+    pub fn is_param(&self, v: Var) -> bool {
+        v as usize > self.dim
+    }
+    /// Number of (x, t) variables: `dim + 1`.
+    pub fn xt_len(&self) -> usize {
+        self.dim + 1
+    }
+}
+
+/// The constraints of one obstacle at one risk level (algorithms.md §2.2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Constraints {
+    /// `g1 = E[P]² − (1−Δ)·E[P²]` (degree `2·deg P`).
+    pub cantelli: QPoly,
+    /// `g2 = −E[P]`.
+    pub mean: QPoly,
+}
+
+/// The risk at one point and time, exact.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointRisk {
+    /// E[P] at the point.
+    pub mean: BigRational,
+    /// E[P²] at the point.
+    pub second_moment: BigRational,
+    /// The Cantelli bound on Prob(P ≥ 0): `(E[P²] − E[P]²)/E[P²]` where `E[P] ≤ 0` and
+    /// `E[P²] > 0`, and 1 otherwise.
+    pub bound: BigRational,
+}
+
+/// The Cantelli bound from the two moments of `P` at a point (Theorem 1, Appendix).
+pub fn cantelli_bound(mean: &BigRational, second: &BigRational) -> BigRational {
+    if mean.is_positive() || !second.is_positive() {
+        return BigRational::one();
+    }
+    (second - mean * mean) / second
+}
+
+/// [`cantelli_bound`] in floating point, clamped to [0, 1] (for plots and displays only).
+pub fn cantelli_bound_f64(mean: f64, second: f64) -> f64 {
+    if mean > 0.0 || second <= 0.0 || mean.is_nan() || second.is_nan() {
+        return 1.0;
+    }
+    ((second - mean * mean) / second).clamp(0.0, 1.0)
+}
+
+/// The moment-expanded contour polynomials of one obstacle, kept for its lifetime.
+#[derive(Clone, Debug)]
+pub struct RiskContour {
+    layout: Layout,
+    /// E[P](x, t), exact.
+    pub mean: QPoly,
+    /// E[P²](x, t), exact.
+    pub second: QPoly,
+    mean_f: Poly<f64>,
+    second_f: Poly<f64>,
+    dynamic: bool,
+}
+
+impl RiskContour {
+    /// Builds E[P] and E[P²] from the obstacle polynomial and the raw moments of its
+    /// parameters (`moment(ω, k)` = E[ω^k]). Squares first, then takes expectations
+    /// (E[P²] ≠ E[P]², algorithms.md §1.2).
+    pub fn new(
+        layout: Layout,
+        p: &QPoly,
+        moment: &dyn Fn(Var, u32) -> Option<BigRational>,
+        name: &dyn Fn(Var) -> String,
+    ) -> Result<Self, ContourError> {
+        let is_param = |v| layout.is_param(v);
+        let missing = |(v, k): (Var, u32)| ContourError::MissingMoment { param: name(v), order: k };
+        let mean = p.expect(is_param, moment).map_err(missing)?;
+        let second = p.mul(p).expect(is_param, moment).map_err(missing)?;
+        let dynamic = p.contains_var(layout.t());
+        Ok(RiskContour {
+            layout,
+            mean_f: mean.map_coeffs(rational_to_f64),
+            second_f: second.map_coeffs(rational_to_f64),
+            mean,
+            second,
+            dynamic,
+        })
+    }
+
+    /// Whether the obstacle moves (its polynomial contains `t`).
+    pub fn is_dynamic(&self) -> bool {
+        self.dynamic
+    }
+
+    /// The variable layout.
+    pub fn layout(&self) -> Layout {
+        self.layout
+    }
+
+    /// `D`: the largest total degree in (x, t) of E[P] (algorithms.md §2.3);
+    /// `deg g2 = D`, `deg g1 ≤ 2D`.
+    pub fn degree(&self) -> u32 {
+        self.mean.degree()
+    }
+
+    /// The constraints `g1`, `g2` at risk level Δ (§2.2).
+    pub fn constraints(&self, delta: &BigRational) -> Constraints {
+        let one_minus = BigRational::one() - delta;
+        Constraints {
+            cantelli: self.mean.mul(&self.mean).sub(&self.second.scale(&one_minus)),
+            mean: self.mean.neg(),
+        }
+    }
+
+    /// Exact risk at `xt = (x1..xn, t)`.
+    pub fn risk_at(&self, xt: &[BigRational]) -> PointRisk {
+        let vals = self.pad(xt, BigRational::zero());
+        let mean = self.mean.eval(&vals);
+        let second = self.second.eval(&vals);
+        let bound = cantelli_bound(&mean, &second);
+        PointRisk { mean, second_moment: second, bound }
+    }
+
+    /// Floating-point E[P], E[P²] at `xt` (fast; for plots and sampling displays).
+    pub fn moments_f64(&self, xt: &[f64]) -> (f64, f64) {
+        let vals = self.pad(xt, 0.0);
+        (self.mean_f.eval(&vals), self.second_f.eval(&vals))
+    }
+
+    /// Floating-point Cantelli bound at `xt` (for plots and displays, not for decisions).
+    pub fn bound_f64(&self, xt: &[f64]) -> f64 {
+        let (m, s) = self.moments_f64(xt);
+        cantelli_bound_f64(m, s)
+    }
+
+    fn pad<C: Clone>(&self, xt: &[C], zero: C) -> Vec<C> {
+        let mut v = xt.to_vec();
+        v.resize(self.layout.xt_len(), zero);
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::moments::Distribution;
+    use crate::poly::{parse, parse_decimal, VarTable};
+
+    fn q(n: i64, d: i64) -> BigRational {
+        BigRational::new(n.into(), d.into())
+    }
+
+    fn example1() -> (RiskContour, VarTable) {
+        let vars = VarTable::new(["x1", "x2", "t", "w"].map(String::from));
+        let p = parse("w^2 - x1^2 - x2^2", &mut |n: &str| vars.get(n).ok_or_else(|| n.to_string())).unwrap();
+        let m = Distribution::Uniform { low: parse_decimal("0.3").unwrap(), high: parse_decimal("0.4").unwrap() }
+            .raw_moments(4)
+            .unwrap();
+        let c = RiskContour::new(Layout { dim: 2 }, &p, &|_, k| m.get(k as usize).cloned(), &|v| vars.name(v)).unwrap();
+        (c, vars)
+    }
+
+    /// Illustrative Example 1 (Section IV-A): the paper prints
+    /// E[P] = 0.1233 − x1² − x2², E[P²] = 0.0156 − 0.2466x1² − 0.2466x2² + x1⁴ + 2x1²x2² + x2⁴.
+    #[test]
+    fn illustrative_example_1_polynomials() {
+        let (c, vars) = example1();
+        let names = |v| vars.name(v);
+        assert_eq!(c.mean.to_text(&names), "37/300 - x1^2 - x2^2");
+        let printed = c.second.to_text(&names);
+        assert_eq!(printed, "781/50000 - 37/150*x1^2 - 37/150*x2^2 + x1^4 + 2*x1^2*x2^2 + x2^4");
+        // to the printed digits (the paper truncates to 4 decimals: 37/150 = 0.24666.. prints 0.2466)
+        let digits4 = |p: &QPoly, m: crate::poly::Monomial| (rational_to_f64(&p.coeff(&m)) * 1e4).trunc() / 1e4;
+        use crate::poly::Monomial as M;
+        assert_eq!(digits4(&c.mean, M::one()), 0.1233);
+        assert_eq!(digits4(&c.mean, M::var_pow(0, 2)), -1.0);
+        assert_eq!(digits4(&c.second, M::one()), 0.0156);
+        assert_eq!(digits4(&c.second, M::var_pow(0, 2)), -0.2466);
+        assert_eq!(digits4(&c.second, M::var_pow(1, 2)), -0.2466);
+        assert_eq!(digits4(&c.second, M::from_pairs([(0, 2), (1, 2)])), 2.0);
+        assert_eq!(digits4(&c.second, M::var_pow(0, 4)), 1.0);
+        assert_eq!(c.second.len(), 6);
+        assert!(!c.is_dynamic());
+        assert_eq!(c.degree(), 2);
+    }
+
+    /// The 0.1-contour is the circle of radius 0.428948 (algorithms.md §2.4).
+    #[test]
+    fn contour_radius_matches_closed_form() {
+        let (c, _) = example1();
+        let cons = c.constraints(&q(1, 10));
+        let r_in = 0.428947;
+        let r_out = 0.428949;
+        let at = |r: f64| cons.cantelli.map_coeffs(rational_to_f64).eval(&[r, 0.0, 0.0]);
+        assert!(at(r_in) < 0.0 && at(r_out) > 0.0);
+        // centre: g1 > 0 but g2 < 0: both constraints are needed
+        let centre = [q(0, 1), q(0, 1), q(0, 1)];
+        assert!(cons.cantelli.eval(&centre).is_positive());
+        assert!(cons.mean.eval(&centre).is_negative());
+        assert_eq!(c.risk_at(&centre[..2]).bound, q(1, 1));
+    }
+
+    #[test]
+    fn exact_bound_at_half_half() {
+        let (c, _) = example1();
+        let r = c.risk_at(&[q(1, 2), q(1, 2)]);
+        let mean = q(37, 300) - q(1, 2);
+        let second = q(781, 50000) - q(37, 150) * q(1, 2) + q(1, 4);
+        assert_eq!(r.mean, mean);
+        assert_eq!(r.second_moment, second);
+        assert_eq!(r.bound, (&second - &mean * &mean) / &second);
+        assert!((c.bound_f64(&[0.5, 0.5]) - rational_to_f64(&r.bound)).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,28 @@
+//! # riskplan
+//!
+//! Continuous-time risk-bounded trajectory planning with *certified* risk
+//! contours, after Jasour, Han and Williams, "Convex Risk Bounded Continuous-Time
+//! Trajectory Planning in Uncertain Nonconvex Environments" (RSS 2021).
+//!
+//! An obstacle is the set `{x : P(x, ω, t) ≥ 0}` with uncertain parameters ω. From
+//! the moments of ω the polynomials E[P] and E[P²] in (x, t) give, for a risk
+//! level Δ, the Cantelli inner approximation of the Δ-risk contour (eqs. 10, 12):
+//!
+//! ```text
+//! Ĉ^Δ = { x : E[P]² − (1−Δ)·E[P²] ≥ 0,  −E[P] ≥ 0 }
+//! ```
+//!
+//! Every point of Ĉ^Δ has probability of collision with that obstacle at most Δ
+//! (Theorem 1). The guarantee is **per obstacle and per instant**; with several
+//! obstacles the total probability of collision can reach (number of obstacles)·Δ.
+//!
+//! Layers, bottom to top: [`poly`] and [`moments`] (L0) → [`contour`] and [`mc`]
+//! (L1) → [`scene`] (L2) → the command-line tool. The core does no I/O and has no
+//! async code.
+#![warn(missing_docs)]
+
+pub mod contour;
+pub mod mc;
+pub mod moments;
+pub mod poly;
+pub mod scene;

@@ -1,0 +1,159 @@
+//! Monte Carlo estimates of the true risk Prob(P(x, ω, t) ≥ 0) (algorithms.md §7) —
+//! layer L1. These are *estimates* used to audit the certified bounds, never to
+//! certify anything.
+//!
+//! Scenarios are drawn with a seeded ChaCha RNG; each parameter is sampled once per
+//! scenario and shared by every obstacle that names it. The same scenarios are
+//! reused at every query point, as the paper's Example 1 script does.
+
+use crate::contour::Layout;
+use crate::moments::Sampler;
+use crate::poly::{Poly, Var};
+use rand::SeedableRng;
+use rand_chacha::ChaCha12Rng;
+
+/// Default two-sided confidence level of reported intervals.
+pub const DEFAULT_CONFIDENCE: f64 = 0.99;
+
+/// An estimate of a probability from `hits` out of `samples` Bernoulli trials.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct McEstimate {
+    /// `hits / samples`.
+    pub estimate: f64,
+    /// Clopper–Pearson lower bound at the stated confidence.
+    pub lower: f64,
+    /// Clopper–Pearson upper bound at the stated confidence.
+    pub upper: f64,
+    /// Trials.
+    pub samples: u64,
+    /// Successes (P ≥ 0).
+    pub hits: u64,
+}
+
+impl McEstimate {
+    /// Estimate with the exact (Clopper–Pearson) interval at two-sided `confidence`.
+    pub fn new(hits: u64, samples: u64, confidence: f64) -> Self {
+        let (lower, upper) = clopper_pearson(hits, samples, confidence);
+        let estimate = if samples == 0 { f64::NAN } else { hits as f64 / samples as f64 };
+        McEstimate { estimate, lower, upper, samples, hits }
+    }
+}
+
+/// The exact binomial confidence interval of Clopper and Pearson at two-sided level
+/// `confidence`: `[B⁻¹(α/2; k, n−k+1), B⁻¹(1−α/2; k+1, n−k)]`, with 0 when `k = 0`
+/// and 1 when `k = n` (algorithms.md §7.1).
+pub fn clopper_pearson(k: u64, n: u64, confidence: f64) -> (f64, f64) {
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let alpha = 1.0 - confidence;
+    let (kf, nf) = (k as f64, n as f64);
+    let lower = if k == 0 { 0.0 } else { inverse_beta_cdf(alpha / 2.0, kf, nf - kf + 1.0) };
+    let upper = if k == n { 1.0 } else { inverse_beta_cdf(1.0 - alpha / 2.0, kf + 1.0, nf - kf) };
+    (lower, upper)
+}
+
+/// `x` with `I_x(a, b) = p`, by bisection on the regularized incomplete beta
+/// function (monotone in x). 200 halvings reach the resolution of f64.
+fn inverse_beta_cdf(p: f64, a: f64, b: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if statrs::function::beta::beta_reg(a, b, mid) < p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// A term `c · Π ω^e` of a polynomial in the parameters only.
+type ParamTerm = (f64, Vec<(usize, u32)>);
+
+/// The obstacles of a scene, ready for sampling.
+#[derive(Clone, Debug)]
+pub struct McModel {
+    layout: Layout,
+    nvars: usize,
+    polys: Vec<Poly<f64>>,
+    samplers: Vec<(Var, Sampler)>,
+}
+
+impl McModel {
+    /// From obstacle polynomials over all `nvars` scene variables and one sampler per
+    /// parameter.
+    pub fn new(layout: Layout, nvars: usize, polys: Vec<Poly<f64>>, samplers: Vec<(Var, Sampler)>) -> Self {
+        McModel { layout, nvars, polys, samplers }
+    }
+
+    /// Number of obstacles.
+    pub fn obstacles(&self) -> usize {
+        self.polys.len()
+    }
+
+    /// Substitutes (x, t) and keeps a polynomial in the parameters only.
+    fn reduce(&self, obstacle: usize, xt: &[f64]) -> Vec<ParamTerm> {
+        let mut p = self.polys[obstacle].clone();
+        for v in 0..self.layout.xt_len() {
+            p = p.partial_eval(v as Var, xt.get(v).unwrap_or(&0.0));
+        }
+        let index: Vec<usize> = {
+            let mut idx = vec![usize::MAX; self.nvars];
+            for (i, (v, _)) in self.samplers.iter().enumerate() {
+                idx[*v as usize] = i;
+            }
+            idx
+        };
+        p.terms().map(|(m, c)| (*c, m.pairs().iter().map(|&(v, e)| (index[v as usize], e)).collect())).collect()
+    }
+
+    /// Hit counts `hits[point][obstacle]` of `P ≥ 0` over `samples` scenarios shared by
+    /// all points. Each point is `(x1..xn, t)`.
+    pub fn hits(&self, points: &[Vec<f64>], samples: u64, seed: u64) -> Vec<Vec<u64>> {
+        let reduced: Vec<Vec<Vec<ParamTerm>>> =
+            points.iter().map(|xt| (0..self.polys.len()).map(|o| self.reduce(o, xt)).collect()).collect();
+        let mut rng = ChaCha12Rng::seed_from_u64(seed);
+        let mut w = vec![0.0; self.samplers.len()];
+        let mut hits = vec![vec![0u64; self.polys.len()]; points.len()];
+        for _ in 0..samples {
+            for (slot, (_, s)) in w.iter_mut().zip(&self.samplers) {
+                *slot = s.sample(&mut rng);
+            }
+            for (pi, per_point) in reduced.iter().enumerate() {
+                for (oi, terms) in per_point.iter().enumerate() {
+                    let v: f64 = terms.iter().map(|(c, m)| m.iter().fold(*c, |acc, &(i, e)| acc * w[i].powi(e as i32))).sum();
+                    if v >= 0.0 {
+                        hits[pi][oi] += 1;
+                    }
+                }
+            }
+        }
+        hits
+    }
+
+    /// Per-obstacle estimates of Prob(P(x, ω, t) ≥ 0) at one point.
+    pub fn point_risk(&self, xt: &[f64], samples: u64, seed: u64, confidence: f64) -> Vec<McEstimate> {
+        self.hits(&[xt.to_vec()], samples, seed)[0].iter().map(|&h| McEstimate::new(h, samples, confidence)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clopper_pearson_known_values() {
+        // k = 0: upper bound 1 − (α/2)^(1/n)
+        let (lo, hi) = clopper_pearson(0, 100, 0.95);
+        assert_eq!(lo, 0.0);
+        assert!((hi - (1.0 - 0.025f64.powf(0.01))).abs() < 1e-9);
+        // symmetric: k = n/2
+        let (lo, hi) = clopper_pearson(50, 100, 0.95);
+        assert!((lo - 0.3983).abs() < 1e-3 && (hi - 0.6017).abs() < 1e-3, "{lo} {hi}");
+        assert_eq!(clopper_pearson(10, 10, 0.9).1, 1.0);
+    }
+}

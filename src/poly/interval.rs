@@ -1,0 +1,178 @@
+//! Outward-rounded interval arithmetic on `f64`.
+//!
+//! Every operation computes the round-to-nearest result and then widens it by one
+//! ulp in each direction (`next_down`/`next_up`). Round-to-nearest errs by at most
+//! half an ulp, so the widened interval always contains the exact result of the
+//! operation on any reals in the operands (algorithms.md §3.5). This makes "all
+//! lower bounds > 0" a proof of positivity, at a cost of a few ulps of width.
+
+use num_rational::BigRational;
+use std::ops::{Add, Mul, Neg, Sub};
+
+/// A closed interval `[lo, hi]` of reals. `lo <= hi`, or both NaN-free infinities.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interval {
+    /// Lower end.
+    pub lo: f64,
+    /// Upper end.
+    pub hi: f64,
+}
+
+impl Interval {
+    /// The whole real line: the result of any operation that produced NaN.
+    pub const ENTIRE: Interval = Interval { lo: f64::NEG_INFINITY, hi: f64::INFINITY };
+
+    /// The degenerate interval `[x, x]` (exact: `x` is a float).
+    pub fn point(x: f64) -> Self {
+        if x.is_nan() {
+            Self::ENTIRE
+        } else {
+            Interval { lo: x, hi: x }
+        }
+    }
+
+    /// `[lo, hi]`; NaN or inverted input gives [`Interval::ENTIRE`].
+    pub fn new(lo: f64, hi: f64) -> Self {
+        if lo.is_nan() || hi.is_nan() || lo > hi {
+            Self::ENTIRE
+        } else {
+            Interval { lo, hi }
+        }
+    }
+
+    /// The tightest float interval containing the rational `r`: a point when `r` is a
+    /// float, otherwise the two floats around it.
+    pub fn enclose_rational(r: &BigRational) -> Self {
+        let f = super::ring::rational_to_f64(r);
+        if !f.is_finite() {
+            return if f > 0.0 {
+                Interval { lo: f64::MAX, hi: f64::INFINITY }
+            } else {
+                Interval { lo: f64::NEG_INFINITY, hi: f64::MIN }
+            };
+        }
+        match BigRational::from_float(f) {
+            Some(exact) if &exact == r => Interval::point(f),
+            Some(exact) if &exact < r => Interval { lo: f, hi: f.next_up() },
+            _ => Interval { lo: f.next_down(), hi: f },
+        }
+    }
+
+    fn widen(lo: f64, hi: f64) -> Self {
+        if lo.is_nan() || hi.is_nan() {
+            return Self::ENTIRE;
+        }
+        Interval { lo: lo.next_down(), hi: hi.next_up() }
+    }
+
+    /// Midpoint (for reporting only).
+    pub fn mid(&self) -> f64 {
+        0.5 * self.lo + 0.5 * self.hi
+    }
+
+    /// Width `hi - lo` (rounded up).
+    pub fn width(&self) -> f64 {
+        (self.hi - self.lo).next_up()
+    }
+
+    /// Every point of the interval is `> 0`.
+    pub fn is_positive(&self) -> bool {
+        self.lo > 0.0
+    }
+
+    /// Every point of the interval is `< 0`.
+    pub fn is_negative(&self) -> bool {
+        self.hi < 0.0
+    }
+
+    /// Whether `x` lies in the interval.
+    pub fn contains(&self, x: f64) -> bool {
+        self.lo <= x && x <= self.hi
+    }
+
+    /// `x * 0.5`, exact for normal floats (halving only changes the exponent), but
+    /// widened anyway so subnormal underflow stays sound.
+    pub fn half(self) -> Self {
+        let lo = self.lo * 0.5;
+        let hi = self.hi * 0.5;
+        if lo.abs() >= f64::MIN_POSITIVE && hi.abs() >= f64::MIN_POSITIVE {
+            Interval { lo, hi }
+        } else {
+            Self::widen(lo, hi)
+        }
+    }
+}
+
+impl Add for Interval {
+    type Output = Interval;
+    fn add(self, o: Interval) -> Interval {
+        Interval::widen(self.lo + o.lo, self.hi + o.hi)
+    }
+}
+
+impl Sub for Interval {
+    type Output = Interval;
+    fn sub(self, o: Interval) -> Interval {
+        Interval::widen(self.lo - o.hi, self.hi - o.lo)
+    }
+}
+
+impl Neg for Interval {
+    type Output = Interval;
+    fn neg(self) -> Interval {
+        Interval { lo: -self.hi, hi: -self.lo }
+    }
+}
+
+impl Mul for Interval {
+    type Output = Interval;
+    fn mul(self, o: Interval) -> Interval {
+        // Points: one product, exact sign handling; common in compositions.
+        if self.lo == self.hi && o.lo == o.hi {
+            let p = self.lo * o.lo;
+            return if p.is_nan() { Interval::ENTIRE } else { Interval::widen(p, p) };
+        }
+        let a = self.lo * o.lo;
+        let b = self.lo * o.hi;
+        let c = self.hi * o.lo;
+        let d = self.hi * o.hi;
+        if a.is_nan() || b.is_nan() || c.is_nan() || d.is_nan() {
+            return Interval::ENTIRE;
+        }
+        Interval::widen(a.min(b).min(c.min(d)), a.max(b).max(c.max(d)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_traits::FromPrimitive;
+    use proptest::prelude::*;
+
+    fn exact(x: f64) -> BigRational {
+        BigRational::from_f64(x).unwrap()
+    }
+
+    #[test]
+    fn encloses_tenth() {
+        let tenth = BigRational::new(1.into(), 10.into());
+        let i = Interval::enclose_rational(&tenth);
+        assert!(exact(i.lo) < tenth && tenth < exact(i.hi));
+        assert_eq!(Interval::enclose_rational(&BigRational::new(1.into(), 4.into())), Interval::point(0.25));
+    }
+
+    proptest! {
+        /// The exact result of each operation on the exact endpoints lies inside.
+        #[test]
+        fn operations_enclose_exact(a in -1e6f64..1e6, b in -1e6f64..1e6, c in -1e3f64..1e3, d in -1e3f64..1e3) {
+            let x = Interval::new(a.min(b), a.max(b));
+            let y = Interval::new(c.min(d), c.max(d));
+            for (u, v) in [(x.lo, y.lo), (x.hi, y.hi), (x.lo, y.hi)] {
+                let (eu, ev) = (exact(u), exact(v));
+                let s = x + y; prop_assert!(exact(s.lo) <= &eu + &ev && &eu + &ev <= exact(s.hi));
+                let dd = x - y; prop_assert!(exact(dd.lo) <= &eu - &ev && &eu - &ev <= exact(dd.hi));
+                let m = x * y; prop_assert!(exact(m.lo) <= &eu * &ev && &eu * &ev <= exact(m.hi));
+            }
+        }
+    }
+}

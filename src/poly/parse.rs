@@ -1,0 +1,285 @@
+//! Parser for the polynomial text of scene format v1 (`shared/reference/README.md`):
+//! numbers (`0.3`, `1e-3`, `37/300`), identifiers, `+ - * ^`, parentheses, unary
+//! minus; `^` takes a non-negative integer literal; `/` divides by a constant only.
+//!
+//! Grammar (precedence climbing; `-x^2` is `-(x^2)`):
+//! ```text
+//! expr   := term (('+' | '-') term)*
+//! term   := unary (('*' | '/') unary)*
+//! unary  := ('-' | '+') unary | power
+//! power  := atom ('^' INTEGER)?
+//! atom   := NUMBER | IDENT | '(' expr ')'
+//! ```
+//! Numbers are read exactly as rationals (algorithms.md §1.3). Every error names the
+//! column (1-based character position) and what was expected there.
+
+use super::ring::parse_decimal;
+use super::{Poly, Var};
+use num_rational::BigRational;
+use num_traits::Zero;
+use thiserror::Error;
+
+/// Largest exponent literal accepted after `^`. A guard against input that would
+/// expand to an enormous polynomial (`(x+y+z)^1000`); scene polynomials of the
+/// paper have degree ≤ 5, and contours double that.
+pub const MAX_EXPONENT: u32 = 32;
+
+/// A parse or resolution error in polynomial text, with its 1-based column.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum PolyError {
+    /// A token other than what the grammar allows here.
+    #[error("column {col}: expected {expected}, found {found}")]
+    Unexpected {
+        /// 1-based column.
+        col: usize,
+        /// What the grammar allows here.
+        expected: String,
+        /// What is there.
+        found: String,
+    },
+    /// An identifier the resolver does not know.
+    #[error("column {col}: {message}")]
+    UnknownVariable {
+        /// 1-based column.
+        col: usize,
+        /// Why the name is not accepted (from the resolver).
+        message: String,
+    },
+    /// `/` followed by something that is not a nonzero constant.
+    #[error("column {col}: '/' must be followed by a nonzero numeric constant")]
+    BadDivisor {
+        /// 1-based column.
+        col: usize,
+    },
+    /// `^` with an exponent above [`MAX_EXPONENT`].
+    #[error("column {col}: exponent {exp} is larger than the limit {MAX_EXPONENT}")]
+    ExponentTooLarge {
+        /// 1-based column.
+        col: usize,
+        /// The exponent written.
+        exp: String,
+    },
+    /// A malformed number literal.
+    #[error("column {col}: malformed number '{text}'")]
+    BadNumber {
+        /// 1-based column.
+        col: usize,
+        /// The literal.
+        text: String,
+    },
+}
+
+/// Maps identifiers to variables; returns a message when a name is not allowed.
+pub type VarResolver<'a> = dyn FnMut(&str) -> Result<Var, String> + 'a;
+
+#[derive(Clone, Debug, PartialEq)]
+enum Tok {
+    Num(String),
+    Ident(String),
+    Op(char),
+    End,
+}
+
+struct Parser<'a, 'r> {
+    toks: Vec<(Tok, usize)>,
+    pos: usize,
+    resolve: &'r mut VarResolver<'a>,
+}
+
+fn describe(t: &Tok) -> String {
+    match t {
+        Tok::Num(s) => format!("number '{s}'"),
+        Tok::Ident(s) => format!("identifier '{s}'"),
+        Tok::Op(c) => format!("'{c}'"),
+        Tok::End => "end of text".to_string(),
+    }
+}
+
+fn lex(text: &str) -> Result<Vec<(Tok, usize)>, PolyError> {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        let col = i + 1;
+        if c.is_whitespace() {
+            i += 1;
+        } else if c.is_ascii_digit() || c == '.' {
+            let start = i;
+            while i < chars.len() && (chars[i].is_ascii_digit() || chars[i] == '.') {
+                i += 1;
+            }
+            if i < chars.len() && (chars[i] == 'e' || chars[i] == 'E') {
+                let save = i;
+                i += 1;
+                if i < chars.len() && (chars[i] == '+' || chars[i] == '-') {
+                    i += 1;
+                }
+                if i < chars.len() && chars[i].is_ascii_digit() {
+                    while i < chars.len() && chars[i].is_ascii_digit() {
+                        i += 1;
+                    }
+                } else {
+                    i = save; // `2e` followed by non-digit: let the 'e' be an identifier error later
+                }
+            }
+            let s: String = chars[start..i].iter().collect();
+            if parse_decimal(&s).is_none() {
+                return Err(PolyError::BadNumber { col, text: s });
+            }
+            out.push((Tok::Num(s), col));
+        } else if c.is_alphabetic() || c == '_' {
+            let start = i;
+            while i < chars.len() && (chars[i].is_alphanumeric() || chars[i] == '_') {
+                i += 1;
+            }
+            out.push((Tok::Ident(chars[start..i].iter().collect()), col));
+        } else if "+-*/^()".contains(c) {
+            out.push((Tok::Op(c), col));
+            i += 1;
+        } else {
+            return Err(PolyError::Unexpected {
+                col,
+                expected: "a number, identifier, operator or parenthesis".into(),
+                found: format!("'{c}'"),
+            });
+        }
+    }
+    out.push((Tok::End, chars.len() + 1));
+    Ok(out)
+}
+
+impl Parser<'_, '_> {
+    fn peek(&self) -> &(Tok, usize) {
+        &self.toks[self.pos]
+    }
+
+    fn next(&mut self) -> (Tok, usize) {
+        let t = self.toks[self.pos].clone();
+        if self.pos + 1 < self.toks.len() {
+            self.pos += 1;
+        }
+        t
+    }
+
+    fn unexpected(&self, expected: &str) -> PolyError {
+        let (t, col) = self.peek();
+        PolyError::Unexpected { col: *col, expected: expected.into(), found: describe(t) }
+    }
+
+    fn expr(&mut self) -> Result<Poly<BigRational>, PolyError> {
+        let mut acc = self.term()?;
+        loop {
+            match self.peek().0 {
+                Tok::Op('+') => {
+                    self.next();
+                    acc = acc.add(&self.term()?);
+                }
+                Tok::Op('-') => {
+                    self.next();
+                    acc = acc.sub(&self.term()?);
+                }
+                _ => return Ok(acc),
+            }
+        }
+    }
+
+    fn term(&mut self) -> Result<Poly<BigRational>, PolyError> {
+        let mut acc = self.unary()?;
+        loop {
+            match self.peek().0 {
+                Tok::Op('*') => {
+                    self.next();
+                    acc = acc.mul(&self.unary()?);
+                }
+                Tok::Op('/') => {
+                    let col = self.next().1;
+                    let d = self.unary()?;
+                    let c = d.constant_term();
+                    if d.len() > 1 || (d.len() == 1 && d.degree() > 0) || c.is_zero() {
+                        return Err(PolyError::BadDivisor { col });
+                    }
+                    acc = acc.scale(&(BigRational::from_integer(1.into()) / c));
+                }
+                _ => return Ok(acc),
+            }
+        }
+    }
+
+    fn unary(&mut self) -> Result<Poly<BigRational>, PolyError> {
+        match self.peek().0 {
+            Tok::Op('-') => {
+                self.next();
+                Ok(self.unary()?.neg())
+            }
+            Tok::Op('+') => {
+                self.next();
+                self.unary()
+            }
+            _ => self.power(),
+        }
+    }
+
+    fn power(&mut self) -> Result<Poly<BigRational>, PolyError> {
+        let base = self.atom()?;
+        if self.peek().0 != Tok::Op('^') {
+            return Ok(base);
+        }
+        self.next();
+        let (tok, col) = self.next();
+        match tok {
+            Tok::Num(s) if s.bytes().all(|b| b.is_ascii_digit()) => {
+                let e: u32 = match s.parse() {
+                    Ok(e) if e <= MAX_EXPONENT => e,
+                    _ => return Err(PolyError::ExponentTooLarge { col, exp: s }),
+                };
+                if self.peek().0 == Tok::Op('^') {
+                    return Err(self.unexpected("an operator other than a second '^' (write (a^b)^c)"));
+                }
+                Ok(base.pow(e))
+            }
+            other => Err(PolyError::Unexpected {
+                col,
+                expected: "a non-negative integer exponent after '^'".into(),
+                found: describe(&other),
+            }),
+        }
+    }
+
+    fn atom(&mut self) -> Result<Poly<BigRational>, PolyError> {
+        let (tok, col) = self.peek().clone();
+        match tok {
+            Tok::Num(s) => {
+                self.next();
+                let v = parse_decimal(&s).ok_or(PolyError::BadNumber { col, text: s })?;
+                Ok(Poly::constant(v))
+            }
+            Tok::Ident(name) => {
+                self.next();
+                let v = (self.resolve)(&name).map_err(|message| PolyError::UnknownVariable { col, message })?;
+                Ok(Poly::var(v))
+            }
+            Tok::Op('(') => {
+                self.next();
+                let inner = self.expr()?;
+                if self.peek().0 != Tok::Op(')') {
+                    return Err(self.unexpected("')' or an operator"));
+                }
+                self.next();
+                Ok(inner)
+            }
+            _ => Err(self.unexpected("a number, an identifier or '('")),
+        }
+    }
+}
+
+/// Parses polynomial text; `resolve` maps each identifier to a variable.
+pub fn parse(text: &str, resolve: &mut VarResolver<'_>) -> Result<Poly<BigRational>, PolyError> {
+    let toks = lex(text)?;
+    let mut p = Parser { toks, pos: 0, resolve };
+    let out = p.expr()?;
+    if p.peek().0 != Tok::End {
+        return Err(p.unexpected("an operator ('+', '-', '*', '/', '^') or end of text"));
+    }
+    Ok(out)
+}

@@ -1,0 +1,234 @@
+//! The coefficient rings polynomials are generic over.
+//!
+//! Three rings matter to riskplan: exact rationals ([`BigRational`]) for the
+//! contour polynomials E[P], E[P²] (algorithms.md §1.3: exact arithmetic makes
+//! certification reproducible), `f64` for plotting and sampling, and
+//! outward-rounded [`Interval`]s for fast *sound* certification (§3.5).
+
+use super::interval::Interval;
+use num_bigint::BigInt;
+use num_rational::BigRational;
+use num_traits::{One, Signed, ToPrimitive, Zero};
+use std::fmt::Debug;
+
+/// A commutative ring with the operations polynomial arithmetic needs.
+///
+/// Method names carry an `r` prefix so they never collide with `std::ops`.
+pub trait Ring: Clone + PartialEq + Debug + Send + Sync + 'static {
+    /// Additive identity.
+    fn zero() -> Self;
+    /// Multiplicative identity.
+    fn one() -> Self;
+    /// Exactly zero (terms with a zero coefficient are dropped).
+    fn is_zero(&self) -> bool;
+    /// `self + o`.
+    fn radd(&self, o: &Self) -> Self;
+    /// `self - o`.
+    fn rsub(&self, o: &Self) -> Self;
+    /// `self * o`.
+    fn rmul(&self, o: &Self) -> Self;
+    /// `-self`.
+    fn rneg(&self) -> Self;
+    /// The ring element enclosing (or equal to) an exact rational.
+    fn from_rational(r: &BigRational) -> Self;
+    /// `self^k` by repeated squaring.
+    fn rpow(&self, mut k: u32) -> Self {
+        let mut base = self.clone();
+        let mut acc = Self::one();
+        while k > 0 {
+            if k & 1 == 1 {
+                acc = acc.rmul(&base);
+            }
+            k >>= 1;
+            if k > 0 {
+                base = base.rmul(&base);
+            }
+        }
+        acc
+    }
+}
+
+impl Ring for BigRational {
+    fn zero() -> Self {
+        Zero::zero()
+    }
+    fn one() -> Self {
+        One::one()
+    }
+    fn is_zero(&self) -> bool {
+        Zero::is_zero(self)
+    }
+    fn radd(&self, o: &Self) -> Self {
+        self + o
+    }
+    fn rsub(&self, o: &Self) -> Self {
+        self - o
+    }
+    fn rmul(&self, o: &Self) -> Self {
+        self * o
+    }
+    fn rneg(&self) -> Self {
+        -self
+    }
+    fn from_rational(r: &BigRational) -> Self {
+        r.clone()
+    }
+}
+
+impl Ring for f64 {
+    fn zero() -> Self {
+        0.0
+    }
+    fn one() -> Self {
+        1.0
+    }
+    fn is_zero(&self) -> bool {
+        *self == 0.0
+    }
+    fn radd(&self, o: &Self) -> Self {
+        self + o
+    }
+    fn rsub(&self, o: &Self) -> Self {
+        self - o
+    }
+    fn rmul(&self, o: &Self) -> Self {
+        self * o
+    }
+    fn rneg(&self) -> Self {
+        -self
+    }
+    fn from_rational(r: &BigRational) -> Self {
+        rational_to_f64(r)
+    }
+}
+
+impl Ring for Interval {
+    fn zero() -> Self {
+        Interval::point(0.0)
+    }
+    fn one() -> Self {
+        Interval::point(1.0)
+    }
+    fn is_zero(&self) -> bool {
+        self.lo == 0.0 && self.hi == 0.0
+    }
+    fn radd(&self, o: &Self) -> Self {
+        *self + *o
+    }
+    fn rsub(&self, o: &Self) -> Self {
+        *self - *o
+    }
+    fn rmul(&self, o: &Self) -> Self {
+        *self * *o
+    }
+    fn rneg(&self) -> Self {
+        -*self
+    }
+    fn from_rational(r: &BigRational) -> Self {
+        Interval::enclose_rational(r)
+    }
+}
+
+/// The `f64` nearest to `r` (±∞ when out of range).
+pub fn rational_to_f64(r: &BigRational) -> f64 {
+    match r.to_f64() {
+        Some(f) => f,
+        None => {
+            if r.is_negative() {
+                f64::NEG_INFINITY
+            } else {
+                f64::INFINITY
+            }
+        }
+    }
+}
+
+/// The exact rational value of a finite `f64` (every finite float is a dyadic rational).
+/// Returns `None` for NaN and ±∞.
+pub fn f64_to_rational(f: f64) -> Option<BigRational> {
+    BigRational::from_float(f)
+}
+
+/// Parses decimal text exactly: `"0.3"` is 3/10, `"1e-3"` is 1/1000, `"-2.5E2"` is -250.
+///
+/// Returns `None` when the text is not a decimal number. This is the policy of
+/// algorithms.md §1.3: scene numbers are exact rationals, not binary floats.
+pub fn parse_decimal(s: &str) -> Option<BigRational> {
+    let s = s.trim();
+    let (neg, body) = match s.strip_prefix('-') {
+        Some(rest) => (true, rest),
+        None => (false, s.strip_prefix('+').unwrap_or(s)),
+    };
+    let (mantissa, exp) = match body.find(['e', 'E']) {
+        Some(i) => {
+            let e: i64 = body[i + 1..].parse().ok()?;
+            (&body[..i], e)
+        }
+        None => (body, 0),
+    };
+    let (int_part, frac_part) = match mantissa.find('.') {
+        Some(i) => (&mantissa[..i], &mantissa[i + 1..]),
+        None => (mantissa, ""),
+    };
+    if int_part.is_empty() && frac_part.is_empty() {
+        return None;
+    }
+    if !int_part.bytes().all(|b| b.is_ascii_digit()) || !frac_part.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    // Exponents this large cannot come from a sensible scene; refuse rather than allocate.
+    if exp.unsigned_abs() > 4000 {
+        return None;
+    }
+    let digits = format!("{int_part}{frac_part}");
+    let numer: BigInt = if digits.is_empty() { BigInt::zero() } else { digits.parse().ok()? };
+    let scale = exp - frac_part.len() as i64;
+    let ten = BigInt::from(10u32);
+    let value = if scale >= 0 {
+        BigRational::from_integer(numer * num_traits::pow(ten, scale as usize))
+    } else {
+        BigRational::new(numer, num_traits::pow(ten, (-scale) as usize))
+    };
+    Some(if neg { -value } else { value })
+}
+
+/// Exact rational from a JSON `f64`: the shortest decimal that round-trips to `f`
+/// (what `{}` prints), read exactly. For a number written in a scene as `0.3`, this is
+/// 3/10, the value the author meant, rather than the binary float nearest to it.
+pub fn f64_shortest_decimal(f: f64) -> Option<BigRational> {
+    if !f.is_finite() {
+        return None;
+    }
+    parse_decimal(&format!("{f:e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn q(n: i64, d: i64) -> BigRational {
+        BigRational::new(n.into(), d.into())
+    }
+
+    #[test]
+    fn decimals_are_exact() {
+        assert_eq!(parse_decimal("0.3"), Some(q(3, 10)));
+        assert_eq!(parse_decimal("1e-3"), Some(q(1, 1000)));
+        assert_eq!(parse_decimal("-2.5E2"), Some(q(-250, 1)));
+        assert_eq!(parse_decimal(".5"), Some(q(1, 2)));
+        assert_eq!(parse_decimal("5."), Some(q(5, 1)));
+        assert_eq!(parse_decimal("abc"), None);
+        assert_eq!(parse_decimal("."), None);
+        assert_eq!(parse_decimal("1e99999"), None);
+        assert_eq!(f64_shortest_decimal(0.3), Some(q(3, 10)));
+        assert_eq!(f64_shortest_decimal(-0.0316), Some(q(-316, 10000)));
+    }
+
+    #[test]
+    fn rpow_matches_repeated_product() {
+        let x = q(3, 2);
+        assert_eq!(x.rpow(0), q(1, 1));
+        assert_eq!(x.rpow(5), q(243, 32));
+        assert_eq!(2.0f64.rpow(10), 1024.0);
+    }
+}

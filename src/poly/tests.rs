@@ -1,0 +1,132 @@
+use super::*;
+use proptest::prelude::*;
+
+fn q(n: i64, d: i64) -> BigRational {
+    BigRational::new(n.into(), d.into())
+}
+
+fn table() -> VarTable {
+    VarTable::new(["x1", "x2", "t", "w"].map(String::from))
+}
+
+fn p(text: &str) -> QPoly {
+    let t = table();
+    parse(text, &mut |n: &str| t.get(n).ok_or_else(|| format!("unknown variable '{n}'"))).unwrap()
+}
+
+fn perr(text: &str) -> PolyError {
+    let t = table();
+    parse(text, &mut |n: &str| t.get(n).ok_or_else(|| format!("unknown variable '{n}'"))).unwrap_err()
+}
+
+#[test]
+fn parses_scene_grammar() {
+    let a = p("w^2 - x1^2 - x2^2");
+    assert_eq!(a.len(), 3);
+    assert_eq!(a.coeff(&Monomial::var_pow(3, 2)), q(1, 1));
+    assert_eq!(p("37/300"), Poly::constant(q(37, 300)));
+    assert_eq!(p("1e-3*x1"), Poly::var(0).scale(&q(1, 1000)));
+    assert_eq!(p("-x1^2"), Poly::var(0).pow(2).neg());
+    assert_eq!(p("0.3^2 - (x1 - (t + 0.4 + w))^2"), p("9/100 - (x1 - t - 2/5 - w)*(x1 - t - 2/5 - w)"));
+    assert_eq!(p("2*x1/4"), Poly::var(0).scale(&q(1, 2)));
+    assert_eq!(p("--x1"), Poly::var(0));
+    assert_eq!(p(" ( x1 ) "), Poly::var(0));
+}
+
+#[test]
+fn errors_point_at_the_column() {
+    let e = perr("x1 + * x2");
+    assert_eq!(e.to_string(), "column 6: expected a number, an identifier or '(', found '*'");
+    match perr("x1 + y") {
+        PolyError::UnknownVariable { col: 6, message } => assert!(message.contains("'y'")),
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(perr("x1 / x2"), PolyError::BadDivisor { col: 4 }));
+    assert!(matches!(perr("x1 / 0"), PolyError::BadDivisor { .. }));
+    assert!(matches!(perr("x1^x2"), PolyError::Unexpected { col: 4, .. }));
+    assert!(matches!(perr("x1^1.5"), PolyError::Unexpected { col: 4, .. }));
+    assert!(matches!(perr("x1^99"), PolyError::ExponentTooLarge { col: 4, .. }));
+    assert!(matches!(perr("(x1 + x2"), PolyError::Unexpected { col: 9, .. }));
+    assert!(matches!(perr("x1 x2"), PolyError::Unexpected { col: 4, .. }));
+    assert!(matches!(perr("x1 # 2"), PolyError::Unexpected { col: 4, .. }));
+    assert!(matches!(perr(""), PolyError::Unexpected { col: 1, .. }));
+    assert!(matches!(perr("1.2.3"), PolyError::BadNumber { col: 1, .. }));
+    assert!(matches!(perr("x1^2^2"), PolyError::Unexpected { .. }));
+}
+
+#[test]
+fn prints_like_the_paper() {
+    let names = |v: Var| table().name(v);
+    assert_eq!(p("37/300 - x1^2 - x2^2").to_text(&names), "37/300 - x1^2 - x2^2");
+    assert_eq!(p("-x1*x2 + 2").to_text(&names), "2 - x1*x2");
+    assert_eq!(QPoly::zero().to_text(&names), "0");
+}
+
+#[test]
+fn expectation_is_linear_and_uses_moments() {
+    // E[w^2 - x1^2] with E[w^2] = 37/300
+    let e = p("w^2 - x1^2").expect(|v| v == 3, |_, k| Some(if k == 2 { q(37, 300) } else { q(0, 1) })).unwrap();
+    assert_eq!(e, p("37/300 - x1^2"));
+    let missing = p("w^3").expect(|v| v == 3, |_, k| if k < 3 { Some(q(1, 1)) } else { None });
+    assert_eq!(missing, Err((3, 3)));
+}
+
+#[test]
+fn compose_univariate_restricts_to_a_segment() {
+    // g = 1 - x1^2 - x2^2 on x = (-1,-1) + (2,2)τ
+    let g = p("1 - x1^2 - x2^2");
+    let lin = UPoly::linear(q(-1, 1), q(2, 1));
+    let u = g.compose_univariate(&[lin.clone(), lin, UPoly::zero(), UPoly::zero()]);
+    // 1 - 2(2τ-1)^2 = -1 + 8τ - 8τ^2
+    assert_eq!(u.coeffs(), &[q(-1, 1), q(8, 1), q(-8, 1)]);
+}
+
+fn arb_poly() -> impl Strategy<Value = QPoly> {
+    let term = (-50i64..50, 1i64..20, 0u32..4, 0u32..3, 0u32..3, 0u32..3);
+    prop::collection::vec(term, 0..6).prop_map(|ts| {
+        let mut acc = QPoly::zero();
+        for (n, d, e0, e1, e2, e3) in ts {
+            acc.add_term(Monomial::from_pairs([(0, e0), (1, e1), (2, e2), (3, e3)]), q(n, d));
+        }
+        acc
+    })
+}
+
+proptest! {
+    /// print → parse is the identity.
+    #[test]
+    fn print_parse_roundtrip(a in arb_poly()) {
+        let names = |v: Var| table().name(v);
+        let text = a.to_text(&names);
+        prop_assert_eq!(p(&text), a, "text was {}", text);
+    }
+
+    /// Composition then evaluation equals evaluation then composition.
+    #[test]
+    fn subst_commutes_with_eval(a in arb_poly(), b in arb_poly(), xs in prop::collection::vec(-5i64..5, 4)) {
+        let vals: Vec<BigRational> = xs.iter().map(|&x| q(x, 3)).collect();
+        let composed = a.subst(&|v| if v == 1 { Some(b.clone()) } else { None });
+        let mut vals2 = vals.clone();
+        vals2[1] = b.eval(&vals);
+        prop_assert_eq!(composed.eval(&vals), a.eval(&vals2));
+    }
+
+    /// Ring laws on random polynomials.
+    #[test]
+    fn ring_laws(a in arb_poly(), b in arb_poly(), c in arb_poly()) {
+        prop_assert_eq!(a.mul(&b.add(&c)), a.mul(&b).add(&a.mul(&c)));
+        prop_assert_eq!(a.mul(&b), b.mul(&a));
+        prop_assert!(a.sub(&a).is_zero());
+        prop_assert_eq!(a.pow(2), a.mul(&a));
+    }
+
+    /// Univariate composition agrees with evaluation.
+    #[test]
+    fn compose_univariate_agrees(a in arb_poly(), c0 in -4i64..4, c1 in -4i64..4, tau in -3i64..3) {
+        let subs: Vec<UPoly<BigRational>> = (0..4).map(|i| UPoly::linear(q(c0 + i, 2), q(c1 - i, 3))).collect();
+        let u = a.compose_univariate(&subs);
+        let tq = q(tau, 5);
+        let vals: Vec<BigRational> = subs.iter().map(|s| s.eval(&tq)).collect();
+        prop_assert_eq!(u.eval(&tq), a.eval(&vals));
+    }
+}

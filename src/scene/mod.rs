@@ -1,0 +1,372 @@
+//! Scenes: format v1 parsing, validation, and the per-obstacle contour cache (L2).
+//!
+//! [`Scene::from_json`] reads scene text (callers do the file I/O), checks every
+//! field, and builds each obstacle's [`RiskContour`] once. A bad scene yields one
+//! [`SceneError`] naming the field (`params.w.std`, `obstacles[2].poly`) and what is
+//! wrong; nothing panics on any input.
+
+mod file;
+mod num;
+
+pub use file::{ObstacleFile, ParamFile, SceneFile, WorkspaceFile, SCENE_FORMAT};
+pub use num::{parse_num_text, Num};
+
+use crate::contour::{ContourError, Layout, RiskContour};
+use crate::mc::McModel;
+use crate::moments::{Distribution, MomentError};
+use crate::poly::{parse, rational_to_f64, QPoly, Var, VarTable};
+use num_rational::BigRational;
+use num_traits::{One, Signed};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use thiserror::Error;
+
+/// Largest spatial dimension accepted.
+pub const MAX_DIM: usize = 8;
+/// Largest total degree of an obstacle polynomial in (x, t). E[P²] has twice this
+/// degree; 8 keeps every certification polynomial at degree ≤ 16 for segments.
+pub const MAX_OBSTACLE_DEGREE: u32 = 8;
+/// Largest degree of an obstacle polynomial in one parameter (moments to twice this).
+pub const MAX_PARAM_DEGREE: u32 = 8;
+/// Largest number of terms of an obstacle polynomial after expansion.
+pub const MAX_TERMS: usize = 2000;
+/// Largest number of obstacles in a scene.
+pub const MAX_OBSTACLES: usize = 512;
+
+/// What is wrong with a scene.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SceneErrorKind {
+    /// Not valid JSON, a wrong type, a missing or an unknown field.
+    #[error("{0}")]
+    Syntax(String),
+    /// A value outside its domain.
+    #[error("{0}")]
+    Invalid(String),
+    /// Polynomial text that does not parse.
+    #[error("{0}")]
+    Poly(#[from] crate::poly::PolyError),
+    /// A distribution whose moments cannot be computed.
+    #[error("{0}")]
+    Moment(#[from] MomentError),
+    /// A contour that cannot be built.
+    #[error("{0}")]
+    Contour(#[from] ContourError),
+}
+
+/// A scene error: the field path and what is wrong with it.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("{}{kind}", if path.is_empty() { String::new() } else { format!("{path}: ") })]
+pub struct SceneError {
+    /// Path of the offending field, e.g. `params.w.std` (empty for the whole file).
+    pub path: String,
+    /// What is wrong.
+    pub kind: SceneErrorKind,
+}
+
+fn err(path: impl Into<String>, msg: impl Into<String>) -> SceneError {
+    SceneError { path: path.into(), kind: SceneErrorKind::Invalid(msg.into()) }
+}
+
+/// The workspace box, exact and in floats.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Workspace {
+    /// Lower corner.
+    pub lower: Vec<f64>,
+    /// Upper corner.
+    pub upper: Vec<f64>,
+}
+
+impl Workspace {
+    /// Whether `x` lies in the closed box.
+    pub fn contains(&self, x: &[f64]) -> bool {
+        x.len() == self.lower.len() && x.iter().zip(self.lower.iter().zip(&self.upper)).all(|(v, (l, u))| l <= v && v <= u)
+    }
+}
+
+/// An uncertain parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Param {
+    /// Name in the polynomials.
+    pub name: String,
+    /// Its variable.
+    pub var: Var,
+    /// Its distribution (validated).
+    pub dist: Distribution,
+}
+
+/// An obstacle `{x : P(x, ω, t) ≥ 0}` with its cached contour.
+#[derive(Clone, Debug)]
+pub struct Obstacle {
+    /// Unique id.
+    pub id: String,
+    /// The polynomial text as given.
+    pub text: String,
+    /// P(x, ω, t), exact.
+    pub poly: QPoly,
+    /// E[P], E[P²], built once (eqs. 10/12).
+    pub contour: Arc<RiskContour>,
+}
+
+/// A validated scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Name.
+    pub name: String,
+    /// Spatial dimension.
+    pub dim: usize,
+    /// Workspace box.
+    pub workspace: Workspace,
+    /// `[t0, tf]`.
+    pub horizon: (f64, f64),
+    /// Δ, exact.
+    pub risk: BigRational,
+    /// Levels for contour figures (`risk_levels`, else `[risk]`).
+    pub risk_levels: Vec<BigRational>,
+    /// Parameters, in variable order.
+    pub params: Vec<Param>,
+    /// Obstacles, in file order.
+    pub obstacles: Vec<Obstacle>,
+    /// x(t0), if given.
+    pub start: Option<Vec<f64>>,
+    /// x(tf), if given.
+    pub goal: Option<Vec<f64>>,
+    /// Variable names: `x1..xn, t, params...`.
+    pub vars: VarTable,
+    /// The file as read (for re-serialising and for free-form blocks).
+    pub file: SceneFile,
+}
+
+impl Scene {
+    /// Parses and validates scene JSON text.
+    pub fn from_json(text: &str) -> Result<Scene, SceneError> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let file: SceneFile = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            SceneError {
+                path: if path == "." { String::new() } else { path },
+                kind: SceneErrorKind::Syntax(e.into_inner().to_string()),
+            }
+        })?;
+        Scene::from_file(file)
+    }
+
+    /// Validates a parsed scene file.
+    pub fn from_file(file: SceneFile) -> Result<Scene, SceneError> {
+        if file.format != SCENE_FORMAT {
+            return Err(err("format", format!("must be \"{SCENE_FORMAT}\", got \"{}\"", file.format)));
+        }
+        let dim = file.dim;
+        if dim == 0 || dim > MAX_DIM {
+            return Err(err("dim", format!("must be between 1 and {MAX_DIM}, got {dim}")));
+        }
+        let workspace = validate_workspace(&file.workspace, dim)?;
+        let horizon = validate_horizon(&file.horizon)?;
+        let risk = validate_risk("risk", &file.risk)?;
+        let risk_levels = match &file.risk_levels {
+            Some(levels) => {
+                levels.iter().enumerate().map(|(i, d)| validate_risk(&format!("risk_levels[{i}]"), d)).collect::<Result<_, _>>()?
+            }
+            None => vec![risk.clone()],
+        };
+        let (vars, params) = validate_params(&file, dim)?;
+        let layout = Layout { dim };
+        let polys = parse_obstacles(&file, &vars, dim)?;
+        let moments = needed_moments(&polys, &params)?;
+        let name = |v: Var| vars.name(v);
+        let mut obstacles = Vec::with_capacity(polys.len());
+        for (i, (o, poly)) in file.obstacles.iter().zip(polys).enumerate() {
+            let lookup = |v: Var, k: u32| moments.get(&v).and_then(|m| m.get(k as usize)).cloned();
+            let contour = RiskContour::new(layout, &poly, &lookup, &name)
+                .map_err(|e| SceneError { path: format!("obstacles[{i}].poly"), kind: e.into() })?;
+            obstacles.push(Obstacle { id: o.id.clone(), text: o.poly.clone(), poly, contour: Arc::new(contour) });
+        }
+        let start = validate_point("start", &file.start, &workspace)?;
+        let goal = validate_point("goal", &file.goal, &workspace)?;
+        if start.is_some() != goal.is_some() {
+            return Err(err(if start.is_some() { "goal" } else { "start" }, "start and goal must be given together"));
+        }
+        Ok(Scene {
+            name: file.name.clone(),
+            dim,
+            workspace,
+            horizon,
+            risk,
+            risk_levels,
+            params,
+            obstacles,
+            start,
+            goal,
+            vars,
+            file,
+        })
+    }
+
+    /// The variable layout of this scene's polynomials.
+    pub fn layout(&self) -> Layout {
+        Layout { dim: self.dim }
+    }
+
+    /// Δ as `f64`.
+    pub fn risk_f64(&self) -> f64 {
+        rational_to_f64(&self.risk)
+    }
+
+    /// The obstacle with this id.
+    pub fn obstacle(&self, id: &str) -> Option<&Obstacle> {
+        self.obstacles.iter().find(|o| o.id == id)
+    }
+
+    /// A Monte Carlo model of the scene: parameters sampled jointly per scenario, so
+    /// a parameter named by two obstacles is one random variable (algorithms.md §7.1).
+    pub fn mc_model(&self) -> Result<McModel, SceneError> {
+        let mut samplers = Vec::new();
+        for p in &self.params {
+            let s = p.dist.sampler().map_err(|e| SceneError { path: format!("params.{}", p.name), kind: e.into() })?;
+            samplers.push((p.var, s));
+        }
+        let polys = self.obstacles.iter().map(|o| o.poly.map_coeffs(rational_to_f64)).collect();
+        Ok(McModel::new(self.layout(), self.vars.len(), polys, samplers))
+    }
+}
+
+fn validate_workspace(w: &WorkspaceFile, dim: usize) -> Result<Workspace, SceneError> {
+    for (name, v) in [("lower", &w.lower), ("upper", &w.upper)] {
+        if v.len() != dim {
+            return Err(err(format!("workspace.{name}"), format!("must have {dim} entries (dim), got {}", v.len())));
+        }
+    }
+    for i in 0..dim {
+        if w.lower[i] >= w.upper[i] {
+            return Err(err(
+                format!("workspace.upper[{i}]"),
+                format!("must be greater than workspace.lower[{i}] ({} ≥ {})", w.lower[i].f64(), w.upper[i].f64()),
+            ));
+        }
+    }
+    Ok(Workspace { lower: w.lower.iter().map(Num::f64).collect(), upper: w.upper.iter().map(Num::f64).collect() })
+}
+
+fn validate_horizon(h: &[Num]) -> Result<(f64, f64), SceneError> {
+    if h.len() != 2 {
+        return Err(err("horizon", format!("must be [t0, tf], got {} entries", h.len())));
+    }
+    if h[0] >= h[1] {
+        return Err(err("horizon", format!("t0 must be less than tf, got [{}, {}]", h[0].f64(), h[1].f64())));
+    }
+    Ok((h[0].f64(), h[1].f64()))
+}
+
+/// Δ must lie in the open interval (0, 1).
+pub fn validate_risk(path: &str, d: &Num) -> Result<BigRational, SceneError> {
+    if !d.0.is_positive() || d.0 >= BigRational::one() {
+        return Err(err(path, format!("the risk level Δ must be in (0, 1), got {}", d.f64())));
+    }
+    Ok(d.0.clone())
+}
+
+fn is_identifier(s: &str) -> bool {
+    let mut c = s.chars();
+    matches!(c.next(), Some(f) if f.is_alphabetic() || f == '_') && c.all(|ch| ch.is_alphanumeric() || ch == '_')
+}
+
+fn is_space_name(s: &str) -> bool {
+    s.strip_prefix('x').is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+}
+
+fn validate_params(file: &SceneFile, dim: usize) -> Result<(VarTable, Vec<Param>), SceneError> {
+    let mut names: Vec<String> = (1..=dim).map(|i| format!("x{i}")).collect();
+    names.push("t".into());
+    let mut params = Vec::new();
+    for (name, pf) in &file.params {
+        let path = format!("params.{name}");
+        if !is_identifier(name) {
+            return Err(err(path, "a parameter name must be an identifier (letters, digits, '_')"));
+        }
+        if name == "t" || is_space_name(name) {
+            return Err(err(path, format!("'{name}' is reserved for time or space variables")));
+        }
+        let dist = pf.to_distribution().validated().map_err(|e| moment_err(&path, e))?;
+        names.push(name.clone());
+        params.push(Param { name: name.clone(), var: (names.len() - 1) as Var, dist });
+    }
+    Ok((VarTable::new(names), params))
+}
+
+fn moment_err(path: &str, e: MomentError) -> SceneError {
+    match e {
+        MomentError::InvalidParameter { field, message } => err(format!("{path}.{field}"), message),
+        other => SceneError { path: path.to_string(), kind: other.into() },
+    }
+}
+
+fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<QPoly>, SceneError> {
+    if file.obstacles.len() > MAX_OBSTACLES {
+        return Err(err("obstacles", format!("at most {MAX_OBSTACLES} obstacles, got {}", file.obstacles.len())));
+    }
+    let layout = Layout { dim };
+    let mut seen = BTreeMap::new();
+    let mut out = Vec::new();
+    for (i, o) in file.obstacles.iter().enumerate() {
+        if o.id.trim().is_empty() {
+            return Err(err(format!("obstacles[{i}].id"), "must not be empty"));
+        }
+        if let Some(j) = seen.insert(o.id.clone(), i) {
+            return Err(err(format!("obstacles[{i}].id"), format!("'{}' is already the id of obstacles[{j}]", o.id)));
+        }
+        let path = format!("obstacles[{i}].poly");
+        let mut resolve = |n: &str| -> Result<Var, String> {
+            vars.get(n).ok_or_else(|| {
+                if is_space_name(n) {
+                    format!("'{n}' is not a space variable of this {dim}-D scene (x1..x{dim}) nor a declared parameter")
+                } else {
+                    format!("unknown identifier '{n}': declare it in params, or use x1..x{dim} or t")
+                }
+            })
+        };
+        let poly = parse(&o.poly, &mut resolve).map_err(|e| SceneError { path: path.clone(), kind: e.into() })?;
+        let deg_xt = poly.degree_in_vars(|v| !layout.is_param(v));
+        if deg_xt > MAX_OBSTACLE_DEGREE {
+            return Err(err(path, format!("degree {deg_xt} in (x, t) exceeds the limit {MAX_OBSTACLE_DEGREE}")));
+        }
+        if poly.len() > MAX_TERMS {
+            return Err(err(path, format!("{} terms after expansion exceed the limit {MAX_TERMS}", poly.len())));
+        }
+        for v in poly.vars().into_iter().filter(|&v| layout.is_param(v)) {
+            let d = poly.degree_in(v);
+            if d > MAX_PARAM_DEGREE {
+                return Err(err(path, format!("degree {d} in '{}' exceeds the limit {MAX_PARAM_DEGREE}", vars.name(v))));
+            }
+        }
+        out.push(poly);
+    }
+    Ok(out)
+}
+
+/// Raw moments of every parameter up to `2·max deg` over the obstacles (§1.1: E[P²]).
+fn needed_moments(polys: &[QPoly], params: &[Param]) -> Result<BTreeMap<Var, Vec<BigRational>>, SceneError> {
+    let mut out = BTreeMap::new();
+    for p in params {
+        let k = 2 * polys.iter().map(|q| q.degree_in(p.var)).max().unwrap_or(0);
+        let m = p.dist.raw_moments(k).map_err(|e| moment_err(&format!("params.{}", p.name), e))?;
+        if m.iter().skip(2).step_by(2).any(|x| x.is_negative()) {
+            return Err(err(format!("params.{}", p.name), "even moments must be ≥ 0"));
+        }
+        out.insert(p.var, m);
+    }
+    Ok(out)
+}
+
+fn validate_point(path: &str, p: &Option<Vec<Num>>, ws: &Workspace) -> Result<Option<Vec<f64>>, SceneError> {
+    let Some(p) = p else { return Ok(None) };
+    if p.len() != ws.lower.len() {
+        return Err(err(path, format!("must have {} entries (dim), got {}", ws.lower.len(), p.len())));
+    }
+    let x: Vec<f64> = p.iter().map(Num::f64).collect();
+    if !ws.contains(&x) {
+        return Err(err(path, format!("{x:?} is outside the workspace {:?}..{:?}", ws.lower, ws.upper)));
+    }
+    Ok(Some(x))
+}
+
+#[cfg(test)]
+mod tests;
