@@ -21,6 +21,7 @@
 //! async code.
 #![warn(missing_docs)]
 
+pub mod certify;
 pub mod contour;
 pub mod mc;
 pub mod moments;
