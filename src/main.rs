@@ -1,1 +1,7 @@
-fn main() {}
+//! The `riskplan` command-line tool: see `riskplan --help`.
+
+mod cli;
+
+fn main() {
+    std::process::exit(cli::run());
+}

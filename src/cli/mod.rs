@@ -1,0 +1,50 @@
+//! Command-line interface (clap). Exit status: 0 success, 1 a negative answer
+//! (unsafe, no plan), 2 bad input or usage, with the error on stderr.
+
+mod contour_cmd;
+mod risk_cmd;
+mod util;
+
+use clap::{Parser, Subcommand};
+
+/// riskplan: continuous-time risk-bounded trajectory planning with certified risk
+/// contours (Jasour, Han, Williams, RSS 2021).
+///
+/// An obstacle is {x : P(x, ω, t) ≥ 0} with uncertain parameters ω. From the moments
+/// of ω, riskplan builds the Cantelli risk contour of each obstacle (eqs. 10 and 12):
+/// every point inside it has probability of collision with that obstacle at most Δ,
+/// at that instant. Scenes are JSON files in scene format v1.
+#[derive(Parser, Debug)]
+#[command(name = "riskplan", version, about, long_about, max_term_width = 100)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    Risk(risk_cmd::RiskArgs),
+    Contour(contour_cmd::ContourArgs),
+}
+
+/// Runs the CLI and returns the exit status.
+pub fn run() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { 2 } else { 0 };
+        }
+    };
+    let result = match cli.command {
+        Command::Risk(a) => risk_cmd::run(a),
+        Command::Contour(a) => contour_cmd::run(a),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e}");
+            2
+        }
+    }
+}

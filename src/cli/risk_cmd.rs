@@ -1,0 +1,100 @@
+//! `riskplan risk`: the risk bound at a point, per obstacle, optionally with Monte Carlo.
+
+use super::util::{delta_arg, exact_arg, load_scene, CliError};
+use clap::Args;
+use num_rational::BigRational;
+use riskplan::mc::DEFAULT_CONFIDENCE;
+use riskplan::poly::rational_to_f64;
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Risk at a point: E[P], E[P²] and the Cantelli bound per obstacle (JSON on stdout).
+///
+/// The bound is (E[P²] − E[P]²)/E[P²] where E[P] ≤ 0, and 1 where E[P] > 0 (Theorem 1);
+/// it is computed exactly (rational arithmetic) and printed both as a float and as an
+/// exact fraction. With --mc, the Monte Carlo estimate of the true probability
+/// Prob(P(x, ω, t) ≥ 0) is added with its exact Clopper–Pearson interval.
+#[derive(Args, Debug)]
+pub struct RiskArgs {
+    /// Scene file (format v1).
+    #[arg(long)]
+    scene: PathBuf,
+    /// The point: one coordinate per dimension (decimals or fractions like 1/3).
+    #[arg(long, num_args = 1.., required = true, allow_negative_numbers = true, value_name = "X")]
+    point: Vec<String>,
+    /// Time (for moving obstacles); default: the start of the scene's horizon.
+    #[arg(long, allow_negative_numbers = true)]
+    time: Option<String>,
+    /// Monte Carlo samples for an estimate of the true risk (0 = none).
+    #[arg(long, default_value_t = 0)]
+    mc: u64,
+    /// Seed of the Monte Carlo sampler.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Two-sided confidence level of the Monte Carlo interval.
+    #[arg(long, default_value_t = DEFAULT_CONFIDENCE)]
+    confidence: f64,
+    /// A risk level Δ: adds `"within_delta": bound ≤ Δ` per obstacle.
+    #[arg(long)]
+    delta: Option<String>,
+}
+
+pub fn run(a: RiskArgs) -> Result<i32, CliError> {
+    let scene = load_scene(&a.scene)?;
+    if a.point.len() != scene.dim {
+        return Err(CliError(format!(
+            "--point: the scene is {}-D, so give {} coordinates, got {}",
+            scene.dim,
+            scene.dim,
+            a.point.len()
+        )));
+    }
+    if !(a.confidence > 0.0 && a.confidence < 1.0) {
+        return Err(CliError(format!("--confidence must be in (0, 1), got {}", a.confidence)));
+    }
+    let mut xt: Vec<BigRational> = a.point.iter().map(|s| exact_arg("--point", s)).collect::<Result<_, _>>()?;
+    let t = match &a.time {
+        Some(s) => exact_arg("--time", s)?,
+        None => riskplan::poly::f64_shortest_decimal(scene.horizon.0).unwrap_or_default(),
+    };
+    xt.push(t.clone());
+    let delta = a.delta.as_deref().map(delta_arg).transpose()?;
+    let xt_f: Vec<f64> = xt.iter().map(rational_to_f64).collect();
+    let mc = if a.mc > 0 {
+        let model = scene.mc_model().map_err(|e| CliError(format!("--mc: {}: {e}", a.scene.display())))?;
+        Some(model.point_risk(&xt_f, a.mc, a.seed, a.confidence))
+    } else {
+        None
+    };
+    let mut max_bound = 0.0f64;
+    let mut obstacles = Vec::new();
+    for (i, o) in scene.obstacles.iter().enumerate() {
+        let r = o.contour.risk_at(&xt);
+        let bound = rational_to_f64(&r.bound);
+        max_bound = max_bound.max(bound);
+        let mut entry = json!({
+            "id": o.id,
+            "mean": rational_to_f64(&r.mean),
+            "second_moment": rational_to_f64(&r.second_moment),
+            "bound": bound,
+            "bound_exact": r.bound.to_string(),
+        });
+        if let Some(d) = &delta {
+            entry["within_delta"] = json!(r.bound <= *d);
+        }
+        if let Some(mc) = &mc {
+            let e = mc[i];
+            entry["mc"] = json!({"estimate": e.estimate, "lower": e.lower, "upper": e.upper, "samples": e.samples, "confidence": a.confidence});
+        }
+        obstacles.push(entry);
+    }
+    let out = json!({
+        "scene": scene.name,
+        "point": xt_f[..scene.dim],
+        "time": rational_to_f64(&t),
+        "obstacles": obstacles,
+        "max_bound": max_bound,
+    });
+    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    Ok(0)
+}

@@ -1,0 +1,423 @@
+//! Figures: Δ-risk contours (like the paper's Figs. 1–3, 6–8), the obstacle at
+//! the mean of its parameters, Monte Carlo "true" contours, and overlays such as a
+//! plan's tree and path. A presentation layer: it writes SVG or PNG files with
+//! `plotters`, and traces level sets with the `contour` crate (marching squares).
+//!
+//! The contour of level Δ drawn here is the level set `B(x, t) = Δ` of the
+//! floating-point Cantelli bound `B = max_i (E[Pᵢ²] − E[Pᵢ]²)/E[Pᵢ²]` (1 where
+//! `E[Pᵢ] > 0`). Figures are illustrations; decisions are never taken from them.
+
+mod font;
+
+use crate::contour::cantelli_bound_f64;
+use crate::scene::Scene;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+use thiserror::Error;
+
+/// Why a figure could not be drawn.
+#[derive(Debug, Error)]
+pub enum VizError {
+    /// Output name without `.svg` or `.png`.
+    #[error("--out must end in .svg or .png, got '{0}'")]
+    Format(String),
+    /// The slice options do not leave exactly two axes.
+    #[error("{0}")]
+    Slice(String),
+    /// No TrueType font for labels.
+    #[error("{0}")]
+    Font(String),
+    /// Monte Carlo is impossible (a parameter known only by its moments).
+    #[error("{0}")]
+    MonteCarlo(String),
+    /// The drawing backend failed (for instance, the file cannot be written).
+    #[error("drawing failed: {0}")]
+    Draw(String),
+}
+
+fn draw_err<E: std::fmt::Display>(e: E) -> VizError {
+    VizError::Draw(e.to_string())
+}
+
+/// What to draw.
+#[derive(Clone, Debug)]
+pub struct ContourOptions {
+    /// Risk levels Δ, one contour each.
+    pub deltas: Vec<f64>,
+    /// Times (for moving obstacles; one panel colour per time).
+    pub times: Vec<f64>,
+    /// Fixed coordinates `(axis, value)` for scenes of more than two dimensions.
+    pub slices: Vec<(usize, f64)>,
+    /// Monte Carlo samples per grid point for the "true" contour, and the seed.
+    pub mc: Option<(u64, u64)>,
+    /// Grid points per axis for the Cantelli contours.
+    pub grid: usize,
+    /// Grid points per axis for the Monte Carlo contour (it costs `mc_grid² · samples`).
+    pub mc_grid: usize,
+    /// Title; defaults to the scene name.
+    pub title: Option<String>,
+    /// Plot window `(x0, x1, y0, y1)` in the plotted axes; defaults to the workspace.
+    pub window: Option<(f64, f64, f64, f64)>,
+}
+
+impl Default for ContourOptions {
+    fn default() -> Self {
+        ContourOptions { deltas: vec![], times: vec![], slices: vec![], mc: None, grid: 300, mc_grid: 90, title: None, window: None }
+    }
+}
+
+/// Something drawn over the contours.
+#[derive(Clone, Debug)]
+pub enum Overlay {
+    /// A polyline in the plotted axes.
+    Path {
+        /// Points in full scene coordinates (projected onto the plotted axes).
+        points: Vec<Vec<f64>>,
+        /// RGB colour.
+        color: (u8, u8, u8),
+        /// Stroke width in pixels.
+        width: u32,
+        /// Legend label.
+        label: Option<String>,
+    },
+    /// Line segments (a tree), drawn thin.
+    Segments {
+        /// Pairs of points in scene coordinates.
+        segments: Vec<(Vec<f64>, Vec<f64>)>,
+        /// RGB colour.
+        color: (u8, u8, u8),
+        /// Legend label.
+        label: Option<String>,
+    },
+    /// Marked points (start, goal, vertices).
+    Points {
+        /// Points in scene coordinates.
+        points: Vec<Vec<f64>>,
+        /// RGB colour.
+        color: (u8, u8, u8),
+        /// Marker radius in pixels.
+        size: u32,
+        /// Legend label.
+        label: Option<String>,
+    },
+}
+
+const PALETTE: [(u8, u8, u8); 8] =
+    [(200, 30, 30), (30, 90, 200), (20, 140, 60), (160, 60, 170), (230, 120, 0), (0, 150, 150), (120, 80, 40), (90, 90, 90)];
+
+/// The two plotted axes and the full-coordinate template for a scene and its slices.
+struct Axes {
+    a: usize,
+    b: usize,
+    template: Vec<f64>,
+}
+
+fn axes(scene: &Scene, slices: &[(usize, f64)]) -> Result<Axes, VizError> {
+    let mut template = vec![0.0; scene.dim];
+    let mut free: Vec<usize> = (0..scene.dim).collect();
+    for &(axis, v) in slices {
+        if axis >= scene.dim {
+            return Err(VizError::Slice(format!("--slice x{}: the scene has only {} dimensions", axis + 1, scene.dim)));
+        }
+        if !free.contains(&axis) {
+            return Err(VizError::Slice(format!("--slice x{} is given twice", axis + 1)));
+        }
+        template[axis] = v;
+        free.retain(|&f| f != axis);
+    }
+    match free[..] {
+        [a, b] => Ok(Axes { a, b, template }),
+        _ => Err(VizError::Slice(format!(
+            "a {}-D scene needs {} --slice option(s) (e.g. --slice x3=0) to leave two plotted axes",
+            scene.dim,
+            scene.dim.saturating_sub(2)
+        ))),
+    }
+}
+
+struct Grid {
+    n: usize,
+    x0: f64,
+    y0: f64,
+    dx: f64,
+    dy: f64,
+}
+
+impl Grid {
+    fn new(win: (f64, f64, f64, f64), n: usize) -> Self {
+        let (x0, x1, y0, y1) = win;
+        let n = n.max(8);
+        Grid { n, x0, y0, dx: (x1 - x0) / (n - 1) as f64, dy: (y1 - y0) / (n - 1) as f64 }
+    }
+    fn point(&self, ax: &Axes, i: usize, j: usize, t: f64) -> Vec<f64> {
+        let mut p = ax.template.clone();
+        p[ax.a] = self.x0 + i as f64 * self.dx;
+        p[ax.b] = self.y0 + j as f64 * self.dy;
+        p.push(t);
+        p
+    }
+    fn builder(&self) -> contour::ContourBuilder {
+        // d3-contour puts sample i at coordinate i + ½ (pixel centres): shift the origin back by half a step.
+        contour::ContourBuilder::new(self.n, self.n, true).x_origin(self.x0 - 0.5 * self.dx).y_origin(self.y0 - 0.5 * self.dy).x_step(self.dx).y_step(self.dy)
+    }
+    /// Polylines of the level set `values = level`.
+    fn isolines(&self, values: &[f64], level: f64) -> Vec<Vec<(f64, f64)>> {
+        let Ok(lines) = self.builder().lines(values, &[level]) else { return vec![] };
+        lines.iter().flat_map(|l| l.geometry().0.iter().map(|ls| ls.0.iter().map(|c| (c.x, c.y)).collect())).collect()
+    }
+    /// Polygons (exterior, holes) of the region `values ≥ level`.
+    fn regions(&self, values: &[f64], level: f64) -> Vec<(Vec<(f64, f64)>, Vec<Vec<(f64, f64)>>)> {
+        let Ok(cs) = self.builder().contours(values, &[level]) else { return vec![] };
+        let mut out = Vec::new();
+        for c in &cs {
+            for p in c.geometry().0.iter() {
+                let ext: Vec<(f64, f64)> = p.exterior().0.iter().map(|c| (c.x, c.y)).collect();
+                let holes = p.interiors().iter().map(|ls| ls.0.iter().map(|c| (c.x, c.y)).collect()).collect();
+                out.push((ext, holes));
+            }
+        }
+        out
+    }
+}
+
+/// Max over obstacles of the Cantelli bound on the grid at time `t`.
+fn bound_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64) -> Vec<f64> {
+    let mut v = Vec::with_capacity(g.n * g.n);
+    for j in 0..g.n {
+        for i in 0..g.n {
+            let p = g.point(ax, i, j, t);
+            v.push(scene.obstacles.iter().map(|o| o.contour.bound_f64(&p)).fold(0.0, f64::max));
+        }
+    }
+    v
+}
+
+/// Max over obstacles of P(x, E[ω], t) on the grid: the obstacle at the mean.
+fn mean_obstacle_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64) -> Vec<f64> {
+    let layout = scene.layout();
+    let means: Vec<(u16, f64)> =
+        scene.params.iter().filter_map(|p| p.dist.mean().ok().map(|m| (p.var, crate::poly::rational_to_f64(&m)))).collect();
+    let polys: Vec<crate::poly::Poly<f64>> = scene
+        .obstacles
+        .iter()
+        .map(|o| {
+            let mut q = o.poly.map_coeffs(crate::poly::rational_to_f64);
+            for (v, m) in &means {
+                q = q.partial_eval(*v, m);
+            }
+            q
+        })
+        .collect();
+    let mut v = Vec::with_capacity(g.n * g.n);
+    let mut vals = vec![0.0; scene.vars.len()];
+    for j in 0..g.n {
+        for i in 0..g.n {
+            let p = g.point(ax, i, j, t);
+            vals[..layout.xt_len()].copy_from_slice(&p);
+            v.push(polys.iter().map(|q| q.eval(&vals)).fold(f64::NEG_INFINITY, f64::max));
+        }
+    }
+    v
+}
+
+/// Max over obstacles of the Monte Carlo estimate of Prob(P ≥ 0) on a grid.
+fn mc_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64, samples: u64, seed: u64) -> Result<Vec<f64>, VizError> {
+    let model = scene.mc_model().map_err(|e| VizError::MonteCarlo(format!("--mc: {e}")))?;
+    let pts: Vec<Vec<f64>> = (0..g.n).flat_map(|j| (0..g.n).map(move |i| (i, j))).map(|(i, j)| g.point(ax, i, j, t)).collect();
+    let hits = model.hits(&pts, samples, seed);
+    Ok(hits.iter().map(|h| h.iter().copied().max().unwrap_or(0) as f64 / samples as f64).collect())
+}
+
+/// Draws the contours of `scene` with `overlays` on top into `out` (`.svg` or `.png`).
+pub fn draw(scene: &Scene, opts: &ContourOptions, overlays: &[Overlay], out: &Path) -> Result<(), VizError> {
+    let ax = axes(scene, &opts.slices)?;
+    font::ensure_registered()?;
+    let name = out.to_string_lossy().to_string();
+    // Equal scales on both axes (discs look round): size the figure by the window's aspect.
+    let (x0, x1, y0, y1) = window(scene, &ax, opts);
+    let aspect = ((y1 - y0) / (x1 - x0)).clamp(0.3, 2.5);
+    let plot_w = 800.0;
+    let size = (plot_w as u32 + 80, (plot_w * aspect) as u32 + 110);
+    if name.ends_with(".svg") {
+        let root = SVGBackend::new(out, size).into_drawing_area();
+        render(scene, opts, overlays, &ax, root)
+    } else if name.ends_with(".png") {
+        let root = BitMapBackend::new(out, size).into_drawing_area();
+        render(scene, opts, overlays, &ax, root)
+    } else {
+        Err(VizError::Format(name))
+    }
+}
+
+fn window(scene: &Scene, ax: &Axes, opts: &ContourOptions) -> (f64, f64, f64, f64) {
+    opts.window.unwrap_or((
+        scene.workspace.lower[ax.a],
+        scene.workspace.upper[ax.a],
+        scene.workspace.lower[ax.b],
+        scene.workspace.upper[ax.b],
+    ))
+}
+
+fn rgb((r, g, b): (u8, u8, u8)) -> RGBColor {
+    RGBColor(r, g, b)
+}
+
+fn project(ax: &Axes, p: &[f64]) -> (f64, f64) {
+    (p.get(ax.a).copied().unwrap_or(0.0), p.get(ax.b).copied().unwrap_or(0.0))
+}
+
+fn render<DB: DrawingBackend>(
+    scene: &Scene,
+    opts: &ContourOptions,
+    overlays: &[Overlay],
+    ax: &Axes,
+    root: DrawingArea<DB, Shift>,
+) -> Result<(), VizError>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(draw_err)?;
+    let win = window(scene, ax, opts);
+    let (lx, ux, ly, uy) = win;
+    let title = opts.title.clone().unwrap_or_else(|| {
+        let slices: Vec<String> = opts.slices.iter().map(|(a, v)| format!("x{}={v}", a + 1)).collect();
+        if slices.is_empty() {
+            scene.name.clone()
+        } else {
+            format!("{} ({})", scene.name, slices.join(", "))
+        }
+    });
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 24))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(lx..ux, ly..uy)
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc(format!("x{}", ax.a + 1))
+        .y_desc(format!("x{}", ax.b + 1))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(draw_err)?;
+    let g = Grid::new(win, opts.grid);
+    let multi_time = opts.times.len() > 1;
+    // 1. Monte Carlo "true" contour, shaded (bottom layer).
+    if let Some((samples, seed)) = opts.mc {
+        let mg = Grid::new(win, opts.mc_grid);
+        for (ti, &t) in opts.times.iter().enumerate() {
+            let est = mc_grid(scene, ax, &mg, t, samples, seed)?;
+            for (di, &d) in opts.deltas.iter().enumerate() {
+                let shade = RGBColor(60, 170, 90).mix(0.18);
+                for (ext, holes) in mg.regions(&est, d + f64::EPSILON) {
+                    chart.draw_series(std::iter::once(Polygon::new(ext, shade.filled()))).map_err(draw_err)?;
+                    for h in holes {
+                        chart.draw_series(std::iter::once(Polygon::new(h, WHITE.filled()))).map_err(draw_err)?;
+                    }
+                }
+                let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);
+                let label = format!("Monte Carlo true Δ={d}{} ({samples} samples)", if multi_time { format!(", t={t}") } else { String::new() });
+                let mut first = true;
+                for line in mg.isolines(&est, d + f64::EPSILON) {
+                    let s = chart
+                        .draw_series(LineSeries::new(line, ShapeStyle::from(color.mix(0.7)).stroke_width(1)))
+                        .map_err(draw_err)?;
+                    if first && ti == 0 && di == 0 {
+                        s.label(label.clone()).legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], RGBColor(60, 170, 90).mix(0.4).filled()));
+                    }
+                    first = false;
+                }
+            }
+        }
+    }
+    // 2. The obstacle at the mean of its parameters, filled grey.
+    let mut first = true;
+    for &t in &opts.times {
+        let mean = mean_obstacle_grid(scene, ax, &g, t);
+        for (ext, holes) in g.regions(&mean, 0.0) {
+            let s = chart.draw_series(std::iter::once(Polygon::new(ext, RGBColor(90, 90, 90).mix(0.35).filled()))).map_err(draw_err)?;
+            if first {
+                s.label("obstacle at E[ω]").legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], RGBColor(90, 90, 90).mix(0.5).filled()));
+                first = false;
+            }
+            for h in holes {
+                chart.draw_series(std::iter::once(Polygon::new(h, WHITE.mix(0.9).filled()))).map_err(draw_err)?;
+            }
+        }
+    }
+    // 3. Cantelli Δ-contours (eq. 10/12 inner approximations): the level sets B = Δ.
+    for (ti, &t) in opts.times.iter().enumerate() {
+        let b = bound_grid(scene, ax, &g, t);
+        for (di, &d) in opts.deltas.iter().enumerate() {
+            let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);
+            let label = if multi_time { format!("Cantelli contour Δ={d}, t={t}") } else { format!("Cantelli contour Δ={d}") };
+            let mut first = true;
+            for line in g.isolines(&b, d) {
+                let s = chart.draw_series(LineSeries::new(line, ShapeStyle::from(color).stroke_width(2))).map_err(draw_err)?;
+                if first && (!multi_time || di == 0) {
+                    s.label(label.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(color).stroke_width(2)));
+                    first = false;
+                }
+            }
+        }
+    }
+    // 4. Overlays.
+    for o in overlays {
+        draw_overlay(&mut chart, ax, o)?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font(("sans-serif", 14))
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(draw_err)?;
+    root.present().map_err(draw_err)?;
+    Ok(())
+}
+
+type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>;
+
+fn draw_overlay<DB: DrawingBackend>(chart: &mut Chart<'_, DB>, ax: &Axes, o: &Overlay) -> Result<(), VizError>
+where
+    DB::ErrorType: 'static,
+{
+    match o {
+        Overlay::Path { points, color, width, label } => {
+            let c = rgb(*color);
+            let w = *width;
+            let s = chart
+                .draw_series(LineSeries::new(points.iter().map(|p| project(ax, p)), ShapeStyle::from(c).stroke_width(w)))
+                .map_err(draw_err)?;
+            if let Some(l) = label {
+                s.label(l).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(c).stroke_width(w)));
+            }
+        }
+        Overlay::Segments { segments, color, label } => {
+            let c = rgb(*color).mix(0.6);
+            let s = chart
+                .draw_series(segments.iter().map(|(a, b)| PathElement::new(vec![project(ax, a), project(ax, b)], ShapeStyle::from(c).stroke_width(1))))
+                .map_err(draw_err)?;
+            if let Some(l) = label {
+                s.label(l).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(c).stroke_width(1)));
+            }
+        }
+        Overlay::Points { points, color, size, label } => {
+            let c = rgb(*color);
+            let r = *size;
+            let s = chart.draw_series(points.iter().map(|p| Circle::new(project(ax, p), r, c.filled()))).map_err(draw_err)?;
+            if let Some(l) = label {
+                s.label(l).legend(move |(x, y)| Circle::new((x + 9, y), r, c.filled()));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The plain Cantelli bound helper re-exported for figure code.
+pub fn bound(mean: f64, second: f64) -> f64 {
+    cantelli_bound_f64(mean, second)
+}
