@@ -50,9 +50,16 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
         )));
     }
     if !(a.confidence > 0.0 && a.confidence < 1.0) {
-        return Err(CliError(format!("--confidence must be in (0, 1), got {}", a.confidence)));
+        return Err(CliError(format!(
+            "--confidence must be in (0, 1), got {}",
+            a.confidence
+        )));
     }
-    let mut xt: Vec<BigRational> = a.point.iter().map(|s| exact_arg("--point", s)).collect::<Result<_, _>>()?;
+    let mut xt: Vec<BigRational> = a
+        .point
+        .iter()
+        .map(|s| exact_arg("--point", s))
+        .collect::<Result<_, _>>()?;
     let t = match &a.time {
         Some(s) => exact_arg("--time", s)?,
         None => riskplan::poly::f64_shortest_decimal(scene.horizon.0).unwrap_or_default(),
@@ -61,7 +68,9 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
     let delta = a.delta.as_deref().map(delta_arg).transpose()?;
     let xt_f: Vec<f64> = xt.iter().map(rational_to_f64).collect();
     let mc = if a.mc > 0 {
-        let model = scene.mc_model().map_err(|e| CliError(format!("--mc: {}: {e}", a.scene.display())))?;
+        let model = scene
+            .mc_model()
+            .map_err(|e| CliError(format!("--mc: {}: {e}", a.scene.display())))?;
         Some(model.point_risk(&xt_f, a.mc, a.seed, a.confidence))
     } else {
         None

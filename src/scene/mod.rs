@@ -64,7 +64,10 @@ pub struct SceneError {
 }
 
 fn err(path: impl Into<String>, msg: impl Into<String>) -> SceneError {
-    SceneError { path: path.into(), kind: SceneErrorKind::Invalid(msg.into()) }
+    SceneError {
+        path: path.into(),
+        kind: SceneErrorKind::Invalid(msg.into()),
+    }
 }
 
 /// The workspace box, exact and in floats.
@@ -79,7 +82,10 @@ pub struct Workspace {
 impl Workspace {
     /// Whether `x` lies in the closed box.
     pub fn contains(&self, x: &[f64]) -> bool {
-        x.len() == self.lower.len() && x.iter().zip(self.lower.iter().zip(&self.upper)).all(|(v, (l, u))| l <= v && v <= u)
+        x.len() == self.lower.len()
+            && x.iter()
+                .zip(self.lower.iter().zip(&self.upper))
+                .all(|(v, (l, u))| l <= v && v <= u)
     }
 }
 
@@ -153,19 +159,27 @@ impl Scene {
     /// Validates a parsed scene file.
     pub fn from_file(file: SceneFile) -> Result<Scene, SceneError> {
         if file.format != SCENE_FORMAT {
-            return Err(err("format", format!("must be \"{SCENE_FORMAT}\", got \"{}\"", file.format)));
+            return Err(err(
+                "format",
+                format!("must be \"{SCENE_FORMAT}\", got \"{}\"", file.format),
+            ));
         }
         let dim = file.dim;
         if dim == 0 || dim > MAX_DIM {
-            return Err(err("dim", format!("must be between 1 and {MAX_DIM}, got {dim}")));
+            return Err(err(
+                "dim",
+                format!("must be between 1 and {MAX_DIM}, got {dim}"),
+            ));
         }
         let workspace = validate_workspace(&file.workspace, dim)?;
         let horizon = validate_horizon(&file.horizon)?;
         let risk = validate_risk("risk", &file.risk)?;
         let risk_levels = match &file.risk_levels {
-            Some(levels) => {
-                levels.iter().enumerate().map(|(i, d)| validate_risk(&format!("risk_levels[{i}]"), d)).collect::<Result<_, _>>()?
-            }
+            Some(levels) => levels
+                .iter()
+                .enumerate()
+                .map(|(i, d)| validate_risk(&format!("risk_levels[{i}]"), d))
+                .collect::<Result<_, _>>()?,
             None => vec![risk.clone()],
         };
         let (vars, params) = validate_params(&file, dim)?;
@@ -176,14 +190,25 @@ impl Scene {
         let mut obstacles = Vec::with_capacity(polys.len());
         for (i, (o, poly)) in file.obstacles.iter().zip(polys).enumerate() {
             let lookup = |v: Var, k: u32| moments.get(&v).and_then(|m| m.get(k as usize)).cloned();
-            let contour = RiskContour::new(layout, &poly, &lookup, &name)
-                .map_err(|e| SceneError { path: format!("obstacles[{i}].poly"), kind: e.into() })?;
-            obstacles.push(Obstacle { id: o.id.clone(), text: o.poly.clone(), poly, contour: Arc::new(contour) });
+            let contour =
+                RiskContour::new(layout, &poly, &lookup, &name).map_err(|e| SceneError {
+                    path: format!("obstacles[{i}].poly"),
+                    kind: e.into(),
+                })?;
+            obstacles.push(Obstacle {
+                id: o.id.clone(),
+                text: o.poly.clone(),
+                poly,
+                contour: Arc::new(contour),
+            });
         }
         let start = validate_point("start", &file.start, &workspace)?;
         let goal = validate_point("goal", &file.goal, &workspace)?;
         if start.is_some() != goal.is_some() {
-            return Err(err(if start.is_some() { "goal" } else { "start" }, "start and goal must be given together"));
+            return Err(err(
+                if start.is_some() { "goal" } else { "start" },
+                "start and goal must be given together",
+            ));
         }
         Ok(Scene {
             name: file.name.clone(),
@@ -221,37 +246,69 @@ impl Scene {
     pub fn mc_model(&self) -> Result<McModel, SceneError> {
         let mut samplers = Vec::new();
         for p in &self.params {
-            let s = p.dist.sampler().map_err(|e| SceneError { path: format!("params.{}", p.name), kind: e.into() })?;
+            let s = p.dist.sampler().map_err(|e| SceneError {
+                path: format!("params.{}", p.name),
+                kind: e.into(),
+            })?;
             samplers.push((p.var, s));
         }
-        let polys = self.obstacles.iter().map(|o| o.poly.map_coeffs(rational_to_f64)).collect();
-        Ok(McModel::new(self.layout(), self.vars.len(), polys, samplers))
+        let polys = self
+            .obstacles
+            .iter()
+            .map(|o| o.poly.map_coeffs(rational_to_f64))
+            .collect();
+        Ok(McModel::new(
+            self.layout(),
+            self.vars.len(),
+            polys,
+            samplers,
+        ))
     }
 }
 
 fn validate_workspace(w: &WorkspaceFile, dim: usize) -> Result<Workspace, SceneError> {
     for (name, v) in [("lower", &w.lower), ("upper", &w.upper)] {
         if v.len() != dim {
-            return Err(err(format!("workspace.{name}"), format!("must have {dim} entries (dim), got {}", v.len())));
+            return Err(err(
+                format!("workspace.{name}"),
+                format!("must have {dim} entries (dim), got {}", v.len()),
+            ));
         }
     }
     for i in 0..dim {
         if w.lower[i] >= w.upper[i] {
             return Err(err(
                 format!("workspace.upper[{i}]"),
-                format!("must be greater than workspace.lower[{i}] ({} ≥ {})", w.lower[i].f64(), w.upper[i].f64()),
+                format!(
+                    "must be greater than workspace.lower[{i}] ({} ≥ {})",
+                    w.lower[i].f64(),
+                    w.upper[i].f64()
+                ),
             ));
         }
     }
-    Ok(Workspace { lower: w.lower.iter().map(Num::f64).collect(), upper: w.upper.iter().map(Num::f64).collect() })
+    Ok(Workspace {
+        lower: w.lower.iter().map(Num::f64).collect(),
+        upper: w.upper.iter().map(Num::f64).collect(),
+    })
 }
 
 fn validate_horizon(h: &[Num]) -> Result<(f64, f64), SceneError> {
     if h.len() != 2 {
-        return Err(err("horizon", format!("must be [t0, tf], got {} entries", h.len())));
+        return Err(err(
+            "horizon",
+            format!("must be [t0, tf], got {} entries", h.len()),
+        ));
     }
     if h[0] >= h[1] {
-        return Err(err("horizon", format!("t0 must be less than tf, got [{}, {}]", h[0].f64(), h[1].f64())));
+        return Err(err(
+            "horizon",
+            format!(
+                "t0 must be less than tf, got [{}, {}]",
+                h[0].f64(),
+                h[1].f64()
+            ),
+        ));
     }
     Ok((h[0].f64(), h[1].f64()))
 }
@@ -259,18 +316,23 @@ fn validate_horizon(h: &[Num]) -> Result<(f64, f64), SceneError> {
 /// Δ must lie in the open interval (0, 1).
 pub fn validate_risk(path: &str, d: &Num) -> Result<BigRational, SceneError> {
     if !d.0.is_positive() || d.0 >= BigRational::one() {
-        return Err(err(path, format!("the risk level Δ must be in (0, 1), got {}", d.f64())));
+        return Err(err(
+            path,
+            format!("the risk level Δ must be in (0, 1), got {}", d.f64()),
+        ));
     }
     Ok(d.0.clone())
 }
 
 fn is_identifier(s: &str) -> bool {
     let mut c = s.chars();
-    matches!(c.next(), Some(f) if f.is_alphabetic() || f == '_') && c.all(|ch| ch.is_alphanumeric() || ch == '_')
+    matches!(c.next(), Some(f) if f.is_alphabetic() || f == '_')
+        && c.all(|ch| ch.is_alphanumeric() || ch == '_')
 }
 
 fn is_space_name(s: &str) -> bool {
-    s.strip_prefix('x').is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+    s.strip_prefix('x')
+        .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
 }
 
 fn validate_params(file: &SceneFile, dim: usize) -> Result<(VarTable, Vec<Param>), SceneError> {
@@ -280,14 +342,27 @@ fn validate_params(file: &SceneFile, dim: usize) -> Result<(VarTable, Vec<Param>
     for (name, pf) in &file.params {
         let path = format!("params.{name}");
         if !is_identifier(name) {
-            return Err(err(path, "a parameter name must be an identifier (letters, digits, '_')"));
+            return Err(err(
+                path,
+                "a parameter name must be an identifier (letters, digits, '_')",
+            ));
         }
         if name == "t" || is_space_name(name) {
-            return Err(err(path, format!("'{name}' is reserved for time or space variables")));
+            return Err(err(
+                path,
+                format!("'{name}' is reserved for time or space variables"),
+            ));
         }
-        let dist = pf.to_distribution().validated().map_err(|e| moment_err(&path, e))?;
+        let dist = pf
+            .to_distribution()
+            .validated()
+            .map_err(|e| moment_err(&path, e))?;
         names.push(name.clone());
-        params.push(Param { name: name.clone(), var: (names.len() - 1) as Var, dist });
+        params.push(Param {
+            name: name.clone(),
+            var: (names.len() - 1) as Var,
+            dist,
+        });
     }
     Ok((VarTable::new(names), params))
 }
@@ -295,13 +370,26 @@ fn validate_params(file: &SceneFile, dim: usize) -> Result<(VarTable, Vec<Param>
 fn moment_err(path: &str, e: MomentError) -> SceneError {
     match e {
         MomentError::InvalidParameter { field, message } => err(format!("{path}.{field}"), message),
-        other => SceneError { path: path.to_string(), kind: other.into() },
+        other => SceneError {
+            path: path.to_string(),
+            kind: other.into(),
+        },
     }
 }
 
-fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<QPoly>, SceneError> {
+fn parse_obstacles(
+    file: &SceneFile,
+    vars: &VarTable,
+    dim: usize,
+) -> Result<Vec<QPoly>, SceneError> {
     if file.obstacles.len() > MAX_OBSTACLES {
-        return Err(err("obstacles", format!("at most {MAX_OBSTACLES} obstacles, got {}", file.obstacles.len())));
+        return Err(err(
+            "obstacles",
+            format!(
+                "at most {MAX_OBSTACLES} obstacles, got {}",
+                file.obstacles.len()
+            ),
+        ));
     }
     let layout = Layout { dim };
     let mut seen = BTreeMap::new();
@@ -311,7 +399,10 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
             return Err(err(format!("obstacles[{i}].id"), "must not be empty"));
         }
         if let Some(j) = seen.insert(o.id.clone(), i) {
-            return Err(err(format!("obstacles[{i}].id"), format!("'{}' is already the id of obstacles[{j}]", o.id)));
+            return Err(err(
+                format!("obstacles[{i}].id"),
+                format!("'{}' is already the id of obstacles[{j}]", o.id),
+            ));
         }
         let path = format!("obstacles[{i}].poly");
         let mut resolve = |n: &str| -> Result<Var, String> {
@@ -323,18 +414,36 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
                 }
             })
         };
-        let poly = parse(&o.poly, &mut resolve).map_err(|e| SceneError { path: path.clone(), kind: e.into() })?;
+        let poly = parse(&o.poly, &mut resolve).map_err(|e| SceneError {
+            path: path.clone(),
+            kind: e.into(),
+        })?;
         let deg_xt = poly.degree_in_vars(|v| !layout.is_param(v));
         if deg_xt > MAX_OBSTACLE_DEGREE {
-            return Err(err(path, format!("degree {deg_xt} in (x, t) exceeds the limit {MAX_OBSTACLE_DEGREE}")));
+            return Err(err(
+                path,
+                format!("degree {deg_xt} in (x, t) exceeds the limit {MAX_OBSTACLE_DEGREE}"),
+            ));
         }
         if poly.len() > MAX_TERMS {
-            return Err(err(path, format!("{} terms after expansion exceed the limit {MAX_TERMS}", poly.len())));
+            return Err(err(
+                path,
+                format!(
+                    "{} terms after expansion exceed the limit {MAX_TERMS}",
+                    poly.len()
+                ),
+            ));
         }
         for v in poly.vars().into_iter().filter(|&v| layout.is_param(v)) {
             let d = poly.degree_in(v);
             if d > MAX_PARAM_DEGREE {
-                return Err(err(path, format!("degree {d} in '{}' exceeds the limit {MAX_PARAM_DEGREE}", vars.name(v))));
+                return Err(err(
+                    path,
+                    format!(
+                        "degree {d} in '{}' exceeds the limit {MAX_PARAM_DEGREE}",
+                        vars.name(v)
+                    ),
+                ));
             }
         }
         out.push(poly);
@@ -343,27 +452,53 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
 }
 
 /// Raw moments of every parameter up to `2·max deg` over the obstacles (§1.1: E[P²]).
-fn needed_moments(polys: &[QPoly], params: &[Param]) -> Result<BTreeMap<Var, Vec<BigRational>>, SceneError> {
+fn needed_moments(
+    polys: &[QPoly],
+    params: &[Param],
+) -> Result<BTreeMap<Var, Vec<BigRational>>, SceneError> {
     let mut out = BTreeMap::new();
     for p in params {
         let k = 2 * polys.iter().map(|q| q.degree_in(p.var)).max().unwrap_or(0);
-        let m = p.dist.raw_moments(k).map_err(|e| moment_err(&format!("params.{}", p.name), e))?;
+        let m = p
+            .dist
+            .raw_moments(k)
+            .map_err(|e| moment_err(&format!("params.{}", p.name), e))?;
         if m.iter().skip(2).step_by(2).any(|x| x.is_negative()) {
-            return Err(err(format!("params.{}", p.name), "even moments must be ≥ 0"));
+            return Err(err(
+                format!("params.{}", p.name),
+                "even moments must be ≥ 0",
+            ));
         }
         out.insert(p.var, m);
     }
     Ok(out)
 }
 
-fn validate_point(path: &str, p: &Option<Vec<Num>>, ws: &Workspace) -> Result<Option<Vec<f64>>, SceneError> {
+fn validate_point(
+    path: &str,
+    p: &Option<Vec<Num>>,
+    ws: &Workspace,
+) -> Result<Option<Vec<f64>>, SceneError> {
     let Some(p) = p else { return Ok(None) };
     if p.len() != ws.lower.len() {
-        return Err(err(path, format!("must have {} entries (dim), got {}", ws.lower.len(), p.len())));
+        return Err(err(
+            path,
+            format!(
+                "must have {} entries (dim), got {}",
+                ws.lower.len(),
+                p.len()
+            ),
+        ));
     }
     let x: Vec<f64> = p.iter().map(Num::f64).collect();
     if !ws.contains(&x) {
-        return Err(err(path, format!("{x:?} is outside the workspace {:?}..{:?}", ws.lower, ws.upper)));
+        return Err(err(
+            path,
+            format!(
+                "{x:?} is outside the workspace {:?}..{:?}",
+                ws.lower, ws.upper
+            ),
+        ));
     }
     Ok(Some(x))
 }
