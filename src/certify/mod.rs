@@ -5,6 +5,11 @@
 //! (algorithms.md §3). Everything here reduces to positivity of a univariate
 //! polynomial on [0, 1]; see [`Verdict`].
 
+mod compose;
 mod verdict;
+
+pub use compose::{
+    coordinates_exact, restrict_exact, restrict_interval, restrict_poly_exact, PieceRef, Restricted,
+};
 
 pub use verdict::{Undecided, Verdict, Witness};

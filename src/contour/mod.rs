@@ -14,7 +14,7 @@
 //! collision where `E[P] ≤ 0` (1 elsewhere). The guarantee is per obstacle and per
 //! instant (§2.1, §8.13).
 
-use crate::poly::{rational_to_f64, Poly, QPoly, Var};
+use crate::poly::{rational_to_f64, Interval, Poly, QPoly, Var};
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use thiserror::Error;
@@ -102,6 +102,8 @@ pub struct RiskContour {
     pub second: QPoly,
     mean_f: Poly<f64>,
     second_f: Poly<f64>,
+    mean_i: Poly<Interval>,
+    second_i: Poly<Interval>,
     dynamic: bool,
 }
 
@@ -127,6 +129,8 @@ impl RiskContour {
             layout,
             mean_f: mean.map_coeffs(rational_to_f64),
             second_f: second.map_coeffs(rational_to_f64),
+            mean_i: mean.map_coeffs(Interval::enclose_rational),
+            second_i: second.map_coeffs(Interval::enclose_rational),
             mean,
             second,
             dynamic,
@@ -159,6 +163,12 @@ impl RiskContour {
                 .sub(&self.second.scale(&one_minus)),
             mean: self.mean.neg(),
         }
+    }
+
+    /// E[P] and E[P²] with outward-rounded interval coefficients (each encloses the
+    /// exact rational coefficient), for fast sound certification.
+    pub fn interval_polys(&self) -> (&Poly<Interval>, &Poly<Interval>) {
+        (&self.mean_i, &self.second_i)
     }
 
     /// Exact risk at `xt = (x1..xn, t)`.

@@ -7,9 +7,14 @@
 
 mod file;
 mod num;
+mod trajectory;
 
 pub use file::{ObstacleFile, ParamFile, SceneFile, WorkspaceFile, SCENE_FORMAT};
 pub use num::{parse_num_text, Num};
+pub use trajectory::{
+    Piece, Trajectory, TrajectoryError, TrajectoryFile, CONTINUITY_TOLERANCE, MAX_PIECES,
+    MAX_PIECE_DEGREE, TRAJECTORY_FORMAT,
+};
 
 use crate::contour::{ContourError, Layout, RiskContour};
 use crate::mc::McModel;

@@ -1,0 +1,183 @@
+//! Restriction of contour constraints to a trajectory piece (algorithms.md §3.1).
+//!
+//! For a piece `x(t) = Σ_k c_k t^k` on `[t0, t1]`, with `τ = (t − t0)/(t1 − t0)`,
+//! the restrictions `e1(τ) = E[P](x(t(τ)), t(τ))` and `e2(τ) = E[P²](…)` are
+//! univariate, and the constraints of eq. (15) become
+//! `g1(τ) = e1² − (1−Δ)·e2` and `g2(τ) = −e1`, to be proven positive on [0, 1].
+//! Static obstacles ignore t. Both an interval version (fast, sound enclosures of
+//! the exact coefficients) and an exact rational version (the fallback and the
+//! reference) are provided; trajectory floats are exact dyadic rationals.
+
+use crate::contour::RiskContour;
+use crate::poly::{Interval, Poly, QPoly, Ring, UPoly};
+use num_rational::BigRational;
+
+/// A piece as certification sees it: absolute-time coefficients on `[t0, t1]`.
+#[derive(Clone, Copy, Debug)]
+pub struct PieceRef<'a> {
+    /// Start time.
+    pub t0: f64,
+    /// End time.
+    pub t1: f64,
+    /// `coeffs[d][k]` multiplies `t^k`.
+    pub coeffs: &'a [Vec<f64>],
+}
+
+/// The two constraints of one obstacle restricted to one piece.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Restricted<C> {
+    /// `g1(τ) = e1² − (1−Δ)·e2` (Cantelli).
+    pub cantelli: UPoly<C>,
+    /// `g2(τ) = −e1` (mean).
+    pub mean: UPoly<C>,
+}
+
+fn substitutions<C: Ring>(
+    piece: PieceRef<'_>,
+    dim: usize,
+    t0: C,
+    h: C,
+    conv: impl Fn(f64) -> C,
+) -> Vec<UPoly<C>> {
+    let mut subs: Vec<UPoly<C>> = piece
+        .coeffs
+        .iter()
+        .map(|row| UPoly::new(row.iter().map(|&c| conv(c)).collect()).compose_affine(&t0, &h))
+        .collect();
+    subs.resize(dim, UPoly::zero());
+    subs.push(UPoly::linear(t0, h)); // t(τ) = t0 + hτ
+    subs
+}
+
+fn restrict<C: Ring>(
+    mean: &Poly<C>,
+    second: &Poly<C>,
+    subs: &[UPoly<C>],
+    one_minus_delta: &C,
+) -> Restricted<C> {
+    let e1 = mean.compose_univariate(subs);
+    let e2 = second.compose_univariate(subs);
+    Restricted {
+        cantelli: e1.mul(&e1).sub(&e2.scale(one_minus_delta)),
+        mean: e1.neg(),
+    }
+}
+
+/// Interval restriction: coefficients enclose the exact ones.
+pub fn restrict_interval(
+    contour: &RiskContour,
+    piece: PieceRef<'_>,
+    delta: &BigRational,
+) -> Restricted<Interval> {
+    let t0 = Interval::point(piece.t0);
+    let h = Interval::point(piece.t1) - t0;
+    let subs = substitutions(piece, contour.layout().dim, t0, h, Interval::point);
+    let (m, s) = contour.interval_polys();
+    let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - delta));
+    restrict(m, s, &subs, &omd)
+}
+
+/// Exact restriction in rationals.
+pub fn restrict_exact(
+    contour: &RiskContour,
+    piece: PieceRef<'_>,
+    delta: &BigRational,
+) -> Restricted<BigRational> {
+    let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
+    let t0 = q(piece.t0);
+    let h = q(piece.t1) - &t0;
+    let subs = substitutions(piece, contour.layout().dim, t0, h, q);
+    let omd = BigRational::from_integer(1.into()) - delta;
+    restrict(&contour.mean, &contour.second, &subs, &omd)
+}
+
+/// The coordinate polynomials `x_d(τ)` of a piece, exactly (for workspace checks).
+pub fn coordinates_exact(piece: PieceRef<'_>) -> Vec<UPoly<BigRational>> {
+    let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
+    let t0 = q(piece.t0);
+    let h = q(piece.t1) - &t0;
+    piece
+        .coeffs
+        .iter()
+        .map(|row| UPoly::new(row.iter().map(|&c| q(c)).collect()).compose_affine(&t0, &h))
+        .collect()
+}
+
+/// Restriction of an exact polynomial in (x, t) (any constraint) to a piece, exactly.
+pub fn restrict_poly_exact(p: &QPoly, dim: usize, piece: PieceRef<'_>) -> UPoly<BigRational> {
+    let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
+    let t0 = q(piece.t0);
+    let h = q(piece.t1) - &t0;
+    p.compose_univariate(&substitutions(piece, dim, t0, h, q))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contour::Layout;
+    use crate::poly::{parse, VarTable};
+
+    fn disk() -> RiskContour {
+        let vars = VarTable::new(["x1", "x2", "t", "w"].map(String::from));
+        let p = parse("w^2 - (x1 - t)^2 - x2^2", &mut |n: &str| {
+            vars.get(n).ok_or_else(|| n.to_string())
+        })
+        .unwrap();
+        let m = [1, 0, 37, 0, 781].map(|v: i64| BigRational::from_integer(v.into()));
+        let m = [
+            m[0].clone(),
+            m[1].clone(),
+            m[2].clone() / BigRational::from_integer(300.into()),
+            m[3].clone(),
+            m[4].clone() / BigRational::from_integer(50000.into()),
+        ];
+        RiskContour::new(
+            Layout { dim: 2 },
+            &p,
+            &|_, k| m.get(k as usize).cloned(),
+            &|v| vars.name(v),
+        )
+        .unwrap()
+    }
+
+    /// Interval coefficients enclose the exact ones, and both agree with evaluating
+    /// the constraint at the piece's position.
+    #[test]
+    fn interval_encloses_exact_and_matches_pointwise() {
+        let c = disk();
+        let coeffs = vec![vec![-1.0, 0.3, 0.2], vec![0.7, -0.9]];
+        let piece = PieceRef {
+            t0: 0.25,
+            t1: 0.75,
+            coeffs: &coeffs,
+        };
+        let delta = BigRational::new(1.into(), 10.into());
+        let ex = restrict_exact(&c, piece, &delta);
+        let iv = restrict_interval(&c, piece, &delta);
+        for (e, i) in [(&ex.cantelli, &iv.cantelli), (&ex.mean, &iv.mean)] {
+            assert_eq!(e.degree(), i.degree());
+            for k in 0..=e.degree() {
+                let v = e.coeff(k);
+                let b = i.coeff(k);
+                assert!(
+                    BigRational::from_float(b.lo).unwrap() <= v
+                        && v <= BigRational::from_float(b.hi).unwrap()
+                );
+            }
+        }
+        // at τ = 1/2 the absolute time is t = 1/2, so x(t) evaluates with t = 1/2
+        let tau = BigRational::new(1.into(), 2.into());
+        let cons = c.constraints(&delta);
+        let composed = ex.cantelli.eval(&tau);
+        let x1 = BigRational::from_float(-1.0).unwrap()
+            + BigRational::from_float(0.3).unwrap() * &tau
+            + BigRational::from_float(0.2).unwrap() * &tau * &tau;
+        let x2 =
+            BigRational::from_float(0.7).unwrap() - BigRational::from_float(0.9).unwrap() * &tau;
+        let t = BigRational::new(1.into(), 2.into());
+        let expect = cons
+            .cantelli
+            .eval(&[x1, x2, t, BigRational::from_integer(0.into())]);
+        assert_eq!(composed, expect);
+    }
+}
