@@ -25,6 +25,7 @@ pub mod certify;
 pub mod contour;
 pub mod mc;
 pub mod moments;
+pub mod plan;
 pub mod poly;
 pub mod scene;
 pub mod viz;
