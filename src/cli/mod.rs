@@ -2,8 +2,10 @@
 //! (unsafe, no plan), 2 bad input or usage, with the error on stderr.
 
 mod contour_cmd;
+mod plan_cmd;
 mod risk_cmd;
 mod util;
+mod verify_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -25,6 +27,8 @@ pub struct Cli {
 enum Command {
     Risk(risk_cmd::RiskArgs),
     Contour(contour_cmd::ContourArgs),
+    Verify(verify_cmd::VerifyArgs),
+    Plan(plan_cmd::PlanArgs),
 }
 
 /// Runs the CLI and returns the exit status.
@@ -39,6 +43,8 @@ pub fn run() -> i32 {
     let result = match cli.command {
         Command::Risk(a) => risk_cmd::run(a),
         Command::Contour(a) => contour_cmd::run(a),
+        Command::Verify(a) => verify_cmd::run(a),
+        Command::Plan(a) => plan_cmd::run(a),
     };
     match result {
         Ok(code) => code,

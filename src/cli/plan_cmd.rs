@@ -1,0 +1,216 @@
+//! `riskplan plan`: RRT-SOS (static or time-layered) and the Monte Carlo baseline.
+
+use super::util::{delta_arg, load_scene, CliError};
+use clap::Args;
+use riskplan::plan::{
+    LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, PlanStatus, Planner, Problem, RrtParams,
+    StaticRrt, Termination,
+};
+use riskplan::scene::{Scene, TrajectoryFile, TRAJECTORY_FORMAT};
+use riskplan::verify::{Method, SceneCertifier};
+use riskplan::viz::{self, ContourOptions, Overlay};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Plan a risk-bounded trajectory from the scene's start to its goal.
+///
+/// rrt-sos: every edge is certified safe in continuous time (eq. 15) against every
+/// obstacle's Δ-risk contour. Scenes with moving obstacles use the time-layered
+/// variant (--pieces s equal time intervals; each edge certified on its own interval);
+/// static scenes use a tree of straight edges with an optional improve step and a
+/// constant-speed timing over the horizon. mc-rrt is the paper's Monte Carlo baseline
+/// (10 scenarios × 20 waypoints per edge): its output is marked "certified": false.
+///
+/// Writes the trajectory (format v1 plus "planner", "certified", "stats") to --out or
+/// stdout and a one-line summary to stderr. Exit status: 0 plan found, 1 none found
+/// within the limits, 2 bad input.
+#[derive(Args, Debug)]
+pub struct PlanArgs {
+    /// Scene file (format v1) with start and goal.
+    #[arg(long)]
+    scene: PathBuf,
+    /// Planner.
+    #[arg(long, default_value = "rrt-sos", value_parser = ["rrt-sos", "mc-rrt"])]
+    planner: String,
+    /// Run the improve step (static scenes): shortest path over all certified edges between tree vertices.
+    #[arg(long)]
+    improve: bool,
+    /// Seed of the planner's RNG (same seed, same plan).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Pieces of the time-layered planner (default: the scene's planner block, else 2). Forces the layered planner.
+    #[arg(long)]
+    pieces: Option<usize>,
+    /// Time limit in seconds.
+    #[arg(long, default_value_t = 120.0)]
+    time_limit: f64,
+    /// Risk level Δ (default: the scene's risk).
+    #[arg(long)]
+    delta: Option<String>,
+    /// Certification method of rrt-sos edges.
+    #[arg(long, default_value = "exact", value_parser = ["exact", "sos", "both"])]
+    certifier: String,
+    /// Write the trajectory here instead of stdout.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Draw contours, tree and path (.svg or .png); 3-D scenes as the x1–x2 projection.
+    #[arg(long)]
+    figure: Option<PathBuf>,
+}
+
+fn rrt_block(scene: &Scene) -> Option<&serde_json::Value> {
+    scene.file.planner.as_ref().and_then(|p| p.get("rrt_sos"))
+}
+
+pub fn run(a: PlanArgs) -> Result<i32, CliError> {
+    if !(a.time_limit > 0.0 && a.time_limit.is_finite()) {
+        return Err(CliError(format!("--time-limit must be a positive number of seconds, got {}", a.time_limit)));
+    }
+    let scene = Arc::new(load_scene(&a.scene)?);
+    let mut problem = Problem::from_scene(scene.clone(), a.seed).map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
+    if let Some(d) = &a.delta {
+        problem.delta = delta_arg(d)?;
+    }
+    let layered = a.pieces.is_some() || problem.is_dynamic();
+    let mut planner: Box<dyn Planner> = if layered {
+        let mut params = LayeredParams::from_scene_block(rrt_block(&scene));
+        if let Some(s) = a.pieces {
+            params.pieces = s;
+        }
+        if a.improve {
+            return Err(CliError("--improve applies to static scenes only; the layered planner has no improve step".into()));
+        }
+        Box::new(LayeredRrt::new(params))
+    } else {
+        let mut params = RrtParams::from_scene_block(rrt_block(&scene));
+        params.improve = a.improve;
+        Box::new(StaticRrt::new(params))
+    };
+    let checker: Box<dyn MotionChecker> = if a.planner == "mc-rrt" {
+        let model = scene.mc_model().map_err(|e| CliError(format!("mc-rrt: {e}")))?;
+        Box::new(McChecker::new(model, riskplan::poly::rational_to_f64(&problem.delta), McCheckerParams::default(), a.seed))
+    } else {
+        let method: Method = a.certifier.parse().map_err(CliError)?;
+        Box::new(SceneCertifier::new(scene.clone(), problem.delta.clone(), method))
+    };
+    let term = Termination::after(Duration::from_secs_f64(a.time_limit));
+    let progress = Progress::start(term.clone());
+    let result = planner.solve(&problem, checker.as_ref(), &term);
+    progress.finish();
+    let outcome = result.map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
+    let s = &outcome.stats;
+    eprintln!(
+        "{}: {} ({}) in {:.3} s: {} iterations, {} vertices, {} edges checked, {} accepted{}",
+        a.planner,
+        match outcome.status {
+            PlanStatus::Exact => "plan found",
+            PlanStatus::DeadlineReached => "no plan before the time limit",
+            PlanStatus::Cancelled => "cancelled",
+            PlanStatus::Exhausted => "no plan within the iteration limits",
+        },
+        if outcome.certified { "certified" } else { "NOT certified" },
+        s.planning_time_s,
+        s.iterations,
+        s.vertices,
+        s.edges_checked,
+        s.edges_accepted,
+        s.path_length.map(|l| format!(", length {l:.4}")).unwrap_or_default()
+    );
+    if let Some(fig) = &a.figure {
+        draw_figure(&scene, &problem, &outcome, fig)?;
+    }
+    let Some(traj) = outcome.trajectory else { return Ok(1) };
+    let file = TrajectoryFile {
+        format: TRAJECTORY_FORMAT.to_string(),
+        pieces: traj.pieces,
+        planner: Some(a.planner.clone()),
+        certified: Some(outcome.certified),
+        stats: serde_json::to_value(&outcome.stats).ok(),
+        revision: None,
+        scene: Some(scene.name.clone()),
+        risk: Some(riskplan::poly::rational_to_f64(&problem.delta)),
+    };
+    let text = serde_json::to_string_pretty(&file).map_err(|e| CliError(e.to_string()))?;
+    match &a.out {
+        Some(p) => std::fs::write(p, text + "\n").map_err(|e| CliError(format!("{}: cannot write: {e}", p.display())))?,
+        None => println!("{text}"),
+    }
+    Ok(0)
+}
+
+fn draw_figure(scene: &Scene, p: &Problem, out: &riskplan::plan::PlanOutcome, fig: &std::path::Path) -> Result<(), CliError> {
+    let mut overlays = vec![Overlay::Segments { segments: out.tree.clone(), color: (120, 120, 120), label: Some("tree (certified edges)".into()) }];
+    let mut times = vec![p.horizon.0];
+    if let Some(t) = &out.trajectory {
+        let mut pts: Vec<Vec<f64>> = Vec::new();
+        for pc in &t.pieces {
+            for k in 0..=16 {
+                pts.push(pc.at(pc.t0 + (pc.t1 - pc.t0) * k as f64 / 16.0));
+            }
+        }
+        let label = if out.certified { "certified path" } else { "path (NOT certified)" };
+        overlays.push(Overlay::Path { points: pts, color: (20, 60, 200), width: 3, label: Some(label.into()) });
+        if p.is_dynamic() {
+            times = t.pieces.iter().map(|pc| pc.t0).chain(std::iter::once(p.horizon.1)).collect();
+            overlays.push(Overlay::Points {
+                points: t.pieces.iter().map(|pc| pc.at(pc.t0)).chain(std::iter::once(p.goal.clone())).collect(),
+                color: (20, 60, 200),
+                size: 4,
+                label: Some(format!("waypoints at t = {}", times.iter().map(|t| format!("{t:.3}")).collect::<Vec<_>>().join(", "))),
+            });
+        }
+    }
+    overlays.push(Overlay::Points { points: vec![p.start.clone(), p.goal.clone()], color: (0, 0, 0), size: 5, label: Some("start, goal".into()) });
+    let slices = if scene.dim == 3 { vec![(2, 0.0)] } else { vec![] };
+    let opts = ContourOptions {
+        deltas: vec![riskplan::poly::rational_to_f64(&p.delta)],
+        times,
+        slices,
+        grid: 250,
+        title: Some(format!("{}{}", scene.name, if scene.dim == 3 { " (x1–x2 projection; contours: slice x3 = 0)" } else { "" })),
+        ..Default::default()
+    };
+    viz::draw(scene, &opts, &overlays, fig).map_err(|e| CliError(e.to_string()))?;
+    eprintln!("wrote {}", fig.display());
+    Ok(())
+}
+
+/// A spinner on stderr, shown only on a terminal and only for plans over a second.
+struct Progress {
+    done: std::sync::mpsc::Sender<()>,
+    handle: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Progress {
+    fn start(term: Termination) -> Progress {
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
+        let handle = std::io::stderr().is_terminal().then(|| {
+            std::thread::spawn(move || {
+                if rx.recv_timeout(Duration::from_secs(1)).is_ok() {
+                    return;
+                }
+                let bar = indicatif::ProgressBar::new_spinner();
+                bar.set_style(indicatif::ProgressStyle::with_template("{spinner} planning… {elapsed} {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()));
+                bar.enable_steady_tick(Duration::from_millis(120));
+                loop {
+                    if let Some(left) = term.remaining() {
+                        bar.set_message(format!("({:.0} s left)", left.as_secs_f64()));
+                    }
+                    if rx.recv_timeout(Duration::from_millis(250)).is_ok() {
+                        break;
+                    }
+                }
+                bar.finish_and_clear();
+            })
+        });
+        Progress { done: tx, handle }
+    }
+    fn finish(mut self) {
+        let _ = self.done.send(());
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}

@@ -1,0 +1,333 @@
+//! Verification of trajectories against a scene (layer L3): the kernel behind
+//! `riskplan verify`, the service's edge-verification query, and the motion checker
+//! of the RRT-SOS planners ([`SceneCertifier`]).
+//!
+//! For each piece and obstacle, the cached contour polynomials are composed with the
+//! piece on its own absolute time interval (moving obstacles) and both constraints
+//! of eq. (15) are decided on [0, 1] (algorithms.md §3) by the exact checker
+//! (Bernstein subdivision in outward-rounded interval arithmetic, exact rational
+//! fallback), the SOS certificate (Clarabel, rigorously re-checked), or both.
+//! Only a proof counts as safe: an undecided constraint makes the piece unsafe.
+//! The workspace box is checked exactly (non-strictly: start and goal may lie on it).
+
+mod workspace;
+
+use crate::certify::{bernstein, restrict_exact, restrict_interval, sos, PieceRef, Undecided, Verdict};
+use crate::plan::{Motion, MotionChecker};
+use crate::poly::{rational_to_f64, Interval, UPoly};
+use crate::scene::{Obstacle, Piece, Scene, Trajectory};
+use num_rational::BigRational;
+use num_traits::Signed;
+use serde::Serialize;
+use std::sync::Arc;
+
+pub use workspace::{check_workspace, WorkspaceStatus};
+
+/// Which method decides positivity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// The SOS certificate of eq. (15) on Clarabel, re-checked rigorously.
+    Sos,
+    /// Bernstein subdivision in interval arithmetic with an exact fallback.
+    Exact,
+    /// Both; safe only when both prove it.
+    Both,
+}
+
+impl std::str::FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "sos" => Ok(Method::Sos),
+            "exact" => Ok(Method::Exact),
+            "both" => Ok(Method::Both),
+            _ => Err(format!("unknown method '{s}' (expected sos, exact or both)")),
+        }
+    }
+}
+
+impl Method {
+    /// The name used in reports.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Method::Sos => "sos",
+            Method::Exact => "exact",
+            Method::Both => "both",
+        }
+    }
+}
+
+/// `safe`, `unsafe` or `undecided`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    /// Proven safe.
+    Safe,
+    /// Proven unsafe (with a witness).
+    Unsafe,
+    /// Not proven either way: never counts as safe.
+    Undecided,
+}
+
+/// A time at which a constraint is ≤ 0, in absolute time.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct WitnessReport {
+    /// Absolute time.
+    pub t: f64,
+    /// Constraint value there (≤ 0, proven).
+    pub value: f64,
+}
+
+/// One method's verdict on one constraint.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MethodReport {
+    /// Status.
+    pub status: Status,
+    /// Proven lower bound on the constraint's minimum over the piece (safe), or the
+    /// witness value (unsafe).
+    pub margin: Option<f64>,
+    /// Witness (unsafe).
+    pub witness: Option<WitnessReport>,
+    /// Why undecided.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+/// The verdict on one constraint of one obstacle over one piece.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ConstraintReport {
+    /// `mean` (−E[P] > 0) or `cantelli` (E[P]² − (1−Δ)E[P²] > 0).
+    pub name: &'static str,
+    /// Combined status.
+    pub status: Status,
+    /// See [`MethodReport::margin`].
+    pub margin: Option<f64>,
+    /// See [`MethodReport::witness`].
+    pub witness: Option<WitnessReport>,
+    /// The method(s) used.
+    pub method: &'static str,
+    /// Per method, with `--method both`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub methods: Option<Vec<(&'static str, MethodReport)>>,
+}
+
+/// One obstacle over one piece.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ObstacleReport {
+    /// Obstacle id.
+    pub id: String,
+    /// Safe iff every constraint is safe.
+    pub status: Status,
+    /// `mean` then `cantelli`.
+    pub constraints: Vec<ConstraintReport>,
+}
+
+/// One piece.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PieceReport {
+    /// Start time.
+    pub t0: f64,
+    /// End time.
+    pub t1: f64,
+    /// Safe iff inside the workspace and safe for every obstacle.
+    pub safe: bool,
+    /// Workspace check.
+    pub workspace: WorkspaceStatus,
+    /// Per obstacle.
+    pub obstacles: Vec<ObstacleReport>,
+}
+
+/// The report of `riskplan verify`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VerifyReport {
+    /// Every piece certified safe.
+    pub safe: bool,
+    /// Method.
+    pub method: &'static str,
+    /// Δ used.
+    pub risk: f64,
+    /// Per piece.
+    pub pieces: Vec<PieceReport>,
+}
+
+fn method_report(v: &Verdict, piece: PieceRef<'_>) -> MethodReport {
+    let h = piece.t1 - piece.t0;
+    match v {
+        Verdict::Safe { margin } => MethodReport { status: Status::Safe, margin: Some(*margin), witness: None, reason: None },
+        Verdict::Unsafe(w) => MethodReport {
+            status: Status::Unsafe,
+            margin: Some(w.value),
+            witness: Some(WitnessReport { t: piece.t0 + h * w.tau, value: w.value }),
+            reason: None,
+        },
+        Verdict::Undecided(u) => MethodReport { status: Status::Undecided, margin: None, witness: None, reason: Some(undecided_text(u)) },
+    }
+}
+
+fn undecided_text(u: &Undecided) -> String {
+    match u {
+        Undecided::DepthLimit => "subdivision depth limit (near tangency)".into(),
+        Undecided::Solver(s) => format!("SDP solver: {s}"),
+        Undecided::CertificateRejected(s) => format!("certificate rejected by the re-check: {s}"),
+        Undecided::MarginTooSmall(m) => format!("margin {m:e} below the acceptance threshold"),
+        Undecided::NonFinite => "non-finite coefficients".into(),
+    }
+}
+
+/// Decides one restricted constraint with `method`.
+pub fn decide(method: Method, p: &UPoly<Interval>, exact: &dyn Fn() -> UPoly<BigRational>, sos_settings: &sos::SosSettings) -> Vec<(&'static str, Verdict)> {
+    match method {
+        Method::Exact => vec![("exact", bernstein::check(p, exact))],
+        Method::Sos => vec![("sos", sos::certify(p, sos_settings).verdict)],
+        Method::Both => vec![("exact", bernstein::check(p, exact)), ("sos", sos::certify(p, sos_settings).verdict)],
+    }
+}
+
+fn combine(vs: &[(&'static str, Verdict)]) -> Status {
+    if vs.iter().any(|(_, v)| v.is_unsafe()) {
+        Status::Unsafe
+    } else if vs.iter().all(|(_, v)| v.is_safe()) {
+        Status::Safe
+    } else {
+        Status::Undecided
+    }
+}
+
+fn worst(a: Status, b: Status) -> Status {
+    match (a, b) {
+        (Status::Unsafe, _) | (_, Status::Unsafe) => Status::Unsafe,
+        (Status::Undecided, _) | (_, Status::Undecided) => Status::Undecided,
+        _ => Status::Safe,
+    }
+}
+
+/// Verifies one obstacle over one piece, constraint by constraint.
+pub fn verify_obstacle(o: &Obstacle, piece: PieceRef<'_>, delta: &BigRational, method: Method, settings: &sos::SosSettings) -> ObstacleReport {
+    let iv = restrict_interval(&o.contour, piece, delta);
+    let exact = std::cell::OnceCell::new();
+    let get_exact = || exact.get_or_init(|| restrict_exact(&o.contour, piece, delta)).clone();
+    let mut constraints = Vec::with_capacity(2);
+    let mut status = Status::Safe;
+    for (name, poly) in [("mean", &iv.mean), ("cantelli", &iv.cantelli)] {
+        let ex = || {
+            let r = get_exact();
+            if name == "mean" {
+                r.mean
+            } else {
+                r.cantelli
+            }
+        };
+        let vs = decide(method, poly, &ex, settings);
+        let st = combine(&vs);
+        status = worst(status, st);
+        let reports: Vec<(&'static str, MethodReport)> = vs.iter().map(|(m, v)| (*m, method_report(v, piece))).collect();
+        // The combined margin and witness: a witness from any method; the smallest proven margin.
+        let witness = reports.iter().find_map(|(_, r)| r.witness);
+        let margin = match st {
+            Status::Safe => reports.iter().filter_map(|(_, r)| r.margin).reduce(f64::min),
+            Status::Unsafe => witness.map(|w| w.value),
+            Status::Undecided => None,
+        };
+        constraints.push(ConstraintReport {
+            name,
+            status: st,
+            margin,
+            witness,
+            method: method.as_str(),
+            methods: (method == Method::Both).then_some(reports),
+        });
+    }
+    ObstacleReport { id: o.id.clone(), status, constraints }
+}
+
+/// Verifies a trajectory against a scene at risk level `delta`.
+pub fn verify(scene: &Scene, traj: &Trajectory, delta: &BigRational, method: Method, settings: &sos::SosSettings) -> VerifyReport {
+    let mut pieces = Vec::with_capacity(traj.pieces.len());
+    for pc in &traj.pieces {
+        let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
+        let workspace = check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr);
+        let obstacles: Vec<ObstacleReport> = scene.obstacles.iter().map(|o| verify_obstacle(o, pr, delta, method, settings)).collect();
+        let safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
+        pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
+    }
+    VerifyReport { safe: pieces.iter().all(|p| p.safe), method: method.as_str(), risk: rational_to_f64(delta), pieces }
+}
+
+/// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,
+/// exactly) and inside the workspace.
+pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &BigRational) -> bool {
+    if !scene.workspace.contains(x) {
+        return false;
+    }
+    let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else { return false };
+    let Some(tq) = BigRational::from_float(t) else { return false };
+    xt.push(tq);
+    let one_minus = BigRational::from_integer(1.into()) - delta;
+    scene.obstacles.iter().all(|o| {
+        let r = o.contour.risk_at(&xt);
+        let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
+        r.mean.is_negative() && g1.is_positive()
+    })
+}
+
+/// The continuous-time certifier as a planner's motion checker: a piece is accepted
+/// only when every constraint of every obstacle is proven positive on the piece and
+/// the piece stays in the workspace. Stops at the first failure; the lower-degree
+/// mean constraint is tried first.
+#[derive(Clone, Debug)]
+pub struct SceneCertifier {
+    scene: Arc<Scene>,
+    delta: BigRational,
+    method: Method,
+    settings: sos::SosSettings,
+}
+
+impl SceneCertifier {
+    /// A certifier for `scene` at risk `delta`.
+    pub fn new(scene: Arc<Scene>, delta: BigRational, method: Method) -> Self {
+        SceneCertifier { scene, delta, method, settings: sos::SosSettings::default() }
+    }
+}
+
+impl MotionChecker for SceneCertifier {
+    fn name(&self) -> &str {
+        self.method.as_str()
+    }
+
+    fn sound(&self) -> bool {
+        true
+    }
+
+    fn check(&self, piece: &Piece) -> Motion {
+        let pr = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
+        if check_workspace(&self.scene.workspace.lower, &self.scene.workspace.upper, pr).status != Status::Safe {
+            return Motion::Rejected;
+        }
+        for o in &self.scene.obstacles {
+            let iv = restrict_interval(&o.contour, pr, &self.delta);
+            for (which, poly) in [(0, &iv.mean), (1, &iv.cantelli)] {
+                let ex = || {
+                    let r = restrict_exact(&o.contour, pr, &self.delta);
+                    if which == 0 {
+                        r.mean
+                    } else {
+                        r.cantelli
+                    }
+                };
+                if combine(&decide(self.method, poly, &ex, &self.settings)) != Status::Safe {
+                    return Motion::Rejected;
+                }
+            }
+        }
+        Motion::Accepted
+    }
+
+    fn check_point(&self, x: &[f64], t: f64) -> Motion {
+        if point_safe(&self.scene, x, t, &self.delta) {
+            Motion::Accepted
+        } else {
+            Motion::Rejected
+        }
+    }
+}

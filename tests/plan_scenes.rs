@@ -1,0 +1,98 @@
+//! Planners on the reference planning scenes: every plan is certified by both
+//! methods and audited by Monte Carlo; the conformance harness runs every planner.
+
+mod common;
+
+use riskplan::mc::clopper_pearson;
+use riskplan::plan::testing::conformance;
+use riskplan::plan::{LayeredParams, LayeredRrt, McChecker, McCheckerParams, Planner, Problem, RrtParams, StaticRrt, Termination};
+use riskplan::scene::{Scene, Trajectory};
+use riskplan::verify::{verify, Method, SceneCertifier};
+use std::sync::Arc;
+use std::time::Duration;
+
+const SCENES: [&str; 6] =
+    ["illustrative-3", "illustrative-4", "example-b-lane-change", "example-c-delivery", "example-d1-cluttered-2d", "example-d2-cluttered-3d"];
+
+fn planner_for(s: &Scene, dynamic: bool) -> Box<dyn Planner> {
+    let block = s.file.planner.as_ref().and_then(|p| p.get("rrt_sos"));
+    if dynamic {
+        Box::new(LayeredRrt::new(LayeredParams::from_scene_block(block)))
+    } else {
+        Box::new(StaticRrt::new(RrtParams::from_scene_block(block)))
+    }
+}
+
+fn plan(name: &str, seed: u64) -> (Arc<Scene>, Trajectory) {
+    let s = Arc::new(common::scene(name));
+    let p = Problem::from_scene(s.clone(), seed).unwrap();
+    let checker = SceneCertifier::new(s.clone(), p.delta.clone(), Method::Exact);
+    let mut planner = planner_for(&s, p.is_dynamic());
+    let out = planner.solve(&p, &checker, &Termination::after(Duration::from_secs(120))).unwrap();
+    let t = out.trajectory.unwrap_or_else(|| panic!("{name}: no plan: {:?} {:?}", out.status, out.stats));
+    assert!(out.certified);
+    (s, t)
+}
+
+/// Monte Carlo risk of a trajectory at `times` points per piece, per obstacle:
+/// the Clopper–Pearson lower bound (99% one-sided) never exceeds Δ.
+fn audit(s: &Scene, t: &Trajectory, per_piece: usize, samples: u64) -> f64 {
+    let model = s.mc_model().unwrap();
+    let delta = riskplan::poly::rational_to_f64(&s.risk);
+    let pts: Vec<Vec<f64>> = t
+        .pieces
+        .iter()
+        .flat_map(|pc| {
+            (0..per_piece).map(move |k| {
+                let tt = pc.t0 + (pc.t1 - pc.t0) * k as f64 / (per_piece - 1) as f64;
+                let mut x = pc.at(tt);
+                x.push(tt);
+                x
+            })
+        })
+        .collect();
+    let hits = model.hits(&pts, samples, 99);
+    let mut max_est: f64 = 0.0;
+    for (p, h) in pts.iter().zip(&hits) {
+        for (o, &k) in s.obstacles.iter().zip(h) {
+            let (lower, _) = clopper_pearson(k, samples, 0.98);
+            max_est = max_est.max(k as f64 / samples as f64);
+            assert!(lower <= delta, "{}: obstacle {} at {p:?}: MC risk ≥ {lower} > Δ", s.name, o.id);
+        }
+    }
+    max_est
+}
+
+#[test]
+fn rrt_sos_plans_every_scene_and_both_methods_certify_it() {
+    for name in SCENES {
+        let (s, t) = plan(name, 1);
+        let r = verify(&s, &t, &s.risk, Method::Both, &Default::default());
+        assert!(r.safe, "{name}: verify --method both does not certify the plan: {}", serde_json::to_string(&r).unwrap());
+        let worst = audit(&s, &t, 40, 2000);
+        println!("{name}: {} pieces, max MC risk estimate {worst}", t.pieces.len());
+    }
+}
+
+#[test]
+#[ignore]
+fn plans_audited_with_1e5_samples() {
+    for name in SCENES {
+        let (s, t) = plan(name, 1);
+        let worst = audit(&s, &t, 100, 100_000);
+        println!("{name}: max MC risk estimate {worst}");
+    }
+}
+
+#[test]
+fn conformance_rrt_sos_and_mc_rrt_static_and_dynamic() {
+    for name in ["illustrative-3", "illustrative-4"] {
+        let s = Arc::new(common::scene(name));
+        let p = Problem::from_scene(s.clone(), 3).unwrap();
+        let dynamic = p.is_dynamic();
+        let cert = SceneCertifier::new(s.clone(), p.delta.clone(), Method::Exact);
+        conformance(planner_for(&s, dynamic).as_mut(), &p, &cert, Duration::from_secs(60));
+        let mc = McChecker::new(s.mc_model().unwrap(), 0.1, McCheckerParams::default(), 3);
+        conformance(planner_for(&s, dynamic).as_mut(), &p, &mc, Duration::from_secs(60));
+    }
+}
