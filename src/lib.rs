@@ -28,4 +28,8 @@ pub mod moments;
 pub mod plan;
 pub mod poly;
 pub mod scene;
+pub mod sdp;
+#[cfg(feature = "service")]
+pub mod service;
+pub mod verify;
 pub mod viz;

@@ -31,7 +31,12 @@ fn illustrative_3_straight_line_is_unsafe_with_witness() {
         let xq: Vec<BigRational> = x.iter().chain([&w.t]).map(|&v| BigRational::from_float(v).unwrap()).collect();
         let bound = o.id.as_str().to_string();
         let risk = s.obstacle(&bound).unwrap().contour.risk_at(&xq).bound;
-        assert!(risk > s.risk, "{method:?}: witness t={} at {x:?} has bound {} ≤ Δ", w.t, riskplan::poly::rational_to_f64(&risk));
+        assert!(
+            risk > s.risk,
+            "{method:?}: witness t={} at {x:?} has bound {} ≤ Δ",
+            w.t,
+            riskplan::poly::rational_to_f64(&risk)
+        );
     }
 }
 
@@ -82,7 +87,9 @@ fn authors_tv_sos_trajectory_is_rejected_at_0_1_and_certified_at_0_1001() {
 }
 
 fn random_segment(s: &Scene, rng: &mut rand_chacha::ChaCha8Rng) -> Piece {
-    let pt = |rng: &mut rand_chacha::ChaCha8Rng| -> Vec<f64> { (0..s.dim).map(|i| rng.random_range(s.workspace.lower[i]..=s.workspace.upper[i])).collect() };
+    let pt = |rng: &mut rand_chacha::ChaCha8Rng| -> Vec<f64> {
+        (0..s.dim).map(|i| rng.random_range(s.workspace.lower[i]..=s.workspace.upper[i])).collect()
+    };
     let a = pt(rng);
     // short to medium segments, kept in the box
     let b: Vec<f64> = pt(rng).iter().zip(&a).map(|(b, a)| a + (b - a) * rng.random_range(0.05..0.6)).collect();
@@ -97,7 +104,14 @@ fn random_segment(s: &Scene, rng: &mut rand_chacha::ChaCha8Rng) -> Piece {
 /// safe, the Monte Carlo risk at 50 times along the segment stays under Δ (99%
 /// confidence per obstacle and time, Clopper–Pearson lower bound ≤ Δ).
 fn audit_random_segments(segments: usize, samples: u64) {
-    let scenes = ["illustrative-3", "illustrative-4", "example-b-lane-change", "example-c-delivery", "example-d1-cluttered-2d", "example-d2-cluttered-3d"];
+    let scenes = [
+        "illustrative-3",
+        "illustrative-4",
+        "example-b-lane-change",
+        "example-c-delivery",
+        "example-d1-cluttered-2d",
+        "example-d2-cluttered-3d",
+    ];
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15);
     for name in scenes {
         let s = common::scene(name);
@@ -130,11 +144,17 @@ fn audit_random_segments(segments: usize, samples: u64) {
                 for (o, &k) in s.obstacles.iter().zip(h) {
                     let (lower, _) = clopper_pearson(k, samples, 0.98);
                     audited += 1;
-                    assert!(lower <= delta, "{name}: certified segment {pc:?}: obstacle {} at {p:?} has MC risk ≥ {lower} > Δ", o.id);
+                    assert!(
+                        lower <= delta,
+                        "{name}: certified segment {pc:?}: obstacle {} at {p:?} has MC risk ≥ {lower} > Δ",
+                        o.id
+                    );
                 }
             }
         }
-        println!("{name}: {segments} segments: {safe} safe, {unsafe_} unsafe, {undecided} undecided; {audited} MC audits");
+        println!(
+            "{name}: {segments} segments: {safe} safe, {unsafe_} unsafe, {undecided} undecided; {audited} MC audits"
+        );
         assert!(safe > 0, "{name}: no safe segment to audit");
     }
 }

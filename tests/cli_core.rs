@@ -16,10 +16,7 @@ fn run(args: &[&str]) -> (i32, String, String) {
 }
 
 fn ref_scene(name: &str) -> String {
-    common::reference_dir()
-        .join(format!("{name}.json"))
-        .to_string_lossy()
-        .into()
+    common::reference_dir().join(format!("{name}.json")).to_string_lossy().into()
 }
 
 fn q(n: i64, d: i64) -> BigRational {
@@ -38,10 +35,7 @@ fn risk_exact_cantelli_value_and_centre() {
     let bound = (&m2 - &m * &m) / &m2;
     let o = &v["obstacles"][0];
     assert_eq!(o["bound_exact"].as_str().unwrap(), bound.to_string());
-    assert_eq!(
-        o["bound"].as_f64().unwrap(),
-        riskplan::poly::rational_to_f64(&bound)
-    );
+    assert_eq!(o["bound"].as_f64().unwrap(), riskplan::poly::rational_to_f64(&bound));
     assert_eq!(v["max_bound"], o["bound"]);
     let (_, out, _) = run(&["risk", "--scene", &s, "--point", "0", "0"]);
     let v: Value = serde_json::from_str(&out).unwrap();
@@ -54,26 +48,13 @@ fn risk_exact_cantelli_value_and_centre() {
 fn risk_monte_carlo_interval_contains_true_risk() {
     let s = ref_scene("illustrative-1");
     for (x, truth) in [("0.5", 0.0), ("0.38", 0.2), ("0.35", 0.5), ("0.31", 0.9)] {
-        let (code, out, err) = run(&[
-            "risk",
-            "--scene",
-            &s,
-            "--point",
-            x,
-            "0.5/1000000000",
-            "--mc",
-            "100000",
-            "--seed",
-            "3",
-        ]);
+        let (code, out, err) =
+            run(&["risk", "--scene", &s, "--point", x, "0.5/1000000000", "--mc", "100000", "--seed", "3"]);
         assert_eq!(code, 0, "{err}");
         let v: Value = serde_json::from_str(&out).unwrap();
         let mc = &v["obstacles"][0]["mc"];
         let (lo, hi) = (mc["lower"].as_f64().unwrap(), mc["upper"].as_f64().unwrap());
-        assert!(
-            lo <= truth && truth <= hi,
-            "x={x}: [{lo}, {hi}] misses {truth}"
-        );
+        assert!(lo <= truth && truth <= hi, "x={x}: [{lo}, {hi}] misses {truth}");
         assert_eq!(mc["samples"].as_u64(), Some(100000));
     }
 }
@@ -89,43 +70,17 @@ fn write(dir: &Path, name: &str, v: &Value) -> String {
 #[test]
 fn broken_scenes_exit_2_with_one_line() {
     let dir = tempfile::tempdir().unwrap();
-    let base: Value =
-        serde_json::from_str(&std::fs::read_to_string(ref_scene("illustrative-3")).unwrap())
-            .unwrap();
+    let base: Value = serde_json::from_str(&std::fs::read_to_string(ref_scene("illustrative-3")).unwrap()).unwrap();
     type Edit = fn(&mut Value);
     let cases: Vec<(&str, Edit, &str)> = vec![
-        (
-            "typo-field",
-            |v| v["horizn"] = serde_json::json!([0, 1]),
-            "unknown field `horizn`",
-        ),
-        (
-            "bad-format",
-            |v| v["format"] = "riskplan-scene/9".into(),
-            "format",
-        ),
+        ("typo-field", |v| v["horizn"] = serde_json::json!([0, 1]), "unknown field `horizn`"),
+        ("bad-format", |v| v["format"] = "riskplan-scene/9".into(), "format"),
         ("bad-dim", |v| v["dim"] = 3.into(), "workspace.lower"),
         ("bad-risk", |v| v["risk"] = 0.into(), "risk"),
-        (
-            "bad-horizon",
-            |v| v["horizon"] = serde_json::json!([1, 1]),
-            "horizon",
-        ),
-        (
-            "undeclared-param",
-            |v| v["obstacles"][0]["poly"] = "r^2 - x1^2 - x2^2".into(),
-            "unknown identifier 'r'",
-        ),
-        (
-            "poly-syntax",
-            |v| v["obstacles"][0]["poly"] = "w^2 - x1^^2".into(),
-            "obstacles[0].poly: column 10",
-        ),
-        (
-            "uniform-reversed",
-            |v| v["params"]["w"]["low"] = 0.5.into(),
-            "params.w.high",
-        ),
+        ("bad-horizon", |v| v["horizon"] = serde_json::json!([1, 1]), "horizon"),
+        ("undeclared-param", |v| v["obstacles"][0]["poly"] = "r^2 - x1^2 - x2^2".into(), "unknown identifier 'r'"),
+        ("poly-syntax", |v| v["obstacles"][0]["poly"] = "w^2 - x1^^2".into(), "obstacles[0].poly: column 10"),
+        ("uniform-reversed", |v| v["params"]["w"]["low"] = 0.5.into(), "params.w.high"),
         (
             "negative-std",
             |v| v["params"]["w"] = serde_json::json!({"dist": "normal", "mean": 0.3, "std": -0.1}),
@@ -146,11 +101,7 @@ fn broken_scenes_exit_2_with_one_line() {
             |v| v["params"]["w"] = serde_json::json!({"dist": "moments", "raw": [0.35, 0.123]}),
             "4 raw moments are needed",
         ),
-        (
-            "goal-outside",
-            |v| v["goal"] = serde_json::json!([2, 1]),
-            "goal",
-        ),
+        ("goal-outside", |v| v["goal"] = serde_json::json!([2, 1]), "goal"),
         (
             "duplicate-id",
             |v| {
@@ -159,11 +110,7 @@ fn broken_scenes_exit_2_with_one_line() {
             },
             "obstacles[1].id",
         ),
-        (
-            "wrong-type",
-            |v| v["obstacles"] = "disk".into(),
-            "obstacles",
-        ),
+        ("wrong-type", |v| v["obstacles"] = "disk".into(), "obstacles"),
     ];
     for (name, edit, expect) in &cases {
         let mut v = base.clone();
@@ -172,21 +119,11 @@ fn broken_scenes_exit_2_with_one_line() {
         let (code, _, err) = run(&["risk", "--scene", &path, "--point", "0", "0"]);
         assert_eq!(code, 2, "{name}: {err}");
         assert_eq!(err.trim_end().lines().count(), 1, "{name}: {err}");
-        assert!(
-            err.contains(&path) && err.contains(expect),
-            "{name}: '{err}' lacks '{expect}'"
-        );
+        assert!(err.contains(&path) && err.contains(expect), "{name}: '{err}' lacks '{expect}'");
     }
     let path = dir.path().join("garbage.json");
     std::fs::write(&path, "{ this is not json").unwrap();
-    let (code, _, err) = run(&[
-        "risk",
-        "--scene",
-        path.to_str().unwrap(),
-        "--point",
-        "0",
-        "0",
-    ]);
+    let (code, _, err) = run(&["risk", "--scene", path.to_str().unwrap(), "--point", "0", "0"]);
     assert_eq!(code, 2);
     assert!(err.contains("line 1"), "{err}");
     let (code, _, err) = run(&["risk", "--scene", "/nonexistent.json", "--point", "0", "0"]);
@@ -247,13 +184,7 @@ fn contour_draws_svg_and_png_and_needs_a_slice_in_3d() {
     ]);
     assert_eq!(code, 0, "{err}");
     assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
-    let (code, _, err) = run(&[
-        "contour",
-        "--scene",
-        &ref_scene("example-a2-3d"),
-        "--out",
-        png.to_str().unwrap(),
-    ]);
+    let (code, _, err) = run(&["contour", "--scene", &ref_scene("example-a2-3d"), "--out", png.to_str().unwrap()]);
     assert_eq!(code, 2);
     assert!(err.contains("--slice"), "{err}");
 }

@@ -5,14 +5,22 @@ mod common;
 
 use riskplan::mc::clopper_pearson;
 use riskplan::plan::testing::conformance;
-use riskplan::plan::{LayeredParams, LayeredRrt, McChecker, McCheckerParams, Planner, Problem, RrtParams, StaticRrt, Termination};
+use riskplan::plan::{
+    LayeredParams, LayeredRrt, McChecker, McCheckerParams, Planner, Problem, RrtParams, StaticRrt, Termination,
+};
 use riskplan::scene::{Scene, Trajectory};
 use riskplan::verify::{verify, Method, SceneCertifier};
 use std::sync::Arc;
 use std::time::Duration;
 
-const SCENES: [&str; 6] =
-    ["illustrative-3", "illustrative-4", "example-b-lane-change", "example-c-delivery", "example-d1-cluttered-2d", "example-d2-cluttered-3d"];
+const SCENES: [&str; 6] = [
+    "illustrative-3",
+    "illustrative-4",
+    "example-b-lane-change",
+    "example-c-delivery",
+    "example-d1-cluttered-2d",
+    "example-d2-cluttered-3d",
+];
 
 fn planner_for(s: &Scene, dynamic: bool) -> Box<dyn Planner> {
     let block = s.file.planner.as_ref().and_then(|p| p.get("rrt_sos"));
@@ -67,8 +75,14 @@ fn audit(s: &Scene, t: &Trajectory, per_piece: usize, samples: u64) -> f64 {
 fn rrt_sos_plans_every_scene_and_both_methods_certify_it() {
     for name in SCENES {
         let (s, t) = plan(name, 1);
+        let r = verify(&s, &t, &s.risk, Method::Exact, &Default::default());
+        assert!(r.safe, "{name}: verify --method exact does not certify the plan");
         let r = verify(&s, &t, &s.risk, Method::Both, &Default::default());
-        assert!(r.safe, "{name}: verify --method both does not certify the plan: {}", serde_json::to_string(&r).unwrap());
+        assert!(
+            r.safe,
+            "{name}: verify --method both does not certify the plan: {}",
+            serde_json::to_string(&r).unwrap()
+        );
         let worst = audit(&s, &t, 40, 2000);
         println!("{name}: {} pieces, max MC risk estimate {worst}", t.pieces.len());
     }

@@ -39,38 +39,21 @@ fn spot_values_match_the_files() {
     let mut checked = 0;
     for f in common::reference_files() {
         let s = Scene::from_json(&std::fs::read_to_string(&f).unwrap()).unwrap();
-        let Some(points) = s.file.expected.as_ref().and_then(|e| {
-            e["derived_checks"]["spot_values"]["points"]
-                .as_array()
-                .cloned()
-        }) else {
+        let Some(points) =
+            s.file.expected.as_ref().and_then(|e| e["derived_checks"]["spot_values"]["points"].as_array().cloned())
+        else {
             continue;
         };
         for p in points {
-            let mut xt: Vec<f64> = p["x"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|v| v.as_f64().unwrap())
-                .collect();
+            let mut xt: Vec<f64> = p["x"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
             xt.push(p["t"].as_f64().unwrap_or(0.0));
-            let xq: Vec<BigRational> = xt
-                .iter()
-                .map(|&v| riskplan::poly::f64_shortest_decimal(v).unwrap())
-                .collect();
+            let xq: Vec<BigRational> = xt.iter().map(|&v| riskplan::poly::f64_shortest_decimal(v).unwrap()).collect();
             for (id, want) in p["per_obstacle"].as_object().unwrap() {
-                let o = s
-                    .obstacle(id)
-                    .unwrap_or_else(|| panic!("{}: no obstacle {id}", f.display()));
+                let o = s.obstacle(id).unwrap_or_else(|| panic!("{}: no obstacle {id}", f.display()));
                 let r = o.contour.risk_at(&xq);
                 let close = |a: f64, b: f64| (a - b).abs() <= 1e-8 * (1.0 + b.abs());
                 let (m, m2) = (rational_to_f64(&r.mean), rational_to_f64(&r.second_moment));
-                assert!(
-                    close(m, want["E_P"].as_f64().unwrap()),
-                    "{} {id} E_P {m} vs {}",
-                    f.display(),
-                    want["E_P"]
-                );
+                assert!(close(m, want["E_P"].as_f64().unwrap()), "{} {id} E_P {m} vs {}", f.display(), want["E_P"]);
                 assert!(
                     close(m2, want["E_P2"].as_f64().unwrap()),
                     "{} {id} E_P2 {m2} vs {}",
@@ -78,11 +61,7 @@ fn spot_values_match_the_files() {
                     want["E_P2"]
                 );
                 if let Some(b) = want["cantelli_bound"].as_f64() {
-                    assert!(
-                        close(rational_to_f64(&r.bound), b),
-                        "{} {id} bound",
-                        f.display()
-                    );
+                    assert!(close(rational_to_f64(&r.bound), b), "{} {id} bound", f.display());
                 } else {
                     assert_eq!(r.bound, BigRational::from_integer(1.into()));
                 }
@@ -111,9 +90,8 @@ fn theorem_1_against_monte_carlo() {
         let s = Scene::from_json(&std::fs::read_to_string(&f).unwrap()).unwrap();
         let model = s.mc_model().unwrap();
         let random_point = |rng: &mut rand_chacha::ChaCha8Rng| -> Vec<f64> {
-            let mut p: Vec<f64> = (0..s.dim)
-                .map(|i| rng.random_range(s.workspace.lower[i]..=s.workspace.upper[i]))
-                .collect();
+            let mut p: Vec<f64> =
+                (0..s.dim).map(|i| rng.random_range(s.workspace.lower[i]..=s.workspace.upper[i])).collect();
             p.push(rng.random_range(s.horizon.0..=s.horizon.1));
             p
         };
@@ -137,10 +115,7 @@ fn theorem_1_against_monte_carlo() {
         }
         let hits = model.hits(&points, SAMPLES, 7);
         for (p, h) in points.iter().zip(&hits) {
-            let xq: Vec<BigRational> = p
-                .iter()
-                .map(|&v| BigRational::from_float(v).unwrap())
-                .collect();
+            let xq: Vec<BigRational> = p.iter().map(|&v| BigRational::from_float(v).unwrap()).collect();
             for (o, &k) in s.obstacles.iter().zip(h) {
                 let bound = rational_to_f64(&o.contour.risk_at(&xq).bound);
                 let (lower, _) = clopper_pearson(k, SAMPLES, CONFIDENCE);

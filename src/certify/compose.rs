@@ -32,13 +32,7 @@ pub struct Restricted<C> {
     pub mean: UPoly<C>,
 }
 
-fn substitutions<C: Ring>(
-    piece: PieceRef<'_>,
-    dim: usize,
-    t0: C,
-    h: C,
-    conv: impl Fn(f64) -> C,
-) -> Vec<UPoly<C>> {
+fn substitutions<C: Ring>(piece: PieceRef<'_>, dim: usize, t0: C, h: C, conv: impl Fn(f64) -> C) -> Vec<UPoly<C>> {
     let mut subs: Vec<UPoly<C>> = piece
         .coeffs
         .iter()
@@ -49,26 +43,14 @@ fn substitutions<C: Ring>(
     subs
 }
 
-fn restrict<C: Ring>(
-    mean: &Poly<C>,
-    second: &Poly<C>,
-    subs: &[UPoly<C>],
-    one_minus_delta: &C,
-) -> Restricted<C> {
+fn restrict<C: Ring>(mean: &Poly<C>, second: &Poly<C>, subs: &[UPoly<C>], one_minus_delta: &C) -> Restricted<C> {
     let e1 = mean.compose_univariate(subs);
     let e2 = second.compose_univariate(subs);
-    Restricted {
-        cantelli: e1.mul(&e1).sub(&e2.scale(one_minus_delta)),
-        mean: e1.neg(),
-    }
+    Restricted { cantelli: e1.mul(&e1).sub(&e2.scale(one_minus_delta)), mean: e1.neg() }
 }
 
 /// Interval restriction: coefficients enclose the exact ones.
-pub fn restrict_interval(
-    contour: &RiskContour,
-    piece: PieceRef<'_>,
-    delta: &BigRational,
-) -> Restricted<Interval> {
+pub fn restrict_interval(contour: &RiskContour, piece: PieceRef<'_>, delta: &BigRational) -> Restricted<Interval> {
     let t0 = Interval::point(piece.t0);
     let h = Interval::point(piece.t1) - t0;
     let subs = substitutions(piece, contour.layout().dim, t0, h, Interval::point);
@@ -78,11 +60,7 @@ pub fn restrict_interval(
 }
 
 /// Exact restriction in rationals.
-pub fn restrict_exact(
-    contour: &RiskContour,
-    piece: PieceRef<'_>,
-    delta: &BigRational,
-) -> Restricted<BigRational> {
+pub fn restrict_exact(contour: &RiskContour, piece: PieceRef<'_>, delta: &BigRational) -> Restricted<BigRational> {
     let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
     let t0 = q(piece.t0);
     let h = q(piece.t1) - &t0;
@@ -96,11 +74,7 @@ pub fn coordinates_exact(piece: PieceRef<'_>) -> Vec<UPoly<BigRational>> {
     let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
     let t0 = q(piece.t0);
     let h = q(piece.t1) - &t0;
-    piece
-        .coeffs
-        .iter()
-        .map(|row| UPoly::new(row.iter().map(|&c| q(c)).collect()).compose_affine(&t0, &h))
-        .collect()
+    piece.coeffs.iter().map(|row| UPoly::new(row.iter().map(|&c| q(c)).collect()).compose_affine(&t0, &h)).collect()
 }
 
 /// Restriction of an exact polynomial in (x, t) (any constraint) to a piece, exactly.
@@ -119,10 +93,7 @@ mod tests {
 
     fn disk() -> RiskContour {
         let vars = VarTable::new(["x1", "x2", "t", "w"].map(String::from));
-        let p = parse("w^2 - (x1 - t)^2 - x2^2", &mut |n: &str| {
-            vars.get(n).ok_or_else(|| n.to_string())
-        })
-        .unwrap();
+        let p = parse("w^2 - (x1 - t)^2 - x2^2", &mut |n: &str| vars.get(n).ok_or_else(|| n.to_string())).unwrap();
         let m = [1, 0, 37, 0, 781].map(|v: i64| BigRational::from_integer(v.into()));
         let m = [
             m[0].clone(),
@@ -131,13 +102,7 @@ mod tests {
             m[3].clone(),
             m[4].clone() / BigRational::from_integer(50000.into()),
         ];
-        RiskContour::new(
-            Layout { dim: 2 },
-            &p,
-            &|_, k| m.get(k as usize).cloned(),
-            &|v| vars.name(v),
-        )
-        .unwrap()
+        RiskContour::new(Layout { dim: 2 }, &p, &|_, k| m.get(k as usize).cloned(), &|v| vars.name(v)).unwrap()
     }
 
     /// Interval coefficients enclose the exact ones, and both agree with evaluating
@@ -146,11 +111,7 @@ mod tests {
     fn interval_encloses_exact_and_matches_pointwise() {
         let c = disk();
         let coeffs = vec![vec![-1.0, 0.3, 0.2], vec![0.7, -0.9]];
-        let piece = PieceRef {
-            t0: 0.25,
-            t1: 0.75,
-            coeffs: &coeffs,
-        };
+        let piece = PieceRef { t0: 0.25, t1: 0.75, coeffs: &coeffs };
         let delta = BigRational::new(1.into(), 10.into());
         let ex = restrict_exact(&c, piece, &delta);
         let iv = restrict_interval(&c, piece, &delta);
@@ -159,10 +120,7 @@ mod tests {
             for k in 0..=e.degree() {
                 let v = e.coeff(k);
                 let b = i.coeff(k);
-                assert!(
-                    BigRational::from_float(b.lo).unwrap() <= v
-                        && v <= BigRational::from_float(b.hi).unwrap()
-                );
+                assert!(BigRational::from_float(b.lo).unwrap() <= v && v <= BigRational::from_float(b.hi).unwrap());
             }
         }
         // at τ = 1/2 the absolute time is t = 1/2, so x(t) evaluates with t = 1/2
@@ -172,12 +130,9 @@ mod tests {
         let x1 = BigRational::from_float(-1.0).unwrap()
             + BigRational::from_float(0.3).unwrap() * &tau
             + BigRational::from_float(0.2).unwrap() * &tau * &tau;
-        let x2 =
-            BigRational::from_float(0.7).unwrap() - BigRational::from_float(0.9).unwrap() * &tau;
+        let x2 = BigRational::from_float(0.7).unwrap() - BigRational::from_float(0.9).unwrap() * &tau;
         let t = BigRational::new(1.into(), 2.into());
-        let expect = cons
-            .cantelli
-            .eval(&[x1, x2, t, BigRational::from_integer(0.into())]);
+        let expect = cons.cantelli.eval(&[x1, x2, t, BigRational::from_integer(0.into())]);
         assert_eq!(composed, expect);
     }
 }

@@ -5,11 +5,14 @@
 //! (algorithms.md §3). Everything here reduces to positivity of a univariate
 //! polynomial on [0, 1]; see [`Verdict`].
 
+pub mod bernstein;
 mod compose;
+pub mod sos;
+pub mod sturm;
+#[doc(hidden)]
+pub mod testgen;
 mod verdict;
 
-pub use compose::{
-    coordinates_exact, restrict_exact, restrict_interval, restrict_poly_exact, PieceRef, Restricted,
-};
+pub use compose::{coordinates_exact, restrict_exact, restrict_interval, restrict_poly_exact, PieceRef, Restricted};
 
 pub use verdict::{Undecided, Verdict, Witness};

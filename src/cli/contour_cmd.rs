@@ -50,12 +50,7 @@ pub struct ContourArgs {
 fn parse_slice(s: &str) -> Result<(usize, f64), CliError> {
     let bad = || CliError(format!("--slice: expected xK=VALUE (e.g. x3=0), got '{s}'"));
     let (name, v) = s.split_once('=').ok_or_else(bad)?;
-    let k: usize = name
-        .trim()
-        .strip_prefix('x')
-        .and_then(|d| d.parse().ok())
-        .filter(|&k| k >= 1)
-        .ok_or_else(bad)?;
+    let k: usize = name.trim().strip_prefix('x').and_then(|d| d.parse().ok()).filter(|&k| k >= 1).ok_or_else(bad)?;
     let v = rational_to_f64(&exact_arg("--slice", v.trim())?);
     Ok((k - 1, v))
 }
@@ -65,29 +60,17 @@ pub fn run(a: ContourArgs) -> Result<i32, CliError> {
     let deltas: Vec<f64> = if a.delta.is_empty() {
         scene.risk_levels.iter().map(rational_to_f64).collect()
     } else {
-        a.delta
-            .iter()
-            .map(|d| delta_arg(d).map(|q| rational_to_f64(&q)))
-            .collect::<Result<_, _>>()?
+        a.delta.iter().map(|d| delta_arg(d).map(|q| rational_to_f64(&q))).collect::<Result<_, _>>()?
     };
     let times: Vec<f64> = if a.time.is_empty() {
         vec![scene.horizon.0]
     } else {
-        a.time
-            .iter()
-            .map(|t| exact_arg("--time", t).map(|q| rational_to_f64(&q)))
-            .collect::<Result<_, _>>()?
+        a.time.iter().map(|t| exact_arg("--time", t).map(|q| rational_to_f64(&q))).collect::<Result<_, _>>()?
     };
     if a.grid < 8 || a.grid > 4000 || a.mc_grid < 8 || a.mc_grid > 1000 {
-        return Err(CliError(
-            "--grid must be in 8..=4000 and --mc-grid in 8..=1000".into(),
-        ));
+        return Err(CliError("--grid must be in 8..=4000 and --mc-grid in 8..=1000".into()));
     }
-    let slices = a
-        .slice
-        .iter()
-        .map(|s| parse_slice(s))
-        .collect::<Result<Vec<_>, _>>()?;
+    let slices = a.slice.iter().map(|s| parse_slice(s)).collect::<Result<Vec<_>, _>>()?;
     let opts = ContourOptions {
         deltas,
         times,
@@ -99,11 +82,7 @@ pub fn run(a: ContourArgs) -> Result<i32, CliError> {
         window: match a.window[..] {
             [x0, x1, y0, y1] if x0 < x1 && y0 < y1 => Some((x0, x1, y0, y1)),
             [] => None,
-            _ => {
-                return Err(CliError(
-                    "--window: expected X0 X1 Y0 Y1 with X0 < X1 and Y0 < Y1".into(),
-                ))
-            }
+            _ => return Err(CliError("--window: expected X0 X1 Y0 Y1 with X0 < X1 and Y0 < Y1".into())),
         },
     };
     viz::draw(&scene, &opts, &[], &a.out).map_err(|e| CliError(e.to_string()))?;

@@ -1,9 +1,13 @@
 //! Command-line interface (clap). Exit status: 0 success, 1 a negative answer
 //! (unsafe, no plan), 2 bad input or usage, with the error on stderr.
 
+#[cfg(feature = "service")]
+mod client_cmd;
 mod contour_cmd;
 mod plan_cmd;
 mod risk_cmd;
+#[cfg(feature = "service")]
+mod serve_cmd;
 mod util;
 mod verify_cmd;
 
@@ -29,6 +33,10 @@ enum Command {
     Contour(contour_cmd::ContourArgs),
     Verify(verify_cmd::VerifyArgs),
     Plan(plan_cmd::PlanArgs),
+    #[cfg(feature = "service")]
+    Serve(serve_cmd::ServeArgs),
+    #[cfg(feature = "service")]
+    Client(client_cmd::ClientArgs),
 }
 
 /// Runs the CLI and returns the exit status.
@@ -45,6 +53,10 @@ pub fn run() -> i32 {
         Command::Contour(a) => contour_cmd::run(a),
         Command::Verify(a) => verify_cmd::run(a),
         Command::Plan(a) => plan_cmd::run(a),
+        #[cfg(feature = "service")]
+        Command::Serve(a) => serve_cmd::run(a),
+        #[cfg(feature = "service")]
+        Command::Client(a) => client_cmd::run(a),
     };
     match result {
         Ok(code) => code,

@@ -1,6 +1,6 @@
 //! `riskplan plan`: RRT-SOS (static or time-layered) and the Monte Carlo baseline.
 
-use super::util::{delta_arg, load_scene, CliError};
+use super::util::{print_out, delta_arg, load_scene, CliError};
 use clap::Args;
 use riskplan::plan::{
     LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, PlanStatus, Planner, Problem, RrtParams,
@@ -69,7 +69,8 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
         return Err(CliError(format!("--time-limit must be a positive number of seconds, got {}", a.time_limit)));
     }
     let scene = Arc::new(load_scene(&a.scene)?);
-    let mut problem = Problem::from_scene(scene.clone(), a.seed).map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
+    let mut problem =
+        Problem::from_scene(scene.clone(), a.seed).map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
     if let Some(d) = &a.delta {
         problem.delta = delta_arg(d)?;
     }
@@ -80,7 +81,9 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
             params.pieces = s;
         }
         if a.improve {
-            return Err(CliError("--improve applies to static scenes only; the layered planner has no improve step".into()));
+            return Err(CliError(
+                "--improve applies to static scenes only; the layered planner has no improve step".into(),
+            ));
         }
         Box::new(LayeredRrt::new(params))
     } else {
@@ -90,7 +93,12 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
     };
     let checker: Box<dyn MotionChecker> = if a.planner == "mc-rrt" {
         let model = scene.mc_model().map_err(|e| CliError(format!("mc-rrt: {e}")))?;
-        Box::new(McChecker::new(model, riskplan::poly::rational_to_f64(&problem.delta), McCheckerParams::default(), a.seed))
+        Box::new(McChecker::new(
+            model,
+            riskplan::poly::rational_to_f64(&problem.delta),
+            McCheckerParams::default(),
+            a.seed,
+        ))
     } else {
         let method: Method = a.certifier.parse().map_err(CliError)?;
         Box::new(SceneCertifier::new(scene.clone(), problem.delta.clone(), method))
@@ -134,14 +142,25 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
     };
     let text = serde_json::to_string_pretty(&file).map_err(|e| CliError(e.to_string()))?;
     match &a.out {
-        Some(p) => std::fs::write(p, text + "\n").map_err(|e| CliError(format!("{}: cannot write: {e}", p.display())))?,
-        None => println!("{text}"),
+        Some(p) => {
+            std::fs::write(p, text + "\n").map_err(|e| CliError(format!("{}: cannot write: {e}", p.display())))?
+        }
+        None => print_out(&text)?,
     }
     Ok(0)
 }
 
-fn draw_figure(scene: &Scene, p: &Problem, out: &riskplan::plan::PlanOutcome, fig: &std::path::Path) -> Result<(), CliError> {
-    let mut overlays = vec![Overlay::Segments { segments: out.tree.clone(), color: (120, 120, 120), label: Some("tree (certified edges)".into()) }];
+fn draw_figure(
+    scene: &Scene,
+    p: &Problem,
+    out: &riskplan::plan::PlanOutcome,
+    fig: &std::path::Path,
+) -> Result<(), CliError> {
+    let mut overlays = vec![Overlay::Segments {
+        segments: out.tree.clone(),
+        color: (120, 120, 120),
+        label: Some("tree (certified edges)".into()),
+    }];
     let mut times = vec![p.horizon.0];
     if let Some(t) = &out.trajectory {
         let mut pts: Vec<Vec<f64>> = Vec::new();
@@ -158,18 +177,30 @@ fn draw_figure(scene: &Scene, p: &Problem, out: &riskplan::plan::PlanOutcome, fi
                 points: t.pieces.iter().map(|pc| pc.at(pc.t0)).chain(std::iter::once(p.goal.clone())).collect(),
                 color: (20, 60, 200),
                 size: 4,
-                label: Some(format!("waypoints at t = {}", times.iter().map(|t| format!("{t:.3}")).collect::<Vec<_>>().join(", "))),
+                label: Some(format!(
+                    "waypoints at t = {}",
+                    times.iter().map(|t| format!("{t:.3}")).collect::<Vec<_>>().join(", ")
+                )),
             });
         }
     }
-    overlays.push(Overlay::Points { points: vec![p.start.clone(), p.goal.clone()], color: (0, 0, 0), size: 5, label: Some("start, goal".into()) });
+    overlays.push(Overlay::Points {
+        points: vec![p.start.clone(), p.goal.clone()],
+        color: (0, 0, 0),
+        size: 5,
+        label: Some("start, goal".into()),
+    });
     let slices = if scene.dim == 3 { vec![(2, 0.0)] } else { vec![] };
     let opts = ContourOptions {
         deltas: vec![riskplan::poly::rational_to_f64(&p.delta)],
         times,
         slices,
         grid: 250,
-        title: Some(format!("{}{}", scene.name, if scene.dim == 3 { " (x1–x2 projection; contours: slice x3 = 0)" } else { "" })),
+        title: Some(format!(
+            "{}{}",
+            scene.name,
+            if scene.dim == 3 { " (x1–x2 projection; contours: slice x3 = 0)" } else { "" }
+        )),
         ..Default::default()
     };
     viz::draw(scene, &opts, &overlays, fig).map_err(|e| CliError(e.to_string()))?;
@@ -192,7 +223,10 @@ impl Progress {
                     return;
                 }
                 let bar = indicatif::ProgressBar::new_spinner();
-                bar.set_style(indicatif::ProgressStyle::with_template("{spinner} planning… {elapsed} {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()));
+                bar.set_style(
+                    indicatif::ProgressStyle::with_template("{spinner} planning… {elapsed} {msg}")
+                        .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+                );
                 bar.enable_steady_tick(Duration::from_millis(120));
                 loop {
                     if let Some(left) = term.remaining() {

@@ -1,6 +1,6 @@
 //! `riskplan risk`: the risk bound at a point, per obstacle, optionally with Monte Carlo.
 
-use super::util::{delta_arg, exact_arg, load_scene, CliError};
+use super::util::{print_out, delta_arg, exact_arg, load_scene, CliError};
 use clap::Args;
 use num_rational::BigRational;
 use riskplan::mc::DEFAULT_CONFIDENCE;
@@ -50,16 +50,9 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
         )));
     }
     if !(a.confidence > 0.0 && a.confidence < 1.0) {
-        return Err(CliError(format!(
-            "--confidence must be in (0, 1), got {}",
-            a.confidence
-        )));
+        return Err(CliError(format!("--confidence must be in (0, 1), got {}", a.confidence)));
     }
-    let mut xt: Vec<BigRational> = a
-        .point
-        .iter()
-        .map(|s| exact_arg("--point", s))
-        .collect::<Result<_, _>>()?;
+    let mut xt: Vec<BigRational> = a.point.iter().map(|s| exact_arg("--point", s)).collect::<Result<_, _>>()?;
     let t = match &a.time {
         Some(s) => exact_arg("--time", s)?,
         None => riskplan::poly::f64_shortest_decimal(scene.horizon.0).unwrap_or_default(),
@@ -68,9 +61,7 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
     let delta = a.delta.as_deref().map(delta_arg).transpose()?;
     let xt_f: Vec<f64> = xt.iter().map(rational_to_f64).collect();
     let mc = if a.mc > 0 {
-        let model = scene
-            .mc_model()
-            .map_err(|e| CliError(format!("--mc: {}: {e}", a.scene.display())))?;
+        let model = scene.mc_model().map_err(|e| CliError(format!("--mc: {}: {e}", a.scene.display())))?;
         Some(model.point_risk(&xt_f, a.mc, a.seed, a.confidence))
     } else {
         None
@@ -104,6 +95,6 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
         "obstacles": obstacles,
         "max_bound": max_bound,
     });
-    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    print_out(&serde_json::to_string_pretty(&out).unwrap_or_default())?;
     Ok(0)
 }

@@ -10,15 +10,13 @@ pub struct CliError(pub String);
 
 /// Reads and validates a scene file; errors name the file, the field and the problem.
 pub fn load_scene(path: &Path) -> Result<Scene, CliError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| CliError(format!("{}: cannot read: {e}", path.display())))?;
+    let text = std::fs::read_to_string(path).map_err(|e| CliError(format!("{}: cannot read: {e}", path.display())))?;
     Scene::from_json(&text).map_err(|e| CliError(format!("{}: {e}", path.display())))
 }
 
 /// Parses a number given on the command line exactly (`0.5`, `1e-3`, `37/300`).
 pub fn exact_arg(flag: &str, s: &str) -> Result<num_rational::BigRational, CliError> {
-    parse_num_text(s)
-        .ok_or_else(|| CliError(format!("{flag}: '{s}' is not a number (decimal or p/q)")))
+    parse_num_text(s).ok_or_else(|| CliError(format!("{flag}: '{s}' is not a number (decimal or p/q)")))
 }
 
 /// Parses a risk level: a number in (0, 1).
@@ -26,9 +24,17 @@ pub fn delta_arg(s: &str) -> Result<num_rational::BigRational, CliError> {
     let d = exact_arg("--delta", s)?;
     let f = riskplan::poly::rational_to_f64(&d);
     if !(f > 0.0 && f < 1.0) {
-        return Err(CliError(format!(
-            "--delta: the risk level Δ must be in (0, 1), got {s}"
-        )));
+        return Err(CliError(format!("--delta: the risk level Δ must be in (0, 1), got {s}")));
     }
     Ok(d)
+}
+
+/// Writes `text` and a newline to stdout; a closed pipe (`| head`) is not an error.
+pub fn print_out(text: &str) -> Result<(), CliError> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|_| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CliError(format!("cannot write to stdout: {e}"))),
+        _ => Ok(()),
+    }
 }

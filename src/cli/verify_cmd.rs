@@ -1,6 +1,6 @@
 //! `riskplan verify`: certify a trajectory against a scene.
 
-use super::util::{delta_arg, load_scene, CliError};
+use super::util::{print_out, delta_arg, load_scene, CliError};
 use clap::Args;
 use riskplan::scene::Trajectory;
 use riskplan::verify::{verify, Method};
@@ -38,7 +38,8 @@ pub struct VerifyArgs {
 
 pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
     let scene = load_scene(&a.scene)?;
-    let text = std::fs::read_to_string(&a.trajectory).map_err(|e| CliError(format!("{}: cannot read: {e}", a.trajectory.display())))?;
+    let text = std::fs::read_to_string(&a.trajectory)
+        .map_err(|e| CliError(format!("{}: cannot read: {e}", a.trajectory.display())))?;
     let traj = Trajectory::from_json(&text).map_err(|e| CliError(format!("{}: {e}", a.trajectory.display())))?;
     let diag = riskplan::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
     traj.validate(scene.dim, scene.horizon, diag).map_err(|e| CliError(format!("{}: {e}", a.trajectory.display())))?;
@@ -49,6 +50,6 @@ pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
     let method: Method = a.method.parse().map_err(CliError)?;
     let report = verify(&scene, &traj, &delta, method, &Default::default());
     let out = if a.compact { serde_json::to_string(&report) } else { serde_json::to_string_pretty(&report) };
-    println!("{}", out.map_err(|e| CliError(e.to_string()))?);
+    print_out(&out.map_err(|e| CliError(e.to_string()))?)?;
     Ok(if report.safe { 0 } else { 1 })
 }

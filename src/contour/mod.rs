@@ -118,10 +118,7 @@ impl RiskContour {
         name: &dyn Fn(Var) -> String,
     ) -> Result<Self, ContourError> {
         let is_param = |v| layout.is_param(v);
-        let missing = |(v, k): (Var, u32)| ContourError::MissingMoment {
-            param: name(v),
-            order: k,
-        };
+        let missing = |(v, k): (Var, u32)| ContourError::MissingMoment { param: name(v), order: k };
         let mean = p.expect(is_param, moment).map_err(missing)?;
         let second = p.mul(p).expect(is_param, moment).map_err(missing)?;
         let dynamic = p.contains_var(layout.t());
@@ -156,13 +153,7 @@ impl RiskContour {
     /// The constraints `g1`, `g2` at risk level Δ (§2.2).
     pub fn constraints(&self, delta: &BigRational) -> Constraints {
         let one_minus = BigRational::one() - delta;
-        Constraints {
-            cantelli: self
-                .mean
-                .mul(&self.mean)
-                .sub(&self.second.scale(&one_minus)),
-            mean: self.mean.neg(),
-        }
+        Constraints { cantelli: self.mean.mul(&self.mean).sub(&self.second.scale(&one_minus)), mean: self.mean.neg() }
     }
 
     /// E[P] and E[P²] with outward-rounded interval coefficients (each encloses the
@@ -177,11 +168,7 @@ impl RiskContour {
         let mean = self.mean.eval(&vals);
         let second = self.second.eval(&vals);
         let bound = cantelli_bound(&mean, &second);
-        PointRisk {
-            mean,
-            second_moment: second,
-            bound,
-        }
+        PointRisk { mean, second_moment: second, bound }
     }
 
     /// Floating-point E[P], E[P²] at `xt` (fast; for plots and sampling displays).
@@ -215,23 +202,11 @@ mod tests {
 
     fn example1() -> (RiskContour, VarTable) {
         let vars = VarTable::new(["x1", "x2", "t", "w"].map(String::from));
-        let p = parse("w^2 - x1^2 - x2^2", &mut |n: &str| {
-            vars.get(n).ok_or_else(|| n.to_string())
-        })
-        .unwrap();
-        let m = Distribution::Uniform {
-            low: parse_decimal("0.3").unwrap(),
-            high: parse_decimal("0.4").unwrap(),
-        }
-        .raw_moments(4)
-        .unwrap();
-        let c = RiskContour::new(
-            Layout { dim: 2 },
-            &p,
-            &|_, k| m.get(k as usize).cloned(),
-            &|v| vars.name(v),
-        )
-        .unwrap();
+        let p = parse("w^2 - x1^2 - x2^2", &mut |n: &str| vars.get(n).ok_or_else(|| n.to_string())).unwrap();
+        let m = Distribution::Uniform { low: parse_decimal("0.3").unwrap(), high: parse_decimal("0.4").unwrap() }
+            .raw_moments(4)
+            .unwrap();
+        let c = RiskContour::new(Layout { dim: 2 }, &p, &|_, k| m.get(k as usize).cloned(), &|v| vars.name(v)).unwrap();
         (c, vars)
     }
 
@@ -243,14 +218,9 @@ mod tests {
         let names = |v| vars.name(v);
         assert_eq!(c.mean.to_text(&names), "37/300 - x1^2 - x2^2");
         let printed = c.second.to_text(&names);
-        assert_eq!(
-            printed,
-            "781/50000 - 37/150*x1^2 - 37/150*x2^2 + x1^4 + 2*x1^2*x2^2 + x2^4"
-        );
+        assert_eq!(printed, "781/50000 - 37/150*x1^2 - 37/150*x2^2 + x1^4 + 2*x1^2*x2^2 + x2^4");
         // to the printed digits (the paper truncates to 4 decimals: 37/150 = 0.24666.. prints 0.2466)
-        let digits4 = |p: &QPoly, m: crate::poly::Monomial| {
-            (rational_to_f64(&p.coeff(&m)) * 1e4).trunc() / 1e4
-        };
+        let digits4 = |p: &QPoly, m: crate::poly::Monomial| (rational_to_f64(&p.coeff(&m)) * 1e4).trunc() / 1e4;
         use crate::poly::Monomial as M;
         assert_eq!(digits4(&c.mean, M::one()), 0.1233);
         assert_eq!(digits4(&c.mean, M::var_pow(0, 2)), -1.0);
@@ -271,11 +241,7 @@ mod tests {
         let cons = c.constraints(&q(1, 10));
         let r_in = 0.428947;
         let r_out = 0.428949;
-        let at = |r: f64| {
-            cons.cantelli
-                .map_coeffs(rational_to_f64)
-                .eval(&[r, 0.0, 0.0])
-        };
+        let at = |r: f64| cons.cantelli.map_coeffs(rational_to_f64).eval(&[r, 0.0, 0.0]);
         assert!(at(r_in) < 0.0 && at(r_out) > 0.0);
         // centre: g1 > 0 but g2 < 0: both constraints are needed
         let centre = [q(0, 1), q(0, 1), q(0, 1)];

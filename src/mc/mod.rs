@@ -34,18 +34,8 @@ impl McEstimate {
     /// Estimate with the exact (Clopper–Pearson) interval at two-sided `confidence`.
     pub fn new(hits: u64, samples: u64, confidence: f64) -> Self {
         let (lower, upper) = clopper_pearson(hits, samples, confidence);
-        let estimate = if samples == 0 {
-            f64::NAN
-        } else {
-            hits as f64 / samples as f64
-        };
-        McEstimate {
-            estimate,
-            lower,
-            upper,
-            samples,
-            hits,
-        }
+        let estimate = if samples == 0 { f64::NAN } else { hits as f64 / samples as f64 };
+        McEstimate { estimate, lower, upper, samples, hits }
     }
 }
 
@@ -58,16 +48,8 @@ pub fn clopper_pearson(k: u64, n: u64, confidence: f64) -> (f64, f64) {
     }
     let alpha = 1.0 - confidence;
     let (kf, nf) = (k as f64, n as f64);
-    let lower = if k == 0 {
-        0.0
-    } else {
-        inverse_beta_cdf(alpha / 2.0, kf, nf - kf + 1.0)
-    };
-    let upper = if k == n {
-        1.0
-    } else {
-        inverse_beta_cdf(1.0 - alpha / 2.0, kf + 1.0, nf - kf)
-    };
+    let lower = if k == 0 { 0.0 } else { inverse_beta_cdf(alpha / 2.0, kf, nf - kf + 1.0) };
+    let upper = if k == n { 1.0 } else { inverse_beta_cdf(1.0 - alpha / 2.0, kf + 1.0, nf - kf) };
     (lower, upper)
 }
 
@@ -104,18 +86,8 @@ pub struct McModel {
 impl McModel {
     /// From obstacle polynomials over all `nvars` scene variables and one sampler per
     /// parameter.
-    pub fn new(
-        layout: Layout,
-        nvars: usize,
-        polys: Vec<Poly<f64>>,
-        samplers: Vec<(Var, Sampler)>,
-    ) -> Self {
-        McModel {
-            layout,
-            nvars,
-            polys,
-            samplers,
-        }
+    pub fn new(layout: Layout, nvars: usize, polys: Vec<Poly<f64>>, samplers: Vec<(Var, Sampler)>) -> Self {
+        McModel { layout, nvars, polys, samplers }
     }
 
     /// Number of obstacles.
@@ -136,26 +108,14 @@ impl McModel {
             }
             idx
         };
-        p.terms()
-            .map(|(m, c)| {
-                (
-                    *c,
-                    m.pairs()
-                        .iter()
-                        .map(|&(v, e)| (index[v as usize], e))
-                        .collect(),
-                )
-            })
-            .collect()
+        p.terms().map(|(m, c)| (*c, m.pairs().iter().map(|&(v, e)| (index[v as usize], e)).collect())).collect()
     }
 
     /// Hit counts `hits[point][obstacle]` of `P ≥ 0` over `samples` scenarios shared by
     /// all points. Each point is `(x1..xn, t)`.
     pub fn hits(&self, points: &[Vec<f64>], samples: u64, seed: u64) -> Vec<Vec<u64>> {
-        let reduced: Vec<Vec<Vec<ParamTerm>>> = points
-            .iter()
-            .map(|xt| (0..self.polys.len()).map(|o| self.reduce(o, xt)).collect())
-            .collect();
+        let reduced: Vec<Vec<Vec<ParamTerm>>> =
+            points.iter().map(|xt| (0..self.polys.len()).map(|o| self.reduce(o, xt)).collect()).collect();
         let mut rng = ChaCha12Rng::seed_from_u64(seed);
         let mut w = vec![0.0; self.samplers.len()];
         let mut hits = vec![vec![0u64; self.polys.len()]; points.len()];
@@ -165,10 +125,8 @@ impl McModel {
             }
             for (pi, per_point) in reduced.iter().enumerate() {
                 for (oi, terms) in per_point.iter().enumerate() {
-                    let v: f64 = terms
-                        .iter()
-                        .map(|(c, m)| m.iter().fold(*c, |acc, &(i, e)| acc * w[i].powi(e as i32)))
-                        .sum();
+                    let v: f64 =
+                        terms.iter().map(|(c, m)| m.iter().fold(*c, |acc, &(i, e)| acc * w[i].powi(e as i32))).sum();
                     if v >= 0.0 {
                         hits[pi][oi] += 1;
                     }
@@ -179,17 +137,8 @@ impl McModel {
     }
 
     /// Per-obstacle estimates of Prob(P(x, ω, t) ≥ 0) at one point.
-    pub fn point_risk(
-        &self,
-        xt: &[f64],
-        samples: u64,
-        seed: u64,
-        confidence: f64,
-    ) -> Vec<McEstimate> {
-        self.hits(&[xt.to_vec()], samples, seed)[0]
-            .iter()
-            .map(|&h| McEstimate::new(h, samples, confidence))
-            .collect()
+    pub fn point_risk(&self, xt: &[f64], samples: u64, seed: u64, confidence: f64) -> Vec<McEstimate> {
+        self.hits(&[xt.to_vec()], samples, seed)[0].iter().map(|&h| McEstimate::new(h, samples, confidence)).collect()
     }
 }
 
@@ -205,10 +154,7 @@ mod tests {
         assert!((hi - (1.0 - 0.025f64.powf(0.01))).abs() < 1e-9);
         // symmetric: k = n/2
         let (lo, hi) = clopper_pearson(50, 100, 0.95);
-        assert!(
-            (lo - 0.3983).abs() < 1e-3 && (hi - 0.6017).abs() < 1e-3,
-            "{lo} {hi}"
-        );
+        assert!((lo - 0.3983).abs() < 1e-3 && (hi - 0.6017).abs() < 1e-3, "{lo} {hi}");
         assert_eq!(clopper_pearson(10, 10, 0.9).1, 1.0);
     }
 }

@@ -160,27 +160,16 @@ impl Distribution {
         };
         match &self {
             Distribution::Uniform { low, high } if low >= high => {
-                return Err(invalid(
-                    "high",
-                    format!("must be greater than low ({} ≥ {})", show(low), show(high)),
-                ))
+                return Err(invalid("high", format!("must be greater than low ({} ≥ {})", show(low), show(high))))
             }
             Distribution::Normal { std, .. } if std.is_negative() => {
                 return Err(invalid("std", format!("must be ≥ 0, got {}", show(std))))
             }
-            Distribution::Beta {
-                alpha,
-                beta,
-                low,
-                high,
-            } => {
+            Distribution::Beta { alpha, beta, low, high } => {
                 pos("alpha", alpha)?;
                 pos("beta", beta)?;
                 if low >= high {
-                    return Err(invalid(
-                        "high",
-                        format!("must be greater than low ({} ≥ {})", show(low), show(high)),
-                    ));
+                    return Err(invalid("high", format!("must be greater than low ({} ≥ {})", show(low), show(high))));
                 }
             }
             Distribution::Gamma { shape, scale } => {
@@ -189,9 +178,7 @@ impl Distribution {
             }
             Distribution::Exponential { rate } => pos("rate", rate)?,
             Distribution::Laplace { scale, .. } => pos("scale", scale)?,
-            Distribution::Discrete { values, weights } => {
-                return validate_discrete(values, weights)
-            }
+            Distribution::Discrete { values, weights } => return validate_discrete(values, weights),
             _ => {}
         }
         Ok(self)
@@ -216,21 +203,12 @@ impl Distribution {
             Distribution::Normal { mean, std } => {
                 let var = std * std;
                 for n in 1..=k {
-                    let prev2 = if n >= 2 {
-                        m[n - 2].clone()
-                    } else {
-                        BigRational::zero()
-                    };
+                    let prev2 = if n >= 2 { m[n - 2].clone() } else { BigRational::zero() };
                     let v = mean * &m[n - 1] + q(n as i64 - 1) * &var * prev2;
                     m.push(v);
                 }
             }
-            Distribution::Beta {
-                alpha,
-                beta,
-                low,
-                high,
-            } => {
+            Distribution::Beta { alpha, beta, low, high } => {
                 let mut b = vec![q(1)];
                 for n in 1..=k {
                     let nn = q(n as i64 - 1);
@@ -262,10 +240,7 @@ impl Distribution {
                 for n in 1..=k {
                     let mut s = BigRational::zero();
                     for j in (0..=n).step_by(2) {
-                        s += binomial(n as u32, j as u32)
-                            * pow(mean, n - j)
-                            * factorial(j as u32)
-                            * pow(scale, j);
+                        s += binomial(n as u32, j as u32) * pow(mean, n - j) * factorial(j as u32) * pow(scale, j);
                     }
                     m.push(s);
                 }
@@ -277,10 +252,7 @@ impl Distribution {
             }
             Distribution::Moments { raw } => {
                 if raw.len() < k {
-                    return Err(MomentError::TooFewMoments {
-                        needed: k as u32,
-                        given: raw.len(),
-                    });
+                    return Err(MomentError::TooFewMoments { needed: k as u32, given: raw.len() });
                 }
                 m.extend(raw[..k].iter().cloned());
                 check_hankel(&m)?;
@@ -292,10 +264,7 @@ impl Distribution {
     /// The mean E[w] (exact).
     pub fn mean(&self) -> Result<BigRational, MomentError> {
         match self {
-            Distribution::Moments { raw } if raw.is_empty() => Err(MomentError::TooFewMoments {
-                needed: 1,
-                given: 0,
-            }),
+            Distribution::Moments { raw } if raw.is_empty() => Err(MomentError::TooFewMoments { needed: 1, given: 0 }),
             Distribution::Moments { raw } => Ok(raw[0].clone()),
             _ => Ok(self.raw_moments(1)?[1].clone()),
         }
@@ -316,22 +285,12 @@ fn pow(v: &BigRational, k: usize) -> BigRational {
     num_traits::pow(v.clone(), k)
 }
 
-fn validate_discrete(
-    values: &[BigRational],
-    weights: &[BigRational],
-) -> Result<Distribution, MomentError> {
+fn validate_discrete(values: &[BigRational], weights: &[BigRational]) -> Result<Distribution, MomentError> {
     if values.is_empty() {
         return Err(invalid("values", "must list at least one value".into()));
     }
     if values.len() != weights.len() {
-        return Err(invalid(
-            "weights",
-            format!(
-                "has {} entries but values has {}",
-                weights.len(),
-                values.len()
-            ),
-        ));
+        return Err(invalid("weights", format!("has {} entries but values has {}", weights.len(), values.len())));
     }
     if let Some(w) = weights.iter().find(|w| w.is_negative()) {
         return Err(invalid("weights", format!("must be ≥ 0, got {}", show(w))));
@@ -339,15 +298,9 @@ fn validate_discrete(
     let sum: BigRational = weights.iter().sum();
     let gap = crate::poly::rational_to_f64(&(&sum - q(1))).abs();
     if gap > WEIGHT_SUM_TOLERANCE {
-        return Err(invalid(
-            "weights",
-            format!("must sum to 1, they sum to {}", show(&sum)),
-        ));
+        return Err(invalid("weights", format!("must sum to 1, they sum to {}", show(&sum))));
     }
-    Ok(Distribution::Discrete {
-        values: values.to_vec(),
-        weights: weights.iter().map(|w| w / &sum).collect(),
-    })
+    Ok(Distribution::Discrete { values: values.to_vec(), weights: weights.iter().map(|w| w / &sum).collect() })
 }
 
 /// Exact test that the Hankel matrix `[m_{i+j}]`, `i, j ≤ ⌊K/2⌋`, is positive
@@ -356,9 +309,7 @@ fn validate_discrete(
 /// distribution; without it E[P²] can come out negative.
 fn check_hankel(m: &[BigRational]) -> Result<(), MomentError> {
     let n = (m.len() - 1) / 2 + 1;
-    let mut a: Vec<Vec<BigRational>> = (0..n)
-        .map(|i| (0..n).map(|j| m[i + j].clone()).collect())
-        .collect();
+    let mut a: Vec<Vec<BigRational>> = (0..n).map(|i| (0..n).map(|j| m[i + j].clone()).collect()).collect();
     for k in 0..n {
         let d = a[k][k].clone();
         if d.is_negative() {

@@ -45,10 +45,7 @@ pub enum Sampler {
 }
 
 fn bad(field: &'static str, e: impl std::fmt::Display) -> MomentError {
-    MomentError::InvalidParameter {
-        field,
-        message: format!("cannot be sampled: {e}"),
-    }
+    MomentError::InvalidParameter { field, message: format!("cannot be sampled: {e}") }
 }
 
 impl Sampler {
@@ -56,33 +53,25 @@ impl Sampler {
     pub fn new(d: &Distribution) -> Result<Self, MomentError> {
         let f = rational_to_f64;
         Ok(match d {
-            Distribution::Uniform { low, high } => Sampler::Uniform(
-                rand_distr::Uniform::new(f(low), f(high)).map_err(|e| bad("high", e))?,
-            ),
+            Distribution::Uniform { low, high } => {
+                Sampler::Uniform(rand_distr::Uniform::new(f(low), f(high)).map_err(|e| bad("high", e))?)
+            }
             Distribution::Normal { mean, std } if f(std) == 0.0 => Sampler::Constant(f(mean)),
-            Distribution::Normal { mean, std } => Sampler::Normal(
-                rand_distr::Normal::new(f(mean), f(std)).map_err(|e| bad("std", e))?,
-            ),
-            Distribution::Beta {
-                alpha,
-                beta,
-                low,
-                high,
-            } => Sampler::Beta {
+            Distribution::Normal { mean, std } => {
+                Sampler::Normal(rand_distr::Normal::new(f(mean), f(std)).map_err(|e| bad("std", e))?)
+            }
+            Distribution::Beta { alpha, beta, low, high } => Sampler::Beta {
                 dist: rand_distr::Beta::new(f(alpha), f(beta)).map_err(|e| bad("alpha", e))?,
                 low: f(low),
                 width: f(high) - f(low),
             },
-            Distribution::Gamma { shape, scale } => Sampler::Gamma(
-                rand_distr::Gamma::new(f(shape), f(scale)).map_err(|e| bad("shape", e))?,
-            ),
+            Distribution::Gamma { shape, scale } => {
+                Sampler::Gamma(rand_distr::Gamma::new(f(shape), f(scale)).map_err(|e| bad("shape", e))?)
+            }
             Distribution::Exponential { rate } => {
                 Sampler::Exp(rand_distr::Exp::new(f(rate)).map_err(|e| bad("rate", e))?)
             }
-            Distribution::Laplace { mean, scale } => Sampler::Laplace {
-                mean: f(mean),
-                scale: f(scale),
-            },
+            Distribution::Laplace { mean, scale } => Sampler::Laplace { mean: f(mean), scale: f(scale) },
             Distribution::Discrete { values, weights } if values.len() == 1 => {
                 let _ = weights;
                 Sampler::Constant(f(&values[0]))

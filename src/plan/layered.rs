@@ -13,8 +13,8 @@
 use super::rrt::steer;
 use super::sampling::{width_range, StripeSampler};
 use super::{
-    check_endpoints, dist, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats,
-    PlanStatus, Planner, PlannerSpecs, Problem, Termination,
+    check_endpoints, dist, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats, PlanStatus, Planner,
+    PlannerSpecs, Problem, Termination,
 };
 use crate::scene::{Piece, Trajectory};
 use rand::SeedableRng;
@@ -72,11 +72,9 @@ impl LayeredParams {
         if let Some(r) = b["rlim"].as_f64() {
             p.step = r;
         }
-        if let (Some(a), Some(s), Some(e)) = (
-            b["width"]["start"].as_f64(),
-            b["width"]["step"].as_f64(),
-            b["width"]["stop"].as_f64(),
-        ) {
+        if let (Some(a), Some(s), Some(e)) =
+            (b["width"]["start"].as_f64(), b["width"]["step"].as_f64(), b["width"]["stop"].as_f64())
+        {
             p.widths = width_range(a, s, e);
             if let Some(n) = b["width"]["used_entries"].as_u64() {
                 p.widths.truncate(n as usize);
@@ -99,12 +97,7 @@ impl LayeredParams {
 
     /// Checks ranges.
     pub fn validate(&self) -> Result<(), PlanError> {
-        let bad = |o: &str, m: &str| {
-            Err(PlanError::InvalidOption {
-                option: o.into(),
-                message: m.into(),
-            })
-        };
+        let bad = |o: &str, m: &str| Err(PlanError::InvalidOption { option: o.into(), message: m.into() });
         if self.pieces == 0 {
             return bad("pieces", "must be ≥ 1");
         }
@@ -114,10 +107,7 @@ impl LayeredParams {
         if !(self.step > 0.0 && self.step.is_finite()) {
             return bad("step", "must be a positive number");
         }
-        if self.samples_per_stripe == 0
-            || self.iter_per_stripe == 0
-            || self.max_vertices_per_layer == 0
-        {
+        if self.samples_per_stripe == 0 || self.iter_per_stripe == 0 || self.max_vertices_per_layer == 0 {
             return bad("samples_per_stripe", "stripe and layer sizes must be ≥ 1");
         }
         if self.max_iterations_per_layer == 0 || self.max_attempts == 0 {
@@ -168,11 +158,7 @@ impl LayeredRrt {
         tree: &mut Vec<(Vec<f64>, Vec<f64>)>,
     ) -> Attempt {
         let s = self.params.pieces;
-        let mut layers = vec![Layer {
-            verts: vec![p.start.clone()],
-            parent: vec![usize::MAX],
-            pieces: vec![None],
-        }];
+        let mut layers = vec![Layer { verts: vec![p.start.clone()], parent: vec![usize::MAX], pieces: vec![None] }];
         if s == 1 {
             let piece = Piece::segment(&p.start, &p.goal, times[0], times[1]);
             return if counter.check(checker, &piece) == Motion::Accepted {
@@ -183,11 +169,7 @@ impl LayeredRrt {
         }
         for i in 1..s {
             let last = i == s - 1;
-            let mut layer = Layer {
-                verts: vec![],
-                parent: vec![],
-                pieces: vec![],
-            };
+            let mut layer = Layer { verts: vec![], parent: vec![], pieces: vec![] };
             let mut goal_piece = None;
             for iter in 0..self.params.max_iterations_per_layer {
                 if term.should_stop() {
@@ -265,10 +247,7 @@ impl Planner for LayeredRrt {
     }
 
     fn specs(&self) -> PlannerSpecs {
-        PlannerSpecs {
-            optimizing: false,
-            dynamic: true,
-        }
+        PlannerSpecs { optimizing: false, dynamic: true }
     }
 
     fn clear(&mut self) {}
@@ -284,44 +263,21 @@ impl Planner for LayeredRrt {
         check_endpoints(p, checker)?;
         let s = self.params.pieces;
         let (t0, tf) = p.horizon;
-        let times: Vec<f64> = (0..=s)
-            .map(|i| {
-                if i == s {
-                    tf
-                } else {
-                    t0 + (tf - t0) * i as f64 / s as f64
-                }
-            })
-            .collect();
+        let times: Vec<f64> = (0..=s).map(|i| if i == s { tf } else { t0 + (tf - t0) * i as f64 / s as f64 }).collect();
         let ws = &p.scene.workspace;
-        let sampler = StripeSampler::new(
-            &ws.lower,
-            &ws.upper,
-            &p.start,
-            &p.goal,
-            self.params.widths.clone(),
-        );
+        let sampler = StripeSampler::new(&ws.lower, &ws.upper, &p.start, &p.goal, self.params.widths.clone());
         let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
         let counter = CheckCounter::default();
-        let mut stats = PlanStats {
-            checker: checker.name().to_string(),
-            seed: p.seed,
-            ..Default::default()
-        };
+        let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
         let mut tree = Vec::new();
         let mut status = PlanStatus::Exhausted;
         let mut trajectory = None;
         for _ in 0..self.params.max_attempts {
             stats.attempts += 1;
-            match self.attempt(
-                p, &times, &sampler, &mut rng, checker, &counter, term, &mut stats, &mut tree,
-            ) {
+            match self.attempt(p, &times, &sampler, &mut rng, checker, &counter, term, &mut stats, &mut tree) {
                 Attempt::Found(pieces) => {
                     stats.time_to_feasible_s = Some(t_start.elapsed().as_secs_f64());
-                    let len: f64 = pieces
-                        .iter()
-                        .map(|pc| dist(&pc.at(pc.t0), &pc.at(pc.t1)))
-                        .sum();
+                    let len: f64 = pieces.iter().map(|pc| dist(&pc.at(pc.t0), &pc.at(pc.t1))).sum();
                     stats.path_length = Some(len);
                     stats.feasible_path_length = Some(len);
                     trajectory = Some(Trajectory::new(pieces));
@@ -329,11 +285,7 @@ impl Planner for LayeredRrt {
                     break;
                 }
                 Attempt::Stopped => {
-                    status = if term.cancelled() {
-                        PlanStatus::Cancelled
-                    } else {
-                        PlanStatus::DeadlineReached
-                    };
+                    status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
                     break;
                 }
                 Attempt::Failed if s == 1 => break,
@@ -347,12 +299,6 @@ impl Planner for LayeredRrt {
         stats.vertices += 1;
         stats.planning_time_s = t_start.elapsed().as_secs_f64();
         let certified = trajectory.is_some() && checker.sound();
-        Ok(PlanOutcome {
-            status,
-            trajectory,
-            certified,
-            stats,
-            tree,
-        })
+        Ok(PlanOutcome { status, trajectory, certified, stats, tree })
     }
 }

@@ -8,6 +8,7 @@
 use super::{Motion, MotionChecker};
 use crate::mc::McModel;
 use crate::scene::Piece;
+use std::hash::{Hash, Hasher};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Parameters of the Monte Carlo checker (defaults: the paper's K = 10, W = 20).
@@ -22,10 +23,7 @@ pub struct McCheckerParams {
 
 impl Default for McCheckerParams {
     fn default() -> Self {
-        McCheckerParams {
-            scenarios: 10,
-            waypoints: 20,
-        }
+        McCheckerParams { scenarios: 10, waypoints: 20 }
     }
 }
 
@@ -42,28 +40,26 @@ pub struct McChecker {
 impl McChecker {
     /// A checker at risk level `delta`, seeded.
     pub fn new(model: McModel, delta: f64, params: McCheckerParams, seed: u64) -> Self {
-        McChecker {
-            model,
-            delta,
-            params,
-            seed,
-            calls: AtomicU64::new(0),
-        }
+        McChecker { model, delta, params, seed, calls: AtomicU64::new(0) }
     }
 
+    /// Scenarios are drawn from a stream keyed by the checker's seed and the points
+    /// judged, so the same edge gets the same judgement (plans are reproducible), and
+    /// different edges get independent scenarios.
     fn judge(&self, points: &[Vec<f64>]) -> Motion {
-        let call = self.calls.fetch_add(1, Ordering::Relaxed);
-        let seed = self
-            .seed
-            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            .wrapping_add(call);
+        self.calls.fetch_add(1, Ordering::Relaxed);
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        self.seed.hash(&mut h);
+        for p in points {
+            for v in p {
+                v.to_bits().hash(&mut h);
+            }
+        }
+        let seed = h.finish();
         let k = self.params.scenarios.max(1);
         let hits = self.model.hits(points, k, seed);
         let limit = self.delta * k as f64;
-        if hits
-            .iter()
-            .all(|per_obstacle| per_obstacle.iter().all(|&h| h as f64 <= limit))
-        {
+        if hits.iter().all(|per_obstacle| per_obstacle.iter().all(|&h| h as f64 <= limit)) {
             Motion::Accepted
         } else {
             Motion::Rejected

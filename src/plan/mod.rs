@@ -51,20 +51,10 @@ impl Problem {
         let (Some(start), Some(goal)) = (scene.start.clone(), scene.goal.clone()) else {
             return Err(PlanError::InvalidRequest {
                 field: "start".into(),
-                message: format!(
-                    "scene '{}' has no start and goal (a contour-only scene)",
-                    scene.name
-                ),
+                message: format!("scene '{}' has no start and goal (a contour-only scene)", scene.name),
             });
         };
-        Ok(Problem {
-            horizon: scene.horizon,
-            delta: scene.risk.clone(),
-            start,
-            goal,
-            scene,
-            seed,
-        })
+        Ok(Problem { horizon: scene.horizon, delta: scene.risk.clone(), start, goal, scene, seed })
     }
 
     /// Whether any obstacle moves.
@@ -82,14 +72,8 @@ impl Problem {
                 message: format!("the risk level Δ must be in (0, 1), got {d}"),
             });
         }
-        if !(self.horizon.0 < self.horizon.1)
-            || !self.horizon.0.is_finite()
-            || !self.horizon.1.is_finite()
-        {
-            return Err(PlanError::InvalidRequest {
-                field: "horizon".into(),
-                message: "needs finite t0 < tf".into(),
-            });
+        if !(self.horizon.0 < self.horizon.1) || !self.horizon.0.is_finite() || !self.horizon.1.is_finite() {
+            return Err(PlanError::InvalidRequest { field: "horizon".into(), message: "needs finite t0 < tf".into() });
         }
         for (name, p) in [("start", &self.start), ("goal", &self.goal)] {
             if p.len() != s.dim {
@@ -99,10 +83,7 @@ impl Problem {
                 });
             }
             if p.iter().any(|v| !v.is_finite()) || !s.workspace.contains(p) {
-                return Err(PlanError::OutsideWorkspace {
-                    which: name.into(),
-                    point: p.clone(),
-                });
+                return Err(PlanError::OutsideWorkspace { which: name.into(), point: p.clone() });
             }
         }
         Ok(())
@@ -143,8 +124,7 @@ impl CheckCounter {
     pub fn check(&self, c: &dyn MotionChecker, piece: &Piece) -> Motion {
         let t = Instant::now();
         let m = c.check(piece);
-        self.nanos
-            .fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
+        self.nanos.fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
         self.checked.fetch_add(1, Ordering::Relaxed);
         if m == Motion::Accepted {
             self.accepted.fetch_add(1, Ordering::Relaxed);
@@ -173,18 +153,11 @@ pub struct Termination {
 impl Termination {
     /// Never stops by itself.
     pub fn never() -> Self {
-        Termination {
-            deadline: None,
-            cancel: Arc::new(AtomicBool::new(false)),
-            budget: None,
-        }
+        Termination { deadline: None, cancel: Arc::new(AtomicBool::new(false)), budget: None }
     }
     /// Stops after `d` from now.
     pub fn after(d: Duration) -> Self {
-        Termination {
-            deadline: Instant::now().checked_add(d),
-            ..Self::never()
-        }
+        Termination { deadline: Instant::now().checked_add(d), ..Self::never() }
     }
     /// Uses this cancellation flag as well.
     pub fn with_cancel(mut self, cancel: Arc<AtomicBool>) -> Self {
@@ -220,9 +193,7 @@ impl Termination {
             return true;
         }
         if let Some(b) = &self.budget {
-            if b.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |v| v.checked_sub(1))
-                .is_err()
-            {
+            if b.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |v| v.checked_sub(1)).is_err() {
                 return true;
             }
         }
@@ -230,8 +201,7 @@ impl Termination {
     }
     /// Time left before the deadline (`None` without one).
     pub fn remaining(&self) -> Option<Duration> {
-        self.deadline
-            .map(|d| d.saturating_duration_since(Instant::now()))
+        self.deadline.map(|d| d.saturating_duration_since(Instant::now()))
     }
 }
 
@@ -250,7 +220,7 @@ pub enum PlanStatus {
 }
 
 /// What a planner reports about its run.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, serde::Deserialize)]
 pub struct PlanStats {
     /// Wall time of `solve`, seconds.
     pub planning_time_s: f64,
@@ -362,12 +332,8 @@ pub trait Planner: Send {
     /// Capabilities.
     fn specs(&self) -> PlannerSpecs;
     /// Plans, polling `term`.
-    fn solve(
-        &mut self,
-        p: &Problem,
-        checker: &dyn MotionChecker,
-        term: &Termination,
-    ) -> Result<PlanOutcome, PlanError>;
+    fn solve(&mut self, p: &Problem, checker: &dyn MotionChecker, term: &Termination)
+        -> Result<PlanOutcome, PlanError>;
     /// Forgets any state of a previous run.
     fn clear(&mut self);
 }
@@ -375,16 +341,9 @@ pub trait Planner: Send {
 /// Checks start and goal: inside the workspace and strictly inside every Δ-contour.
 pub fn check_endpoints(p: &Problem, checker: &dyn MotionChecker) -> Result<(), PlanError> {
     p.validate()?;
-    for (which, x, t) in [
-        ("start", &p.start, p.horizon.0),
-        ("goal", &p.goal, p.horizon.1),
-    ] {
+    for (which, x, t) in [("start", &p.start, p.horizon.0), ("goal", &p.goal, p.horizon.1)] {
         if checker.check_point(x, t) != Motion::Accepted {
-            return Err(PlanError::UnsafeEndpoint {
-                which: which.into(),
-                point: x.clone(),
-                t,
-            });
+            return Err(PlanError::UnsafeEndpoint { which: which.into(), point: x.clone(), t });
         }
     }
     Ok(())
@@ -392,11 +351,7 @@ pub fn check_endpoints(p: &Problem, checker: &dyn MotionChecker) -> Result<(), P
 
 /// Euclidean distance.
 pub fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
 }
 
 /// Straight pieces through `points` at constant speed over `[t0, tf]`.
@@ -424,9 +379,5 @@ pub fn constant_speed(points: &[Vec<f64>], horizon: (f64, f64)) -> Vec<Piece> {
             times[i] = times[i - 1].next_up();
         }
     }
-    points
-        .windows(2)
-        .enumerate()
-        .map(|(i, w)| Piece::segment(&w[0], &w[1], times[i], times[i + 1]))
-        .collect()
+    points.windows(2).enumerate().map(|(i, w)| Piece::segment(&w[0], &w[1], times[i], times[i + 1])).collect()
 }

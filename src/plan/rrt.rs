@@ -13,8 +13,8 @@
 
 use super::sampling::{width_range, StripeSampler};
 use super::{
-    check_endpoints, constant_speed, dist, CheckCounter, Motion, MotionChecker, PlanError,
-    PlanOutcome, PlanStats, PlanStatus, Planner, PlannerSpecs, Problem, Termination,
+    check_endpoints, constant_speed, dist, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats,
+    PlanStatus, Planner, PlannerSpecs, Problem, Termination,
 };
 use crate::scene::{Piece, Trajectory};
 use rand::SeedableRng;
@@ -63,11 +63,9 @@ impl RrtParams {
         }
         if let Some(vals) = b["width"]["values"].as_array() {
             p.widths = vals.iter().filter_map(|v| v.as_f64()).collect();
-        } else if let (Some(a), Some(s), Some(e)) = (
-            b["width"]["start"].as_f64(),
-            b["width"]["step"].as_f64(),
-            b["width"]["stop"].as_f64(),
-        ) {
+        } else if let (Some(a), Some(s), Some(e)) =
+            (b["width"]["start"].as_f64(), b["width"]["step"].as_f64(), b["width"]["stop"].as_f64())
+        {
             p.widths = width_range(a, s, e);
         }
         if let Some(n) = b["samples_per_stripe"].as_u64() {
@@ -78,12 +76,7 @@ impl RrtParams {
 
     /// Checks ranges.
     pub fn validate(&self) -> Result<(), PlanError> {
-        let bad = |o: &str, m: &str| {
-            Err(PlanError::InvalidOption {
-                option: o.into(),
-                message: m.into(),
-            })
-        };
+        let bad = |o: &str, m: &str| Err(PlanError::InvalidOption { option: o.into(), message: m.into() });
         if !(self.step > 0.0 && self.step.is_finite()) {
             return bad("step", "must be a positive number");
         }
@@ -140,9 +133,7 @@ impl Tree {
         out
     }
     fn edges(&self) -> Vec<(Vec<f64>, Vec<f64>)> {
-        (1..self.verts.len())
-            .map(|i| (self.verts[self.parent[i]].clone(), self.verts[i].clone()))
-            .collect()
+        (1..self.verts.len()).map(|i| (self.verts[self.parent[i]].clone(), self.verts[i].clone())).collect()
     }
 }
 
@@ -152,10 +143,7 @@ pub fn steer(from: &[f64], q: &[f64], step: f64) -> Vec<f64> {
     if d <= step {
         return q.to_vec();
     }
-    from.iter()
-        .zip(q)
-        .map(|(a, b)| a + step * (b - a) / d)
-        .collect()
+    from.iter().zip(q).map(|(a, b)| a + step * (b - a) / d).collect()
 }
 
 fn path_length(points: &[Vec<f64>]) -> f64 {
@@ -168,10 +156,7 @@ impl Planner for StaticRrt {
     }
 
     fn specs(&self) -> PlannerSpecs {
-        PlannerSpecs {
-            optimizing: true,
-            dynamic: false,
-        }
+        PlannerSpecs { optimizing: true, dynamic: false }
     }
 
     fn clear(&mut self) {}
@@ -193,24 +178,11 @@ impl Planner for StaticRrt {
         check_endpoints(p, checker)?;
         let counter = CheckCounter::default();
         let ws = &p.scene.workspace;
-        let sampler = StripeSampler::new(
-            &ws.lower,
-            &ws.upper,
-            &p.start,
-            &p.goal,
-            self.params.widths.clone(),
-        );
+        let sampler = StripeSampler::new(&ws.lower, &ws.upper, &p.start, &p.goal, self.params.widths.clone());
         let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
         let seg = |a: &[f64], b: &[f64]| Piece::segment(a, b, p.horizon.0, p.horizon.1);
-        let mut tree = Tree {
-            verts: vec![p.start.clone()],
-            parent: vec![usize::MAX],
-        };
-        let mut stats = PlanStats {
-            checker: checker.name().to_string(),
-            seed: p.seed,
-            ..Default::default()
-        };
+        let mut tree = Tree { verts: vec![p.start.clone()], parent: vec![usize::MAX] };
+        let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
         let mut goal_index = None;
         let mut status = PlanStatus::Exhausted;
         let (mut failures, mut widen) = (0usize, 0usize);
@@ -222,11 +194,7 @@ impl Planner for StaticRrt {
         }
         while goal_index.is_none() {
             if term.should_stop() {
-                status = if term.cancelled() {
-                    PlanStatus::Cancelled
-                } else {
-                    PlanStatus::DeadlineReached
-                };
+                status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
                 break;
             }
             if stats.iterations >= self.params.max_iterations {
@@ -258,11 +226,7 @@ impl Planner for StaticRrt {
         let mut trajectory = None;
         if let Some(gi) = goal_index {
             stats.time_to_feasible_s = Some(t_start.elapsed().as_secs_f64());
-            let feasible: Vec<Vec<f64>> = tree
-                .path_to(gi)
-                .into_iter()
-                .map(|i| tree.verts[i].clone())
-                .collect();
+            let feasible: Vec<Vec<f64>> = tree.path_to(gi).into_iter().map(|i| tree.verts[i].clone()).collect();
             stats.feasible_path_length = Some(path_length(&feasible));
             let mut candidates = vec![feasible];
             if self.params.improve {
@@ -272,13 +236,12 @@ impl Planner for StaticRrt {
                 }
                 stats.improve_time_s = t_imp.elapsed().as_secs_f64();
             }
-            // Re-check the pieces exactly as returned (constant speed, rounded floats).
+            // Re-check the pieces exactly as returned (constant speed, rounded floats):
+            // a sound checker must have accepted the very floats returned. (A sampling
+            // checker's re-check would only redraw scenarios; it is skipped.)
             for pts in candidates {
                 let pieces = constant_speed(&pts, p.horizon);
-                if pieces
-                    .iter()
-                    .all(|pc| counter.check(checker, pc) == Motion::Accepted)
-                {
+                if !checker.sound() || pieces.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted) {
                     stats.path_length = Some(path_length(&pts));
                     trajectory = Some(Trajectory::new(pieces));
                     status = PlanStatus::Exact;
@@ -294,13 +257,7 @@ impl Planner for StaticRrt {
         stats.attempts = 1;
         stats.planning_time_s = t_start.elapsed().as_secs_f64();
         let certified = trajectory.is_some() && checker.sound();
-        Ok(PlanOutcome {
-            status,
-            trajectory,
-            certified,
-            stats,
-            tree: tree.edges(),
-        })
+        Ok(PlanOutcome { status, trajectory, certified, stats, tree: tree.edges() })
     }
 }
 

@@ -25,27 +25,11 @@ pub struct StripeSampler {
 impl StripeSampler {
     /// A sampler for the box `[lower, upper]`, the line through `start` and `goal`,
     /// and half-widths `widths` (index 1 is `widths[0]`).
-    pub fn new(
-        lower: &[f64],
-        upper: &[f64],
-        start: &[f64],
-        goal: &[f64],
-        widths: Vec<f64>,
-    ) -> Self {
+    pub fn new(lower: &[f64], upper: &[f64], start: &[f64], goal: &[f64], widths: Vec<f64>) -> Self {
         let d: Vec<f64> = goal.iter().zip(start).map(|(g, s)| g - s).collect();
         let n = d.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let dir = if n > 0.0 {
-            d.iter().map(|v| v / n).collect()
-        } else {
-            vec![0.0; d.len()]
-        };
-        StripeSampler {
-            lower: lower.to_vec(),
-            upper: upper.to_vec(),
-            start: start.to_vec(),
-            dir,
-            widths,
-        }
+        let dir = if n > 0.0 { d.iter().map(|v| v / n).collect() } else { vec![0.0; d.len()] };
+        StripeSampler { lower: lower.to_vec(), upper: upper.to_vec(), start: start.to_vec(), dir, widths }
     }
 
     /// Distance of `p` from the line: `‖p − proj(p)‖`, correct in any dimension
@@ -53,11 +37,7 @@ impl StripeSampler {
     pub fn dist_to_line(&self, p: &[f64]) -> f64 {
         let v: Vec<f64> = p.iter().zip(&self.start).map(|(a, b)| a - b).collect();
         let along: f64 = v.iter().zip(&self.dir).map(|(a, b)| a * b).sum();
-        v.iter()
-            .zip(&self.dir)
-            .map(|(a, d)| (a - along * d).powi(2))
-            .sum::<f64>()
-            .sqrt()
+        v.iter().zip(&self.dir).map(|(a, d)| (a - along * d).powi(2)).sum::<f64>().sqrt()
     }
 
     /// The half-width of stripe `index` (1-based), `∞` past the list.
@@ -70,11 +50,7 @@ impl StripeSampler {
 
     /// A uniform point of the box.
     pub fn uniform<R: Rng>(&self, rng: &mut R) -> Vec<f64> {
-        self.lower
-            .iter()
-            .zip(&self.upper)
-            .map(|(&l, &u)| rng.random_range(l..=u))
-            .collect()
+        self.lower.iter().zip(&self.upper).map(|(&l, &u)| rng.random_range(l..=u)).collect()
     }
 
     /// A point of the box within the stripe of `index`.

@@ -15,75 +15,38 @@ pub const ENDPOINT_TOLERANCE: f64 = 1e-9;
 
 /// Runs the conformance checks; panics with a message on the first failure.
 /// `budget` bounds the planning time of each solve.
-pub fn conformance(
-    planner: &mut dyn Planner,
-    p: &Problem,
-    checker: &dyn MotionChecker,
-    budget: Duration,
-) {
+pub fn conformance(planner: &mut dyn Planner, p: &Problem, checker: &dyn MotionChecker, budget: Duration) {
     let name = planner.name();
-    let out = planner
-        .solve(p, checker, &Termination::after(budget))
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
-    assert_eq!(
-        out.status,
-        PlanStatus::Exact,
-        "{name}: no plan on a solvable problem ({:?})",
-        out.stats
-    );
-    let traj = out
-        .trajectory
-        .clone()
-        .expect("Exact comes with a trajectory");
+    let out = planner.solve(p, checker, &Termination::after(budget)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert_eq!(out.status, PlanStatus::Exact, "{name}: no plan on a solvable problem ({:?})", out.stats);
+    let traj = out.trajectory.clone().expect("Exact comes with a trajectory");
     let pieces = &traj.pieces;
     assert!(
-        (pieces[0].t0 - p.horizon.0).abs() < 1e-12
-            && (pieces[pieces.len() - 1].t1 - p.horizon.1).abs() < 1e-12,
+        (pieces[0].t0 - p.horizon.0).abs() < 1e-12 && (pieces[pieces.len() - 1].t1 - p.horizon.1).abs() < 1e-12,
         "{name}: horizon"
     );
-    assert!(
-        dist(&pieces[0].at(pieces[0].t0), &p.start) < ENDPOINT_TOLERANCE,
-        "{name}: does not start at the start"
-    );
+    assert!(dist(&pieces[0].at(pieces[0].t0), &p.start) < ENDPOINT_TOLERANCE, "{name}: does not start at the start");
     let last = &pieces[pieces.len() - 1];
-    assert!(
-        dist(&last.at(last.t1), &p.goal) < ENDPOINT_TOLERANCE,
-        "{name}: does not end at the goal"
-    );
+    assert!(dist(&last.at(last.t1), &p.goal) < ENDPOINT_TOLERANCE, "{name}: does not end at the goal");
     let diag = dist(&p.scene.workspace.lower, &p.scene.workspace.upper);
-    traj.validate(p.scene.dim, p.horizon, diag)
-        .unwrap_or_else(|e| panic!("{name}: invalid trajectory: {e}"));
+    traj.validate(p.scene.dim, p.horizon, diag).unwrap_or_else(|e| panic!("{name}: invalid trajectory: {e}"));
     for pc in pieces {
-        assert_eq!(
-            checker.check(pc),
-            Motion::Accepted,
-            "{name}: a returned piece is not accepted"
-        );
+        assert_eq!(checker.check(pc), Motion::Accepted, "{name}: a returned piece is not accepted");
     }
     assert_eq!(out.certified, checker.sound(), "{name}: certified flag");
     // Same seed, same plan (after clear).
     planner.clear();
-    let again = planner
-        .solve(p, checker, &Termination::after(budget))
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
-    assert_eq!(
-        again.trajectory, out.trajectory,
-        "{name}: same seed gave a different plan"
-    );
+    let again = planner.solve(p, checker, &Termination::after(budget)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert_eq!(again.trajectory, out.trajectory, "{name}: same seed gave a different plan");
     // An expired termination returns at once without a plan.
-    let expired = planner
-        .solve(p, checker, &Termination::never().with_budget(0))
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
-    assert!(
-        expired.trajectory.is_none() || expired.stats.iterations == 0,
-        "{name}: ignored an expired termination"
-    );
+    let expired =
+        planner.solve(p, checker, &Termination::never().with_budget(0)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert!(expired.trajectory.is_none() || expired.stats.iterations == 0, "{name}: ignored an expired termination");
     // A set cancel flag is honoured.
     let flag = Arc::new(AtomicBool::new(false));
     flag.store(true, Ordering::Relaxed);
-    let cancelled = planner
-        .solve(p, checker, &Termination::never().with_cancel(flag))
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let cancelled =
+        planner.solve(p, checker, &Termination::never().with_cancel(flag)).unwrap_or_else(|e| panic!("{name}: {e}"));
     if cancelled.trajectory.is_none() {
         assert_eq!(cancelled.status, PlanStatus::Cancelled, "{name}: cancel");
     }

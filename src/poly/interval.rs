@@ -20,10 +20,7 @@ pub struct Interval {
 
 impl Interval {
     /// The whole real line: the result of any operation that produced NaN.
-    pub const ENTIRE: Interval = Interval {
-        lo: f64::NEG_INFINITY,
-        hi: f64::INFINITY,
-    };
+    pub const ENTIRE: Interval = Interval { lo: f64::NEG_INFINITY, hi: f64::INFINITY };
 
     /// The degenerate interval `[x, x]` (exact: `x` is a float).
     pub fn point(x: f64) -> Self {
@@ -49,27 +46,15 @@ impl Interval {
         let f = super::ring::rational_to_f64(r);
         if !f.is_finite() {
             return if f > 0.0 {
-                Interval {
-                    lo: f64::MAX,
-                    hi: f64::INFINITY,
-                }
+                Interval { lo: f64::MAX, hi: f64::INFINITY }
             } else {
-                Interval {
-                    lo: f64::NEG_INFINITY,
-                    hi: f64::MIN,
-                }
+                Interval { lo: f64::NEG_INFINITY, hi: f64::MIN }
             };
         }
         match BigRational::from_float(f) {
             Some(exact) if &exact == r => Interval::point(f),
-            Some(exact) if &exact < r => Interval {
-                lo: f,
-                hi: f.next_up(),
-            },
-            _ => Interval {
-                lo: f.next_down(),
-                hi: f,
-            },
+            Some(exact) if &exact < r => Interval { lo: f, hi: f.next_up() },
+            _ => Interval { lo: f.next_down(), hi: f },
         }
     }
 
@@ -77,10 +62,7 @@ impl Interval {
         if lo.is_nan() || hi.is_nan() {
             return Self::ENTIRE;
         }
-        Interval {
-            lo: lo.next_down(),
-            hi: hi.next_up(),
-        }
+        Interval { lo: lo.next_down(), hi: hi.next_up() }
     }
 
     /// Midpoint (for reporting only).
@@ -138,10 +120,7 @@ impl Sub for Interval {
 impl Neg for Interval {
     type Output = Interval;
     fn neg(self) -> Interval {
-        Interval {
-            lo: -self.hi,
-            hi: -self.lo,
-        }
+        Interval { lo: -self.hi, hi: -self.lo }
     }
 }
 
@@ -151,11 +130,7 @@ impl Mul for Interval {
         // Points: one product, exact sign handling; common in compositions.
         if self.lo == self.hi && o.lo == o.hi {
             let p = self.lo * o.lo;
-            return if p.is_nan() {
-                Interval::ENTIRE
-            } else {
-                Interval::widen(p, p)
-            };
+            return if p.is_nan() { Interval::ENTIRE } else { Interval::widen(p, p) };
         }
         let a = self.lo * o.lo;
         let b = self.lo * o.hi;
@@ -183,10 +158,7 @@ mod tests {
         let tenth = BigRational::new(1.into(), 10.into());
         let i = Interval::enclose_rational(&tenth);
         assert!(exact(i.lo) < tenth && tenth < exact(i.hi));
-        assert_eq!(
-            Interval::enclose_rational(&BigRational::new(1.into(), 4.into())),
-            Interval::point(0.25)
-        );
+        assert_eq!(Interval::enclose_rational(&BigRational::new(1.into(), 4.into())), Interval::point(0.25));
     }
 
     proptest! {

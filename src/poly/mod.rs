@@ -106,11 +106,7 @@ impl Monomial {
             if va != vb {
                 // the monomial holding the smaller variable has a positive exponent
                 // where the other has 0
-                return if va < vb {
-                    std::cmp::Ordering::Greater
-                } else {
-                    std::cmp::Ordering::Less
-                };
+                return if va < vb { std::cmp::Ordering::Greater } else { std::cmp::Ordering::Less };
             }
             if ea != eb {
                 return ea.cmp(&eb);
@@ -142,9 +138,7 @@ impl<C: Ring> Default for Poly<C> {
 impl<C: Ring> Poly<C> {
     /// The zero polynomial.
     pub fn zero() -> Self {
-        Poly {
-            terms: BTreeMap::new(),
-        }
+        Poly { terms: BTreeMap::new() }
     }
 
     /// A constant.
@@ -290,25 +284,12 @@ impl<C: Ring> Poly<C> {
 
     /// Largest total degree counting only the variables that satisfy `pred`.
     pub fn degree_in_vars(&self, pred: impl Fn(Var) -> bool) -> u32 {
-        self.terms
-            .keys()
-            .map(|m| {
-                m.pairs()
-                    .iter()
-                    .filter(|&&(v, _)| pred(v))
-                    .map(|&(_, e)| e)
-                    .sum()
-            })
-            .max()
-            .unwrap_or(0)
+        self.terms.keys().map(|m| m.pairs().iter().filter(|&&(v, _)| pred(v)).map(|&(_, e)| e).sum()).max().unwrap_or(0)
     }
 
     /// The variables that occur.
     pub fn vars(&self) -> BTreeSet<Var> {
-        self.terms
-            .keys()
-            .flat_map(|m| m.pairs().iter().map(|&(v, _)| v))
-            .collect()
+        self.terms.keys().flat_map(|m| m.pairs().iter().map(|&(v, _)| v)).collect()
     }
 
     /// Whether `v` occurs.
@@ -375,10 +356,7 @@ impl<C: Ring> Poly<C> {
     /// # Panics
     /// If a variable that occurs has no entry in `subs` (a caller bug).
     pub fn compose_univariate(&self, subs: &[UPoly<C>]) -> UPoly<C> {
-        let mut powers: Vec<Vec<UPoly<C>>> = subs
-            .iter()
-            .map(|s| vec![UPoly::constant(C::one()), s.clone()])
-            .collect();
+        let mut powers: Vec<Vec<UPoly<C>>> = subs.iter().map(|s| vec![UPoly::constant(C::one()), s.clone()]).collect();
         let mut acc = UPoly::zero();
         for (m, c) in &self.terms {
             let mut term = UPoly::constant(c.clone());
@@ -467,11 +445,7 @@ impl<C: CoeffText> Poly<C> {
             return "0".to_string();
         }
         let mut ordered: Vec<(&Monomial, &C)> = self.terms.iter().collect();
-        ordered.sort_by(|a, b| {
-            a.0.degree()
-                .cmp(&b.0.degree())
-                .then_with(|| b.0.lex_cmp(a.0))
-        });
+        ordered.sort_by(|a, b| a.0.degree().cmp(&b.0.degree()).then_with(|| b.0.lex_cmp(a.0)));
         let mut s = String::new();
         for (i, (m, c)) in ordered.into_iter().enumerate() {
             let neg = c.is_neg();
@@ -482,17 +456,8 @@ impl<C: CoeffText> Poly<C> {
                 (_, false) => s.push_str(" + "),
             }
             let (txt, is_one) = c.abs_text();
-            let mono: Vec<String> = m
-                .pairs()
-                .iter()
-                .map(|&(v, e)| {
-                    if e == 1 {
-                        names(v)
-                    } else {
-                        format!("{}^{e}", names(v))
-                    }
-                })
-                .collect();
+            let mono: Vec<String> =
+                m.pairs().iter().map(|&(v, e)| if e == 1 { names(v) } else { format!("{}^{e}", names(v)) }).collect();
             if mono.is_empty() {
                 s.push_str(&txt);
             } else {
@@ -515,9 +480,7 @@ pub struct VarTable {
 impl VarTable {
     /// A table with these names as variables `0, 1, ...`.
     pub fn new(names: impl IntoIterator<Item = String>) -> Self {
-        VarTable {
-            names: names.into_iter().collect(),
-        }
+        VarTable { names: names.into_iter().collect() }
     }
 
     /// Index of `name`, if present.
@@ -538,10 +501,7 @@ impl VarTable {
 
     /// Name of `v` (`?v` if unknown).
     pub fn name(&self, v: Var) -> String {
-        self.names
-            .get(v as usize)
-            .cloned()
-            .unwrap_or_else(|| format!("?{v}"))
+        self.names.get(v as usize).cloned().unwrap_or_else(|| format!("?{v}"))
     }
 
     /// Number of variables.

@@ -164,11 +164,7 @@ impl Parser<'_, '_> {
 
     fn unexpected(&self, expected: &str) -> PolyError {
         let (t, col) = self.peek();
-        PolyError::Unexpected {
-            col: *col,
-            expected: expected.into(),
-            found: describe(t),
-        }
+        PolyError::Unexpected { col: *col, expected: expected.into(), found: describe(t) }
     }
 
     fn expr(&mut self) -> Result<Poly<BigRational>, PolyError> {
@@ -238,9 +234,7 @@ impl Parser<'_, '_> {
                     _ => return Err(PolyError::ExponentTooLarge { col, exp: s }),
                 };
                 if self.peek().0 == Tok::Op('^') {
-                    return Err(
-                        self.unexpected("an operator other than a second '^' (write (a^b)^c)")
-                    );
+                    return Err(self.unexpected("an operator other than a second '^' (write (a^b)^c)"));
                 }
                 Ok(base.pow(e))
             }
@@ -262,8 +256,7 @@ impl Parser<'_, '_> {
             }
             Tok::Ident(name) => {
                 self.next();
-                let v = (self.resolve)(&name)
-                    .map_err(|message| PolyError::UnknownVariable { col, message })?;
+                let v = (self.resolve)(&name).map_err(|message| PolyError::UnknownVariable { col, message })?;
                 Ok(Poly::var(v))
             }
             Tok::Op('(') => {
@@ -283,11 +276,7 @@ impl Parser<'_, '_> {
 /// Parses polynomial text; `resolve` maps each identifier to a variable.
 pub fn parse(text: &str, resolve: &mut VarResolver<'_>) -> Result<Poly<BigRational>, PolyError> {
     let toks = lex(text)?;
-    let mut p = Parser {
-        toks,
-        pos: 0,
-        resolve,
-    };
+    let mut p = Parser { toks, pos: 0, resolve };
     let out = p.expr()?;
     if p.peek().0 != Tok::End {
         return Err(p.unexpected("an operator ('+', '-', '*', '/', '^') or end of text"));

@@ -173,9 +173,7 @@ pub fn parse_decimal(s: &str) -> Option<BigRational> {
     if int_part.is_empty() && frac_part.is_empty() {
         return None;
     }
-    if !int_part.bytes().all(|b| b.is_ascii_digit())
-        || !frac_part.bytes().all(|b| b.is_ascii_digit())
-    {
+    if !int_part.bytes().all(|b| b.is_ascii_digit()) || !frac_part.bytes().all(|b| b.is_ascii_digit()) {
         return None;
     }
     // Exponents this large cannot come from a sensible scene; refuse rather than allocate.
@@ -183,11 +181,7 @@ pub fn parse_decimal(s: &str) -> Option<BigRational> {
         return None;
     }
     let digits = format!("{int_part}{frac_part}");
-    let numer: BigInt = if digits.is_empty() {
-        BigInt::zero()
-    } else {
-        digits.parse().ok()?
-    };
+    let numer: BigInt = if digits.is_empty() { BigInt::zero() } else { digits.parse().ok()? };
     let scale = exp - frac_part.len() as i64;
     let ten = BigInt::from(10u32);
     let value = if scale >= 0 {

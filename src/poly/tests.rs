@@ -11,18 +11,12 @@ fn table() -> VarTable {
 
 fn p(text: &str) -> QPoly {
     let t = table();
-    parse(text, &mut |n: &str| {
-        t.get(n).ok_or_else(|| format!("unknown variable '{n}'"))
-    })
-    .unwrap()
+    parse(text, &mut |n: &str| t.get(n).ok_or_else(|| format!("unknown variable '{n}'"))).unwrap()
 }
 
 fn perr(text: &str) -> PolyError {
     let t = table();
-    parse(text, &mut |n: &str| {
-        t.get(n).ok_or_else(|| format!("unknown variable '{n}'"))
-    })
-    .unwrap_err()
+    parse(text, &mut |n: &str| t.get(n).ok_or_else(|| format!("unknown variable '{n}'"))).unwrap_err()
 }
 
 #[test]
@@ -33,10 +27,7 @@ fn parses_scene_grammar() {
     assert_eq!(p("37/300"), Poly::constant(q(37, 300)));
     assert_eq!(p("1e-3*x1"), Poly::var(0).scale(&q(1, 1000)));
     assert_eq!(p("-x1^2"), Poly::var(0).pow(2).neg());
-    assert_eq!(
-        p("0.3^2 - (x1 - (t + 0.4 + w))^2"),
-        p("9/100 - (x1 - t - 2/5 - w)*(x1 - t - 2/5 - w)")
-    );
+    assert_eq!(p("0.3^2 - (x1 - (t + 0.4 + w))^2"), p("9/100 - (x1 - t - 2/5 - w)*(x1 - t - 2/5 - w)"));
     assert_eq!(p("2*x1/4"), Poly::var(0).scale(&q(1, 2)));
     assert_eq!(p("--x1"), Poly::var(0));
     assert_eq!(p(" ( x1 ) "), Poly::var(0));
@@ -45,40 +36,19 @@ fn parses_scene_grammar() {
 #[test]
 fn errors_point_at_the_column() {
     let e = perr("x1 + * x2");
-    assert_eq!(
-        e.to_string(),
-        "column 6: expected a number, an identifier or '(', found '*'"
-    );
+    assert_eq!(e.to_string(), "column 6: expected a number, an identifier or '(', found '*'");
     match perr("x1 + y") {
         PolyError::UnknownVariable { col: 6, message } => assert!(message.contains("'y'")),
         other => panic!("{other:?}"),
     }
     assert!(matches!(perr("x1 / x2"), PolyError::BadDivisor { col: 4 }));
     assert!(matches!(perr("x1 / 0"), PolyError::BadDivisor { .. }));
-    assert!(matches!(
-        perr("x1^x2"),
-        PolyError::Unexpected { col: 4, .. }
-    ));
-    assert!(matches!(
-        perr("x1^1.5"),
-        PolyError::Unexpected { col: 4, .. }
-    ));
-    assert!(matches!(
-        perr("x1^99"),
-        PolyError::ExponentTooLarge { col: 4, .. }
-    ));
-    assert!(matches!(
-        perr("(x1 + x2"),
-        PolyError::Unexpected { col: 9, .. }
-    ));
-    assert!(matches!(
-        perr("x1 x2"),
-        PolyError::Unexpected { col: 4, .. }
-    ));
-    assert!(matches!(
-        perr("x1 # 2"),
-        PolyError::Unexpected { col: 4, .. }
-    ));
+    assert!(matches!(perr("x1^x2"), PolyError::Unexpected { col: 4, .. }));
+    assert!(matches!(perr("x1^1.5"), PolyError::Unexpected { col: 4, .. }));
+    assert!(matches!(perr("x1^99"), PolyError::ExponentTooLarge { col: 4, .. }));
+    assert!(matches!(perr("(x1 + x2"), PolyError::Unexpected { col: 9, .. }));
+    assert!(matches!(perr("x1 x2"), PolyError::Unexpected { col: 4, .. }));
+    assert!(matches!(perr("x1 # 2"), PolyError::Unexpected { col: 4, .. }));
     assert!(matches!(perr(""), PolyError::Unexpected { col: 1, .. }));
     assert!(matches!(perr("1.2.3"), PolyError::BadNumber { col: 1, .. }));
     assert!(matches!(perr("x1^2^2"), PolyError::Unexpected { .. }));
@@ -87,10 +57,7 @@ fn errors_point_at_the_column() {
 #[test]
 fn prints_like_the_paper() {
     let names = |v: Var| table().name(v);
-    assert_eq!(
-        p("37/300 - x1^2 - x2^2").to_text(&names),
-        "37/300 - x1^2 - x2^2"
-    );
+    assert_eq!(p("37/300 - x1^2 - x2^2").to_text(&names), "37/300 - x1^2 - x2^2");
     assert_eq!(p("-x1*x2 + 2").to_text(&names), "2 - x1*x2");
     assert_eq!(QPoly::zero().to_text(&names), "0");
 }
@@ -98,12 +65,7 @@ fn prints_like_the_paper() {
 #[test]
 fn expectation_is_linear_and_uses_moments() {
     // E[w^2 - x1^2] with E[w^2] = 37/300
-    let e = p("w^2 - x1^2")
-        .expect(
-            |v| v == 3,
-            |_, k| Some(if k == 2 { q(37, 300) } else { q(0, 1) }),
-        )
-        .unwrap();
+    let e = p("w^2 - x1^2").expect(|v| v == 3, |_, k| Some(if k == 2 { q(37, 300) } else { q(0, 1) })).unwrap();
     assert_eq!(e, p("37/300 - x1^2"));
     let missing = p("w^3").expect(|v| v == 3, |_, k| if k < 3 { Some(q(1, 1)) } else { None });
     assert_eq!(missing, Err((3, 3)));
@@ -124,10 +86,7 @@ fn arb_poly() -> impl Strategy<Value = QPoly> {
     prop::collection::vec(term, 0..6).prop_map(|ts| {
         let mut acc = QPoly::zero();
         for (n, d, e0, e1, e2, e3) in ts {
-            acc.add_term(
-                Monomial::from_pairs([(0, e0), (1, e1), (2, e2), (3, e3)]),
-                q(n, d),
-            );
+            acc.add_term(Monomial::from_pairs([(0, e0), (1, e1), (2, e2), (3, e3)]), q(n, d));
         }
         acc
     })

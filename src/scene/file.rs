@@ -150,38 +150,15 @@ impl ParamFile {
         let r = |n: &Num| n.0.clone();
         let rs = |v: &[Num]| v.iter().map(r).collect();
         match self {
-            ParamFile::Uniform { low, high } => D::Uniform {
-                low: r(low),
-                high: r(high),
-            },
-            ParamFile::Normal { mean, std } => D::Normal {
-                mean: r(mean),
-                std: r(std),
-            },
-            ParamFile::Beta {
-                alpha,
-                beta,
-                low,
-                high,
-            } => D::Beta {
-                alpha: r(alpha),
-                beta: r(beta),
-                low: r(low),
-                high: r(high),
-            },
-            ParamFile::Gamma { shape, scale } => D::Gamma {
-                shape: r(shape),
-                scale: r(scale),
-            },
+            ParamFile::Uniform { low, high } => D::Uniform { low: r(low), high: r(high) },
+            ParamFile::Normal { mean, std } => D::Normal { mean: r(mean), std: r(std) },
+            ParamFile::Beta { alpha, beta, low, high } => {
+                D::Beta { alpha: r(alpha), beta: r(beta), low: r(low), high: r(high) }
+            }
+            ParamFile::Gamma { shape, scale } => D::Gamma { shape: r(shape), scale: r(scale) },
             ParamFile::Exponential { rate } => D::Exponential { rate: r(rate) },
-            ParamFile::Laplace { mean, scale } => D::Laplace {
-                mean: r(mean),
-                scale: r(scale),
-            },
-            ParamFile::Discrete { values, weights } => D::Discrete {
-                values: rs(values),
-                weights: rs(weights),
-            },
+            ParamFile::Laplace { mean, scale } => D::Laplace { mean: r(mean), scale: r(scale) },
+            ParamFile::Discrete { values, weights } => D::Discrete { values: rs(values), weights: rs(weights) },
             ParamFile::Moments { raw } => D::Moments { raw: rs(raw) },
         }
     }

@@ -12,8 +12,8 @@ mod trajectory;
 pub use file::{ObstacleFile, ParamFile, SceneFile, WorkspaceFile, SCENE_FORMAT};
 pub use num::{parse_num_text, Num};
 pub use trajectory::{
-    Piece, Trajectory, TrajectoryError, TrajectoryFile, CONTINUITY_TOLERANCE, MAX_PIECES,
-    MAX_PIECE_DEGREE, TRAJECTORY_FORMAT,
+    Piece, Trajectory, TrajectoryError, TrajectoryFile, CONTINUITY_TOLERANCE, MAX_PIECES, MAX_PIECE_DEGREE,
+    TRAJECTORY_FORMAT,
 };
 
 use crate::contour::{ContourError, Layout, RiskContour};
@@ -69,10 +69,7 @@ pub struct SceneError {
 }
 
 fn err(path: impl Into<String>, msg: impl Into<String>) -> SceneError {
-    SceneError {
-        path: path.into(),
-        kind: SceneErrorKind::Invalid(msg.into()),
-    }
+    SceneError { path: path.into(), kind: SceneErrorKind::Invalid(msg.into()) }
 }
 
 /// The workspace box, exact and in floats.
@@ -88,9 +85,7 @@ impl Workspace {
     /// Whether `x` lies in the closed box.
     pub fn contains(&self, x: &[f64]) -> bool {
         x.len() == self.lower.len()
-            && x.iter()
-                .zip(self.lower.iter().zip(&self.upper))
-                .all(|(v, (l, u))| l <= v && v <= u)
+            && x.iter().zip(self.lower.iter().zip(&self.upper)).all(|(v, (l, u))| l <= v && v <= u)
     }
 }
 
@@ -163,18 +158,20 @@ impl Scene {
 
     /// Validates a parsed scene file.
     pub fn from_file(file: SceneFile) -> Result<Scene, SceneError> {
+        Scene::from_file_cached(file, &ContourCache::default())
+    }
+
+    /// Validates a parsed scene file, taking each obstacle's contour from `cache` when
+    /// the same polynomial with the same parameter distributions was built before
+    /// (and adding the ones built now). A scene update that moves one obstacle thus
+    /// rebuilds only that obstacle's E[P] and E[P²].
+    pub fn from_file_cached(file: SceneFile, cache: &ContourCache) -> Result<Scene, SceneError> {
         if file.format != SCENE_FORMAT {
-            return Err(err(
-                "format",
-                format!("must be \"{SCENE_FORMAT}\", got \"{}\"", file.format),
-            ));
+            return Err(err("format", format!("must be \"{SCENE_FORMAT}\", got \"{}\"", file.format)));
         }
         let dim = file.dim;
         if dim == 0 || dim > MAX_DIM {
-            return Err(err(
-                "dim",
-                format!("must be between 1 and {MAX_DIM}, got {dim}"),
-            ));
+            return Err(err("dim", format!("must be between 1 and {MAX_DIM}, got {dim}")));
         }
         let workspace = validate_workspace(&file.workspace, dim)?;
         let horizon = validate_horizon(&file.horizon)?;
@@ -194,26 +191,22 @@ impl Scene {
         let name = |v: Var| vars.name(v);
         let mut obstacles = Vec::with_capacity(polys.len());
         for (i, (o, poly)) in file.obstacles.iter().zip(polys).enumerate() {
-            let lookup = |v: Var, k: u32| moments.get(&v).and_then(|m| m.get(k as usize)).cloned();
-            let contour =
-                RiskContour::new(layout, &poly, &lookup, &name).map_err(|e| SceneError {
-                    path: format!("obstacles[{i}].poly"),
-                    kind: e.into(),
-                })?;
-            obstacles.push(Obstacle {
-                id: o.id.clone(),
-                text: o.poly.clone(),
-                poly,
-                contour: Arc::new(contour),
-            });
+            let key = ContourCache::key(dim, &o.poly, &poly, &file.params, &vars);
+            let contour = match cache.get(&key) {
+                Some(c) => c,
+                None => {
+                    let lookup = |v: Var, k: u32| moments.get(&v).and_then(|m| m.get(k as usize)).cloned();
+                    let c = RiskContour::new(layout, &poly, &lookup, &name)
+                        .map_err(|e| SceneError { path: format!("obstacles[{i}].poly"), kind: e.into() })?;
+                    cache.insert(key, Arc::new(c))
+                }
+            };
+            obstacles.push(Obstacle { id: o.id.clone(), text: o.poly.clone(), poly, contour });
         }
         let start = validate_point("start", &file.start, &workspace)?;
         let goal = validate_point("goal", &file.goal, &workspace)?;
         if start.is_some() != goal.is_some() {
-            return Err(err(
-                if start.is_some() { "goal" } else { "start" },
-                "start and goal must be given together",
-            ));
+            return Err(err(if start.is_some() { "goal" } else { "start" }, "start and goal must be given together"));
         }
         Ok(Scene {
             name: file.name.clone(),
@@ -251,69 +244,92 @@ impl Scene {
     pub fn mc_model(&self) -> Result<McModel, SceneError> {
         let mut samplers = Vec::new();
         for p in &self.params {
-            let s = p.dist.sampler().map_err(|e| SceneError {
-                path: format!("params.{}", p.name),
-                kind: e.into(),
-            })?;
+            let s = p.dist.sampler().map_err(|e| SceneError { path: format!("params.{}", p.name), kind: e.into() })?;
             samplers.push((p.var, s));
         }
-        let polys = self
-            .obstacles
-            .iter()
-            .map(|o| o.poly.map_coeffs(rational_to_f64))
+        let polys = self.obstacles.iter().map(|o| o.poly.map_coeffs(rational_to_f64)).collect();
+        Ok(McModel::new(self.layout(), self.vars.len(), polys, samplers))
+    }
+}
+
+/// Contours by (dimension, polynomial text, distributions of its parameters), shared
+/// between scene revisions. Counts hits and misses for the service's status.
+#[derive(Debug, Default)]
+pub struct ContourCache {
+    map: std::sync::Mutex<std::collections::HashMap<String, Arc<RiskContour>>>,
+    hits: std::sync::atomic::AtomicU64,
+    misses: std::sync::atomic::AtomicU64,
+}
+
+impl ContourCache {
+    fn key(dim: usize, text: &str, poly: &QPoly, params: &BTreeMap<String, ParamFile>, vars: &VarTable) -> String {
+        let layout = Layout { dim };
+        let used: Vec<String> = poly
+            .vars()
+            .into_iter()
+            .filter(|&v| layout.is_param(v))
+            .map(|v| {
+                let n = vars.name(v);
+                format!("{n}={}", params.get(&n).map(|p| serde_json::to_string(p).unwrap_or_default()).unwrap_or_default())
+            })
             .collect();
-        Ok(McModel::new(
-            self.layout(),
-            self.vars.len(),
-            polys,
-            samplers,
-        ))
+        format!("{dim}|{text}|{}", used.join(";"))
+    }
+
+    fn get(&self, key: &str) -> Option<Arc<RiskContour>> {
+        let hit = self.map.lock().ok()?.get(key).cloned();
+        let counter = if hit.is_some() { &self.hits } else { &self.misses };
+        counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        hit
+    }
+
+    fn insert(&self, key: String, c: Arc<RiskContour>) -> Arc<RiskContour> {
+        if let Ok(mut m) = self.map.lock() {
+            m.insert(key, c.clone());
+        }
+        c
+    }
+
+    /// Keeps only the contours used by `scenes` (called after updates).
+    pub fn retain_used<'a>(&self, scenes: impl IntoIterator<Item = &'a Scene>) {
+        let live: Vec<*const RiskContour> =
+            scenes.into_iter().flat_map(|s| s.obstacles.iter().map(|o| Arc::as_ptr(&o.contour))).collect();
+        if let Ok(mut m) = self.map.lock() {
+            m.retain(|_, c| live.contains(&Arc::as_ptr(c)));
+        }
+    }
+
+    /// (entries, hits, misses).
+    pub fn stats(&self) -> (usize, u64, u64) {
+        let entries = self.map.lock().map(|m| m.len()).unwrap_or(0);
+        use std::sync::atomic::Ordering::Relaxed;
+        (entries, self.hits.load(Relaxed), self.misses.load(Relaxed))
     }
 }
 
 fn validate_workspace(w: &WorkspaceFile, dim: usize) -> Result<Workspace, SceneError> {
     for (name, v) in [("lower", &w.lower), ("upper", &w.upper)] {
         if v.len() != dim {
-            return Err(err(
-                format!("workspace.{name}"),
-                format!("must have {dim} entries (dim), got {}", v.len()),
-            ));
+            return Err(err(format!("workspace.{name}"), format!("must have {dim} entries (dim), got {}", v.len())));
         }
     }
     for i in 0..dim {
         if w.lower[i] >= w.upper[i] {
             return Err(err(
                 format!("workspace.upper[{i}]"),
-                format!(
-                    "must be greater than workspace.lower[{i}] ({} ≥ {})",
-                    w.lower[i].f64(),
-                    w.upper[i].f64()
-                ),
+                format!("must be greater than workspace.lower[{i}] ({} ≥ {})", w.lower[i].f64(), w.upper[i].f64()),
             ));
         }
     }
-    Ok(Workspace {
-        lower: w.lower.iter().map(Num::f64).collect(),
-        upper: w.upper.iter().map(Num::f64).collect(),
-    })
+    Ok(Workspace { lower: w.lower.iter().map(Num::f64).collect(), upper: w.upper.iter().map(Num::f64).collect() })
 }
 
 fn validate_horizon(h: &[Num]) -> Result<(f64, f64), SceneError> {
     if h.len() != 2 {
-        return Err(err(
-            "horizon",
-            format!("must be [t0, tf], got {} entries", h.len()),
-        ));
+        return Err(err("horizon", format!("must be [t0, tf], got {} entries", h.len())));
     }
     if h[0] >= h[1] {
-        return Err(err(
-            "horizon",
-            format!(
-                "t0 must be less than tf, got [{}, {}]",
-                h[0].f64(),
-                h[1].f64()
-            ),
-        ));
+        return Err(err("horizon", format!("t0 must be less than tf, got [{}, {}]", h[0].f64(), h[1].f64())));
     }
     Ok((h[0].f64(), h[1].f64()))
 }
@@ -321,23 +337,18 @@ fn validate_horizon(h: &[Num]) -> Result<(f64, f64), SceneError> {
 /// Δ must lie in the open interval (0, 1).
 pub fn validate_risk(path: &str, d: &Num) -> Result<BigRational, SceneError> {
     if !d.0.is_positive() || d.0 >= BigRational::one() {
-        return Err(err(
-            path,
-            format!("the risk level Δ must be in (0, 1), got {}", d.f64()),
-        ));
+        return Err(err(path, format!("the risk level Δ must be in (0, 1), got {}", d.f64())));
     }
     Ok(d.0.clone())
 }
 
 fn is_identifier(s: &str) -> bool {
     let mut c = s.chars();
-    matches!(c.next(), Some(f) if f.is_alphabetic() || f == '_')
-        && c.all(|ch| ch.is_alphanumeric() || ch == '_')
+    matches!(c.next(), Some(f) if f.is_alphabetic() || f == '_') && c.all(|ch| ch.is_alphanumeric() || ch == '_')
 }
 
 fn is_space_name(s: &str) -> bool {
-    s.strip_prefix('x')
-        .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+    s.strip_prefix('x').is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
 }
 
 fn validate_params(file: &SceneFile, dim: usize) -> Result<(VarTable, Vec<Param>), SceneError> {
@@ -347,27 +358,14 @@ fn validate_params(file: &SceneFile, dim: usize) -> Result<(VarTable, Vec<Param>
     for (name, pf) in &file.params {
         let path = format!("params.{name}");
         if !is_identifier(name) {
-            return Err(err(
-                path,
-                "a parameter name must be an identifier (letters, digits, '_')",
-            ));
+            return Err(err(path, "a parameter name must be an identifier (letters, digits, '_')"));
         }
         if name == "t" || is_space_name(name) {
-            return Err(err(
-                path,
-                format!("'{name}' is reserved for time or space variables"),
-            ));
+            return Err(err(path, format!("'{name}' is reserved for time or space variables")));
         }
-        let dist = pf
-            .to_distribution()
-            .validated()
-            .map_err(|e| moment_err(&path, e))?;
+        let dist = pf.to_distribution().validated().map_err(|e| moment_err(&path, e))?;
         names.push(name.clone());
-        params.push(Param {
-            name: name.clone(),
-            var: (names.len() - 1) as Var,
-            dist,
-        });
+        params.push(Param { name: name.clone(), var: (names.len() - 1) as Var, dist });
     }
     Ok((VarTable::new(names), params))
 }
@@ -375,26 +373,13 @@ fn validate_params(file: &SceneFile, dim: usize) -> Result<(VarTable, Vec<Param>
 fn moment_err(path: &str, e: MomentError) -> SceneError {
     match e {
         MomentError::InvalidParameter { field, message } => err(format!("{path}.{field}"), message),
-        other => SceneError {
-            path: path.to_string(),
-            kind: other.into(),
-        },
+        other => SceneError { path: path.to_string(), kind: other.into() },
     }
 }
 
-fn parse_obstacles(
-    file: &SceneFile,
-    vars: &VarTable,
-    dim: usize,
-) -> Result<Vec<QPoly>, SceneError> {
+fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<QPoly>, SceneError> {
     if file.obstacles.len() > MAX_OBSTACLES {
-        return Err(err(
-            "obstacles",
-            format!(
-                "at most {MAX_OBSTACLES} obstacles, got {}",
-                file.obstacles.len()
-            ),
-        ));
+        return Err(err("obstacles", format!("at most {MAX_OBSTACLES} obstacles, got {}", file.obstacles.len())));
     }
     let layout = Layout { dim };
     let mut seen = BTreeMap::new();
@@ -404,10 +389,7 @@ fn parse_obstacles(
             return Err(err(format!("obstacles[{i}].id"), "must not be empty"));
         }
         if let Some(j) = seen.insert(o.id.clone(), i) {
-            return Err(err(
-                format!("obstacles[{i}].id"),
-                format!("'{}' is already the id of obstacles[{j}]", o.id),
-            ));
+            return Err(err(format!("obstacles[{i}].id"), format!("'{}' is already the id of obstacles[{j}]", o.id)));
         }
         let path = format!("obstacles[{i}].poly");
         let mut resolve = |n: &str| -> Result<Var, String> {
@@ -419,35 +401,20 @@ fn parse_obstacles(
                 }
             })
         };
-        let poly = parse(&o.poly, &mut resolve).map_err(|e| SceneError {
-            path: path.clone(),
-            kind: e.into(),
-        })?;
+        let poly = parse(&o.poly, &mut resolve).map_err(|e| SceneError { path: path.clone(), kind: e.into() })?;
         let deg_xt = poly.degree_in_vars(|v| !layout.is_param(v));
         if deg_xt > MAX_OBSTACLE_DEGREE {
-            return Err(err(
-                path,
-                format!("degree {deg_xt} in (x, t) exceeds the limit {MAX_OBSTACLE_DEGREE}"),
-            ));
+            return Err(err(path, format!("degree {deg_xt} in (x, t) exceeds the limit {MAX_OBSTACLE_DEGREE}")));
         }
         if poly.len() > MAX_TERMS {
-            return Err(err(
-                path,
-                format!(
-                    "{} terms after expansion exceed the limit {MAX_TERMS}",
-                    poly.len()
-                ),
-            ));
+            return Err(err(path, format!("{} terms after expansion exceed the limit {MAX_TERMS}", poly.len())));
         }
         for v in poly.vars().into_iter().filter(|&v| layout.is_param(v)) {
             let d = poly.degree_in(v);
             if d > MAX_PARAM_DEGREE {
                 return Err(err(
                     path,
-                    format!(
-                        "degree {d} in '{}' exceeds the limit {MAX_PARAM_DEGREE}",
-                        vars.name(v)
-                    ),
+                    format!("degree {d} in '{}' exceeds the limit {MAX_PARAM_DEGREE}", vars.name(v)),
                 ));
             }
         }
@@ -457,53 +424,27 @@ fn parse_obstacles(
 }
 
 /// Raw moments of every parameter up to `2·max deg` over the obstacles (§1.1: E[P²]).
-fn needed_moments(
-    polys: &[QPoly],
-    params: &[Param],
-) -> Result<BTreeMap<Var, Vec<BigRational>>, SceneError> {
+fn needed_moments(polys: &[QPoly], params: &[Param]) -> Result<BTreeMap<Var, Vec<BigRational>>, SceneError> {
     let mut out = BTreeMap::new();
     for p in params {
         let k = 2 * polys.iter().map(|q| q.degree_in(p.var)).max().unwrap_or(0);
-        let m = p
-            .dist
-            .raw_moments(k)
-            .map_err(|e| moment_err(&format!("params.{}", p.name), e))?;
+        let m = p.dist.raw_moments(k).map_err(|e| moment_err(&format!("params.{}", p.name), e))?;
         if m.iter().skip(2).step_by(2).any(|x| x.is_negative()) {
-            return Err(err(
-                format!("params.{}", p.name),
-                "even moments must be ≥ 0",
-            ));
+            return Err(err(format!("params.{}", p.name), "even moments must be ≥ 0"));
         }
         out.insert(p.var, m);
     }
     Ok(out)
 }
 
-fn validate_point(
-    path: &str,
-    p: &Option<Vec<Num>>,
-    ws: &Workspace,
-) -> Result<Option<Vec<f64>>, SceneError> {
+fn validate_point(path: &str, p: &Option<Vec<Num>>, ws: &Workspace) -> Result<Option<Vec<f64>>, SceneError> {
     let Some(p) = p else { return Ok(None) };
     if p.len() != ws.lower.len() {
-        return Err(err(
-            path,
-            format!(
-                "must have {} entries (dim), got {}",
-                ws.lower.len(),
-                p.len()
-            ),
-        ));
+        return Err(err(path, format!("must have {} entries (dim), got {}", ws.lower.len(), p.len())));
     }
     let x: Vec<f64> = p.iter().map(Num::f64).collect();
     if !ws.contains(&x) {
-        return Err(err(
-            path,
-            format!(
-                "{x:?} is outside the workspace {:?}..{:?}",
-                ws.lower, ws.upper
-            ),
-        ));
+        return Err(err(path, format!("{x:?} is outside the workspace {:?}..{:?}", ws.lower, ws.upper)));
     }
     Ok(Some(x))
 }

@@ -47,14 +47,10 @@ impl Visitor<'_> for NumVisitor {
         Ok(Num(BigRational::from_integer(v.into())))
     }
     fn visit_f64<E: de::Error>(self, v: f64) -> Result<Num, E> {
-        f64_shortest_decimal(v)
-            .map(Num)
-            .ok_or_else(|| E::custom("the number must be finite"))
+        f64_shortest_decimal(v).map(Num).ok_or_else(|| E::custom("the number must be finite"))
     }
     fn visit_str<E: de::Error>(self, v: &str) -> Result<Num, E> {
-        parse_num_text(v)
-            .map(Num)
-            .ok_or_else(|| E::custom(format!("'{v}' is not a decimal number or a fraction p/q")))
+        parse_num_text(v).map(Num).ok_or_else(|| E::custom(format!("'{v}' is not a decimal number or a fraction p/q")))
     }
 }
 

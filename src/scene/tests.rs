@@ -22,10 +22,7 @@ fn load(v: &serde_json::Value) -> Result<Scene, SceneError> {
 #[test]
 fn base_scene_loads_with_exact_moments() {
     let s = load(&base()).unwrap();
-    assert_eq!(
-        s.obstacles[0].contour.mean.to_text(&|v| s.vars.name(v)),
-        "37/300 - x1^2 - x2^2"
-    );
+    assert_eq!(s.obstacles[0].contour.mean.to_text(&|v| s.vars.name(v)), "37/300 - x1^2 - x2^2");
     assert_eq!(s.risk, BigRational::new(1.into(), 10.into()));
     assert_eq!(s.vars.name(3), "w");
 }
@@ -35,59 +32,19 @@ fn base_scene_loads_with_exact_moments() {
 fn broken_scenes_name_the_field() {
     type Edit = fn(&mut serde_json::Value);
     let cases: Vec<(&str, Edit, &str)> = vec![
-        (
-            "unknown top-level field",
-            |v| v["colour"] = "red".into(),
-            "unknown field `colour`",
-        ),
-        (
-            "wrong format",
-            |v| v["format"] = "riskplan-scene/2".into(),
-            "format",
-        ),
+        ("unknown top-level field", |v| v["colour"] = "red".into(), "unknown field `colour`"),
+        ("wrong format", |v| v["format"] = "riskplan-scene/2".into(), "format"),
         ("dim zero", |v| v["dim"] = 0.into(), "dim"),
-        (
-            "workspace length",
-            |v| v["workspace"]["lower"] = serde_json::json!([0]),
-            "workspace.lower",
-        ),
-        (
-            "empty workspace",
-            |v| v["workspace"]["upper"] = serde_json::json!([1, -1]),
-            "workspace.upper[1]",
-        ),
-        (
-            "horizon reversed",
-            |v| v["horizon"] = serde_json::json!([1, 0]),
-            "horizon",
-        ),
+        ("workspace length", |v| v["workspace"]["lower"] = serde_json::json!([0]), "workspace.lower"),
+        ("empty workspace", |v| v["workspace"]["upper"] = serde_json::json!([1, -1]), "workspace.upper[1]"),
+        ("horizon reversed", |v| v["horizon"] = serde_json::json!([1, 0]), "horizon"),
         ("risk 1.5", |v| v["risk"] = 1.5.into(), "risk"),
         ("risk as text", |v| v["risk"] = "ten percent".into(), "risk"),
-        (
-            "undeclared parameter",
-            |v| v["obstacles"][0]["poly"] = "q^2 - x1^2".into(),
-            "obstacles[0].poly",
-        ),
-        (
-            "x3 in a 2-D scene",
-            |v| v["obstacles"][0]["poly"] = "w - x3".into(),
-            "obstacles[0].poly",
-        ),
-        (
-            "poly syntax",
-            |v| v["obstacles"][0]["poly"] = "w^2 - - * x1".into(),
-            "obstacles[0].poly",
-        ),
-        (
-            "duplicate id",
-            |v| v["obstacles"][1] = v["obstacles"][0].clone(),
-            "obstacles[1].id",
-        ),
-        (
-            "uniform low ≥ high",
-            |v| v["params"]["w"]["high"] = 0.2.into(),
-            "params.w.high",
-        ),
+        ("undeclared parameter", |v| v["obstacles"][0]["poly"] = "q^2 - x1^2".into(), "obstacles[0].poly"),
+        ("x3 in a 2-D scene", |v| v["obstacles"][0]["poly"] = "w - x3".into(), "obstacles[0].poly"),
+        ("poly syntax", |v| v["obstacles"][0]["poly"] = "w^2 - - * x1".into(), "obstacles[0].poly"),
+        ("duplicate id", |v| v["obstacles"][1] = v["obstacles"][0].clone(), "obstacles[1].id"),
+        ("uniform low ≥ high", |v| v["params"]["w"]["high"] = 0.2.into(), "params.w.high"),
         (
             "negative std",
             |v| v["params"]["w"] = serde_json::json!({"dist": "normal", "mean": 0, "std": -1}),
@@ -108,21 +65,9 @@ fn broken_scenes_name_the_field() {
             |v| v["params"]["w"] = serde_json::json!({"dist": "moments", "raw": [0.35, 0.125]}),
             "params.w",
         ),
-        (
-            "unknown distribution",
-            |v| v["params"]["w"]["dist"] = "unifrom".into(),
-            "params.w",
-        ),
-        (
-            "unknown distribution field",
-            |v| v["params"]["w"]["mean"] = 0.into(),
-            "params.w",
-        ),
-        (
-            "start outside",
-            |v| v["start"] = serde_json::json!([-2, 0]),
-            "start",
-        ),
+        ("unknown distribution", |v| v["params"]["w"]["dist"] = "unifrom".into(), "params.w"),
+        ("unknown distribution field", |v| v["params"]["w"]["mean"] = 0.into(), "params.w"),
+        ("start outside", |v| v["start"] = serde_json::json!([-2, 0]), "start"),
         (
             "goal without start",
             |v| {
@@ -142,32 +87,19 @@ fn broken_scenes_name_the_field() {
             },
             "missing field `obstacles`",
         ),
-        (
-            "degree too high",
-            |v| v["obstacles"][0]["poly"] = "w - x1^9".into(),
-            "obstacles[0].poly",
-        ),
+        ("degree too high", |v| v["obstacles"][0]["poly"] = "w - x1^9".into(), "obstacles[0].poly"),
     ];
     for (what, edit, expect) in cases {
         let mut v = base();
         if what == "duplicate id" {
-            v["obstacles"]
-                .as_array_mut()
-                .unwrap()
-                .push(serde_json::Value::Null);
+            v["obstacles"].as_array_mut().unwrap().push(serde_json::Value::Null);
         }
         edit(&mut v);
         let e = load(&v).expect_err(what).to_string();
-        assert!(
-            e.contains(expect),
-            "{what}: error '{e}' does not mention '{expect}'"
-        );
+        assert!(e.contains(expect), "{what}: error '{e}' does not mention '{expect}'");
         assert!(!e.contains('\n'), "{what}: error is not one line: {e}");
     }
-    assert!(Scene::from_json("{ not json")
-        .unwrap_err()
-        .to_string()
-        .contains("line 1"));
+    assert!(Scene::from_json("{ not json").unwrap_err().to_string().contains("line 1"));
 }
 
 #[test]

@@ -55,19 +55,12 @@ impl Piece {
 
     /// Position at absolute time `t` (floating point).
     pub fn at(&self, t: f64) -> Vec<f64> {
-        self.coeffs
-            .iter()
-            .map(|c| c.iter().rev().fold(0.0, |acc, &k| acc * t + k))
-            .collect()
+        self.coeffs.iter().map(|c| c.iter().rev().fold(0.0, |acc, &k| acc * t + k)).collect()
     }
 
     /// Degree in t (the largest over coordinates).
     pub fn degree(&self) -> usize {
-        self.coeffs
-            .iter()
-            .map(|c| c.len().saturating_sub(1))
-            .max()
-            .unwrap_or(0)
+        self.coeffs.iter().map(|c| c.len().saturating_sub(1)).max().unwrap_or(0)
     }
 }
 
@@ -119,10 +112,7 @@ pub struct TrajectoryError {
 }
 
 fn terr(path: impl Into<String>, message: impl Into<String>) -> TrajectoryError {
-    TrajectoryError {
-        path: path.into(),
-        message: message.into(),
-    }
+    TrajectoryError { path: path.into(), message: message.into() }
 }
 
 impl Trajectory {
@@ -131,115 +121,74 @@ impl Trajectory {
         let de = &mut serde_json::Deserializer::from_str(text);
         let f: TrajectoryFile = serde_path_to_error::deserialize(de).map_err(|e| {
             let p = e.path().to_string();
-            terr(
-                if p == "." {
-                    "trajectory".to_string()
-                } else {
-                    p
-                },
-                e.into_inner().to_string(),
-            )
+            terr(if p == "." { "trajectory".to_string() } else { p }, e.into_inner().to_string())
         })?;
         if f.format != TRAJECTORY_FORMAT {
-            return Err(terr(
-                "format",
-                format!("must be \"{TRAJECTORY_FORMAT}\", got \"{}\"", f.format),
-            ));
+            return Err(terr("format", format!("must be \"{TRAJECTORY_FORMAT}\", got \"{}\"", f.format)));
         }
-        Ok(Trajectory {
-            format: f.format,
-            pieces: f.pieces,
-        })
+        Ok(Trajectory { format: f.format, pieces: f.pieces })
     }
 
     /// From pieces.
     pub fn new(pieces: Vec<Piece>) -> Trajectory {
-        Trajectory {
-            format: TRAJECTORY_FORMAT.to_string(),
-            pieces,
-        }
+        Trajectory { format: TRAJECTORY_FORMAT.to_string(), pieces }
     }
 
     /// Checks the trajectory against a scene's dimension, horizon and workspace size:
     /// finite numbers, `t0 < t1`, contiguous pieces inside the horizon, one
     /// coefficient row per dimension, degree ≤ [`MAX_PIECE_DEGREE`], continuity.
-    pub fn validate(
-        &self,
-        dim: usize,
-        horizon: (f64, f64),
-        workspace_diagonal: f64,
-    ) -> Result<(), TrajectoryError> {
+    pub fn validate(&self, dim: usize, horizon: (f64, f64), workspace_diagonal: f64) -> Result<(), TrajectoryError> {
         if self.pieces.is_empty() {
             return Err(terr("pieces", "must hold at least one piece"));
         }
         if self.pieces.len() > MAX_PIECES {
-            return Err(terr(
-                "pieces",
-                format!("at most {MAX_PIECES} pieces, got {}", self.pieces.len()),
-            ));
+            return Err(terr("pieces", format!("at most {MAX_PIECES} pieces, got {}", self.pieces.len())));
         }
         for (i, p) in self.pieces.iter().enumerate() {
             let at = |f: &str| format!("pieces[{i}].{f}");
             if !p.t0.is_finite() || !p.t1.is_finite() || p.t0 >= p.t1 {
-                return Err(terr(
-                    at("t1"),
-                    format!("needs finite t0 < t1, got [{}, {}]", p.t0, p.t1),
-                ));
+                return Err(terr(at("t1"), format!("needs finite t0 < t1, got [{}, {}]", p.t0, p.t1)));
             }
             if p.t0 < horizon.0 || p.t1 > horizon.1 {
                 return Err(terr(
                     at("t0"),
-                    format!(
-                        "[{}, {}] is outside the scene horizon [{}, {}]",
-                        p.t0, p.t1, horizon.0, horizon.1
-                    ),
+                    format!("[{}, {}] is outside the scene horizon [{}, {}]", p.t0, p.t1, horizon.0, horizon.1),
                 ));
             }
             if p.coeffs.len() != dim {
                 return Err(terr(
                     at("coeffs"),
-                    format!(
-                        "needs {dim} rows (one per dimension), got {}",
-                        p.coeffs.len()
-                    ),
+                    format!("needs {dim} rows (one per dimension), got {}", p.coeffs.len()),
                 ));
             }
             for (d, row) in p.coeffs.iter().enumerate() {
                 if row.is_empty() || row.len() > MAX_PIECE_DEGREE + 1 {
                     return Err(terr(
                         format!("pieces[{i}].coeffs[{d}]"),
-                        format!(
-                            "needs 1 to {} coefficients, got {}",
-                            MAX_PIECE_DEGREE + 1,
-                            row.len()
-                        ),
+                        format!("needs 1 to {} coefficients, got {}", MAX_PIECE_DEGREE + 1, row.len()),
                     ));
                 }
                 if row.iter().any(|c| !c.is_finite()) {
-                    return Err(terr(
-                        format!("pieces[{i}].coeffs[{d}]"),
-                        "coefficients must be finite",
-                    ));
+                    return Err(terr(format!("pieces[{i}].coeffs[{d}]"), "coefficients must be finite"));
                 }
             }
             if i > 0 {
                 let prev = &self.pieces[i - 1];
                 if prev.t1 != p.t0 {
-                    return Err(terr(at("t0"), format!("pieces must be contiguous: previous piece ends at {}, this one starts at {}", prev.t1, p.t0)));
+                    return Err(terr(
+                        at("t0"),
+                        format!(
+                            "pieces must be contiguous: previous piece ends at {}, this one starts at {}",
+                            prev.t1, p.t0
+                        ),
+                    ));
                 }
                 let (a, b) = (prev.at(p.t0), p.at(p.t0));
-                let gap = a
-                    .iter()
-                    .zip(&b)
-                    .map(|(x, y)| (x - y).abs())
-                    .fold(0.0, f64::max);
+                let gap = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
                 if gap > CONTINUITY_TOLERANCE * workspace_diagonal.max(1.0) {
                     return Err(terr(
                         at("coeffs"),
-                        format!(
-                            "the trajectory jumps by {gap:e} at t = {} (pieces must meet)",
-                            p.t0
-                        ),
+                        format!("the trajectory jumps by {gap:e} at t = {} (pieces must meet)", p.t0),
                     ));
                 }
             }

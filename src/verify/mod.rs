@@ -18,7 +18,7 @@ use crate::poly::{rational_to_f64, Interval, UPoly};
 use crate::scene::{Obstacle, Piece, Scene, Trajectory};
 use num_rational::BigRational;
 use num_traits::Signed;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
 pub use workspace::{check_workspace, WorkspaceStatus};
@@ -59,7 +59,7 @@ impl Method {
 }
 
 /// `safe`, `unsafe` or `undecided`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Status {
     /// Proven safe.
@@ -71,7 +71,7 @@ pub enum Status {
 }
 
 /// A time at which a constraint is ≤ 0, in absolute time.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WitnessReport {
     /// Absolute time.
     pub t: f64,
@@ -80,7 +80,7 @@ pub struct WitnessReport {
 }
 
 /// One method's verdict on one constraint.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MethodReport {
     /// Status.
     pub status: Status,
@@ -90,15 +90,14 @@ pub struct MethodReport {
     /// Witness (unsafe).
     pub witness: Option<WitnessReport>,
     /// Why undecided.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
 }
 
 /// The verdict on one constraint of one obstacle over one piece.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ConstraintReport {
     /// `mean` (−E[P] > 0) or `cantelli` (E[P]² − (1−Δ)E[P²] > 0).
-    pub name: &'static str,
+    pub name: String,
     /// Combined status.
     pub status: Status,
     /// See [`MethodReport::margin`].
@@ -106,14 +105,15 @@ pub struct ConstraintReport {
     /// See [`MethodReport::witness`].
     pub witness: Option<WitnessReport>,
     /// The method(s) used.
-    pub method: &'static str,
+    pub method: String,
+    /// Why undecided (the first method's reason).
+    pub reason: Option<String>,
     /// Per method, with `--method both`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub methods: Option<Vec<(&'static str, MethodReport)>>,
+    pub methods: Option<Vec<(String, MethodReport)>>,
 }
 
 /// One obstacle over one piece.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ObstacleReport {
     /// Obstacle id.
     pub id: String,
@@ -124,7 +124,7 @@ pub struct ObstacleReport {
 }
 
 /// One piece.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PieceReport {
     /// Start time.
     pub t0: f64,
@@ -139,12 +139,12 @@ pub struct PieceReport {
 }
 
 /// The report of `riskplan verify`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct VerifyReport {
     /// Every piece certified safe.
     pub safe: bool,
     /// Method.
-    pub method: &'static str,
+    pub method: String,
     /// Δ used.
     pub risk: f64,
     /// Per piece.
@@ -154,14 +154,18 @@ pub struct VerifyReport {
 fn method_report(v: &Verdict, piece: PieceRef<'_>) -> MethodReport {
     let h = piece.t1 - piece.t0;
     match v {
-        Verdict::Safe { margin } => MethodReport { status: Status::Safe, margin: Some(*margin), witness: None, reason: None },
+        Verdict::Safe { margin } => {
+            MethodReport { status: Status::Safe, margin: Some(*margin), witness: None, reason: None }
+        }
         Verdict::Unsafe(w) => MethodReport {
             status: Status::Unsafe,
             margin: Some(w.value),
             witness: Some(WitnessReport { t: piece.t0 + h * w.tau, value: w.value }),
             reason: None,
         },
-        Verdict::Undecided(u) => MethodReport { status: Status::Undecided, margin: None, witness: None, reason: Some(undecided_text(u)) },
+        Verdict::Undecided(u) => {
+            MethodReport { status: Status::Undecided, margin: None, witness: None, reason: Some(undecided_text(u)) }
+        }
     }
 }
 
@@ -176,7 +180,12 @@ fn undecided_text(u: &Undecided) -> String {
 }
 
 /// Decides one restricted constraint with `method`.
-pub fn decide(method: Method, p: &UPoly<Interval>, exact: &dyn Fn() -> UPoly<BigRational>, sos_settings: &sos::SosSettings) -> Vec<(&'static str, Verdict)> {
+pub fn decide(
+    method: Method,
+    p: &UPoly<Interval>,
+    exact: &dyn Fn() -> UPoly<BigRational>,
+    sos_settings: &sos::SosSettings,
+) -> Vec<(&'static str, Verdict)> {
     match method {
         Method::Exact => vec![("exact", bernstein::check(p, exact))],
         Method::Sos => vec![("sos", sos::certify(p, sos_settings).verdict)],
@@ -203,7 +212,13 @@ fn worst(a: Status, b: Status) -> Status {
 }
 
 /// Verifies one obstacle over one piece, constraint by constraint.
-pub fn verify_obstacle(o: &Obstacle, piece: PieceRef<'_>, delta: &BigRational, method: Method, settings: &sos::SosSettings) -> ObstacleReport {
+pub fn verify_obstacle(
+    o: &Obstacle,
+    piece: PieceRef<'_>,
+    delta: &BigRational,
+    method: Method,
+    settings: &sos::SosSettings,
+) -> ObstacleReport {
     let iv = restrict_interval(&o.contour, piece, delta);
     let exact = std::cell::OnceCell::new();
     let get_exact = || exact.get_or_init(|| restrict_exact(&o.contour, piece, delta)).clone();
@@ -221,7 +236,8 @@ pub fn verify_obstacle(o: &Obstacle, piece: PieceRef<'_>, delta: &BigRational, m
         let vs = decide(method, poly, &ex, settings);
         let st = combine(&vs);
         status = worst(status, st);
-        let reports: Vec<(&'static str, MethodReport)> = vs.iter().map(|(m, v)| (*m, method_report(v, piece))).collect();
+        let reports: Vec<(&'static str, MethodReport)> =
+            vs.iter().map(|(m, v)| (*m, method_report(v, piece))).collect();
         // The combined margin and witness: a witness from any method; the smallest proven margin.
         let witness = reports.iter().find_map(|(_, r)| r.witness);
         let margin = match st {
@@ -229,29 +245,38 @@ pub fn verify_obstacle(o: &Obstacle, piece: PieceRef<'_>, delta: &BigRational, m
             Status::Unsafe => witness.map(|w| w.value),
             Status::Undecided => None,
         };
+        let reason = if st == Status::Undecided { reports.iter().find_map(|(_, r)| r.reason.clone()) } else { None };
         constraints.push(ConstraintReport {
-            name,
+            name: name.to_string(),
             status: st,
             margin,
             witness,
-            method: method.as_str(),
-            methods: (method == Method::Both).then_some(reports),
+            reason,
+            method: method.as_str().to_string(),
+            methods: (method == Method::Both).then(|| reports.into_iter().map(|(m, r)| (m.to_string(), r)).collect()),
         });
     }
     ObstacleReport { id: o.id.clone(), status, constraints }
 }
 
 /// Verifies a trajectory against a scene at risk level `delta`.
-pub fn verify(scene: &Scene, traj: &Trajectory, delta: &BigRational, method: Method, settings: &sos::SosSettings) -> VerifyReport {
+pub fn verify(
+    scene: &Scene,
+    traj: &Trajectory,
+    delta: &BigRational,
+    method: Method,
+    settings: &sos::SosSettings,
+) -> VerifyReport {
     let mut pieces = Vec::with_capacity(traj.pieces.len());
     for pc in &traj.pieces {
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
         let workspace = check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr);
-        let obstacles: Vec<ObstacleReport> = scene.obstacles.iter().map(|o| verify_obstacle(o, pr, delta, method, settings)).collect();
+        let obstacles: Vec<ObstacleReport> =
+            scene.obstacles.iter().map(|o| verify_obstacle(o, pr, delta, method, settings)).collect();
         let safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
         pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
     }
-    VerifyReport { safe: pieces.iter().all(|p| p.safe), method: method.as_str(), risk: rational_to_f64(delta), pieces }
+    VerifyReport { safe: pieces.iter().all(|p| p.safe), method: method.as_str().to_string(), risk: rational_to_f64(delta), pieces }
 }
 
 /// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,

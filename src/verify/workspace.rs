@@ -8,13 +8,13 @@ use super::{Status, WitnessReport};
 use crate::certify::{bernstein, coordinates_exact, PieceRef};
 use crate::poly::{rational_to_f64, UPoly};
 use num_rational::BigRational;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Grid points searched for a violation when the Bernstein hull is not conclusive.
 pub const WORKSPACE_WITNESS_GRID: usize = 64;
 
 /// The workspace verdict of one piece.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WorkspaceStatus {
     /// Safe (inside), unsafe (leaves the box, with witness) or undecided.
     pub status: Status,

@@ -135,17 +135,10 @@ fn axes(scene: &Scene, slices: &[(usize, f64)]) -> Result<Axes, VizError> {
     let mut free: Vec<usize> = (0..scene.dim).collect();
     for &(axis, v) in slices {
         if axis >= scene.dim {
-            return Err(VizError::Slice(format!(
-                "--slice x{}: the scene has only {} dimensions",
-                axis + 1,
-                scene.dim
-            )));
+            return Err(VizError::Slice(format!("--slice x{}: the scene has only {} dimensions", axis + 1, scene.dim)));
         }
         if !free.contains(&axis) {
-            return Err(VizError::Slice(format!(
-                "--slice x{} is given twice",
-                axis + 1
-            )));
+            return Err(VizError::Slice(format!("--slice x{} is given twice", axis + 1)));
         }
         template[axis] = v;
         free.retain(|&f| f != axis);
@@ -175,13 +168,7 @@ impl Grid {
     fn new(win: (f64, f64, f64, f64), n: usize) -> Self {
         let (x0, x1, y0, y1) = win;
         let n = n.max(8);
-        Grid {
-            n,
-            x0,
-            y0,
-            dx: (x1 - x0) / (n - 1) as f64,
-            dy: (y1 - y0) / (n - 1) as f64,
-        }
+        Grid { n, x0, y0, dx: (x1 - x0) / (n - 1) as f64, dy: (y1 - y0) / (n - 1) as f64 }
     }
     fn point(&self, ax: &Axes, i: usize, j: usize, t: f64) -> Vec<f64> {
         let mut p = ax.template.clone();
@@ -203,15 +190,7 @@ impl Grid {
         let Ok(lines) = self.builder().lines(values, &[level]) else {
             return vec![];
         };
-        lines
-            .iter()
-            .flat_map(|l| {
-                l.geometry()
-                    .0
-                    .iter()
-                    .map(|ls| ls.0.iter().map(|c| (c.x, c.y)).collect())
-            })
-            .collect()
+        lines.iter().flat_map(|l| l.geometry().0.iter().map(|ls| ls.0.iter().map(|c| (c.x, c.y)).collect())).collect()
     }
     /// Polygons (exterior, holes) of the region `values ≥ level`.
     fn regions(&self, values: &[f64], level: f64) -> Vec<Region> {
@@ -222,11 +201,7 @@ impl Grid {
         for c in &cs {
             for p in c.geometry().0.iter() {
                 let ext: Vec<(f64, f64)> = p.exterior().0.iter().map(|c| (c.x, c.y)).collect();
-                let holes = p
-                    .interiors()
-                    .iter()
-                    .map(|ls| ls.0.iter().map(|c| (c.x, c.y)).collect())
-                    .collect();
+                let holes = p.interiors().iter().map(|ls| ls.0.iter().map(|c| (c.x, c.y)).collect()).collect();
                 out.push((ext, holes));
             }
         }
@@ -240,13 +215,7 @@ fn bound_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64) -> Vec<f64> {
     for j in 0..g.n {
         for i in 0..g.n {
             let p = g.point(ax, i, j, t);
-            v.push(
-                scene
-                    .obstacles
-                    .iter()
-                    .map(|o| o.contour.bound_f64(&p))
-                    .fold(0.0, f64::max),
-            );
+            v.push(scene.obstacles.iter().map(|o| o.contour.bound_f64(&p)).fold(0.0, f64::max));
         }
     }
     v
@@ -258,12 +227,7 @@ fn mean_obstacle_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64) -> Vec<f64> {
     let means: Vec<(u16, f64)> = scene
         .params
         .iter()
-        .filter_map(|p| {
-            p.dist
-                .mean()
-                .ok()
-                .map(|m| (p.var, crate::poly::rational_to_f64(&m)))
-        })
+        .filter_map(|p| p.dist.mean().ok().map(|m| (p.var, crate::poly::rational_to_f64(&m))))
         .collect();
     let polys: Vec<crate::poly::Poly<f64>> = scene
         .obstacles
@@ -282,47 +246,23 @@ fn mean_obstacle_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64) -> Vec<f64> {
         for i in 0..g.n {
             let p = g.point(ax, i, j, t);
             vals[..layout.xt_len()].copy_from_slice(&p);
-            v.push(
-                polys
-                    .iter()
-                    .map(|q| q.eval(&vals))
-                    .fold(f64::NEG_INFINITY, f64::max),
-            );
+            v.push(polys.iter().map(|q| q.eval(&vals)).fold(f64::NEG_INFINITY, f64::max));
         }
     }
     v
 }
 
 /// Max over obstacles of the Monte Carlo estimate of Prob(P ≥ 0) on a grid.
-fn mc_grid(
-    scene: &Scene,
-    ax: &Axes,
-    g: &Grid,
-    t: f64,
-    samples: u64,
-    seed: u64,
-) -> Result<Vec<f64>, VizError> {
-    let model = scene
-        .mc_model()
-        .map_err(|e| VizError::MonteCarlo(format!("--mc: {e}")))?;
-    let pts: Vec<Vec<f64>> = (0..g.n)
-        .flat_map(|j| (0..g.n).map(move |i| (i, j)))
-        .map(|(i, j)| g.point(ax, i, j, t))
-        .collect();
+fn mc_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64, samples: u64, seed: u64) -> Result<Vec<f64>, VizError> {
+    let model = scene.mc_model().map_err(|e| VizError::MonteCarlo(format!("--mc: {e}")))?;
+    let pts: Vec<Vec<f64>> =
+        (0..g.n).flat_map(|j| (0..g.n).map(move |i| (i, j))).map(|(i, j)| g.point(ax, i, j, t)).collect();
     let hits = model.hits(&pts, samples, seed);
-    Ok(hits
-        .iter()
-        .map(|h| h.iter().copied().max().unwrap_or(0) as f64 / samples as f64)
-        .collect())
+    Ok(hits.iter().map(|h| h.iter().copied().max().unwrap_or(0) as f64 / samples as f64).collect())
 }
 
 /// Draws the contours of `scene` with `overlays` on top into `out` (`.svg` or `.png`).
-pub fn draw(
-    scene: &Scene,
-    opts: &ContourOptions,
-    overlays: &[Overlay],
-    out: &Path,
-) -> Result<(), VizError> {
+pub fn draw(scene: &Scene, opts: &ContourOptions, overlays: &[Overlay], out: &Path) -> Result<(), VizError> {
     let ax = axes(scene, &opts.slices)?;
     font::ensure_registered()?;
     let name = out.to_string_lossy().to_string();
@@ -356,10 +296,7 @@ fn rgb((r, g, b): (u8, u8, u8)) -> RGBColor {
 }
 
 fn project(ax: &Axes, p: &[f64]) -> (f64, f64) {
-    (
-        p.get(ax.a).copied().unwrap_or(0.0),
-        p.get(ax.b).copied().unwrap_or(0.0),
-    )
+    (p.get(ax.a).copied().unwrap_or(0.0), p.get(ax.b).copied().unwrap_or(0.0))
 }
 
 fn render<DB: DrawingBackend>(
@@ -376,11 +313,7 @@ where
     let win = window(scene, ax, opts);
     let (lx, ux, ly, uy) = win;
     let title = opts.title.clone().unwrap_or_else(|| {
-        let slices: Vec<String> = opts
-            .slices
-            .iter()
-            .map(|(a, v)| format!("x{}={v}", a + 1))
-            .collect();
+        let slices: Vec<String> = opts.slices.iter().map(|(a, v)| format!("x{}={v}", a + 1)).collect();
         if slices.is_empty() {
             scene.name.clone()
         } else {
@@ -412,13 +345,9 @@ where
             let dmin = opts.deltas.iter().copied().fold(f64::INFINITY, f64::min);
             let shade = RGBColor(60, 170, 90).mix(0.25);
             for (ext, holes) in mg.regions(&est, dmin + f64::EPSILON) {
-                chart
-                    .draw_series(std::iter::once(Polygon::new(ext, shade.filled())))
-                    .map_err(draw_err)?;
+                chart.draw_series(std::iter::once(Polygon::new(ext, shade.filled()))).map_err(draw_err)?;
                 for h in holes {
-                    chart
-                        .draw_series(std::iter::once(Polygon::new(h, WHITE.filled())))
-                        .map_err(draw_err)?;
+                    chart.draw_series(std::iter::once(Polygon::new(h, WHITE.filled()))).map_err(draw_err)?;
                 }
             }
             // Each Δ's true contour as a thin line in that Δ's colour.
@@ -427,18 +356,13 @@ where
                 let mut first = true;
                 for line in mg.isolines(&est, d + f64::EPSILON) {
                     let s = chart
-                        .draw_series(LineSeries::new(
-                            line,
-                            ShapeStyle::from(color.mix(0.8)).stroke_width(1),
-                        ))
+                        .draw_series(LineSeries::new(line, ShapeStyle::from(color.mix(0.8)).stroke_width(1)))
                         .map_err(draw_err)?;
                     if first && ti == 0 && di == 0 {
-                        let label = format!("Monte Carlo true contours, thin ({samples} samples/point); shaded: risk > {dmin}");
+                        let label =
+                            format!("Monte Carlo true contours, thin ({samples} samples/point); shaded: risk > {dmin}");
                         s.label(label).legend(|(x, y)| {
-                            Rectangle::new(
-                                [(x, y - 5), (x + 18, y + 5)],
-                                RGBColor(60, 170, 90).mix(0.4).filled(),
-                            )
+                            Rectangle::new([(x, y - 5), (x + 18, y + 5)], RGBColor(60, 170, 90).mix(0.4).filled())
                         });
                     }
                     first = false;
@@ -452,24 +376,16 @@ where
         let mean = mean_obstacle_grid(scene, ax, &g, t);
         for (ext, holes) in g.regions(&mean, 0.0) {
             let s = chart
-                .draw_series(std::iter::once(Polygon::new(
-                    ext,
-                    RGBColor(90, 90, 90).mix(0.35).filled(),
-                )))
+                .draw_series(std::iter::once(Polygon::new(ext, RGBColor(90, 90, 90).mix(0.35).filled())))
                 .map_err(draw_err)?;
             if first {
                 s.label("obstacle at E[ω]").legend(|(x, y)| {
-                    Rectangle::new(
-                        [(x, y - 5), (x + 18, y + 5)],
-                        RGBColor(90, 90, 90).mix(0.5).filled(),
-                    )
+                    Rectangle::new([(x, y - 5), (x + 18, y + 5)], RGBColor(90, 90, 90).mix(0.5).filled())
                 });
                 first = false;
             }
             for h in holes {
-                chart
-                    .draw_series(std::iter::once(Polygon::new(h, WHITE.mix(0.9).filled())))
-                    .map_err(draw_err)?;
+                chart.draw_series(std::iter::once(Polygon::new(h, WHITE.mix(0.9).filled()))).map_err(draw_err)?;
             }
         }
     }
@@ -478,25 +394,16 @@ where
         let b = bound_grid(scene, ax, &g, t);
         for (di, &d) in opts.deltas.iter().enumerate() {
             let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);
-            let label = if multi_time {
-                format!("Cantelli contour Δ={d}, t={t}")
-            } else {
-                format!("Cantelli contour Δ={d}")
-            };
+            let label =
+                if multi_time { format!("Cantelli contour Δ={d}, t={t}") } else { format!("Cantelli contour Δ={d}") };
             let mut first = true;
             for line in g.isolines(&b, d) {
                 let s = chart
-                    .draw_series(LineSeries::new(
-                        line,
-                        ShapeStyle::from(color).stroke_width(2),
-                    ))
+                    .draw_series(LineSeries::new(line, ShapeStyle::from(color).stroke_width(2)))
                     .map_err(draw_err)?;
                 if first && (!multi_time || di == 0) {
                     s.label(label.clone()).legend(move |(x, y)| {
-                        PathElement::new(
-                            vec![(x, y), (x + 18, y)],
-                            ShapeStyle::from(color).stroke_width(2),
-                        )
+                        PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(color).stroke_width(2))
                     });
                     first = false;
                 }
@@ -519,27 +426,15 @@ where
     Ok(())
 }
 
-type Chart<'a, DB> = ChartContext<
-    'a,
-    DB,
-    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
->;
+type Chart<'a, DB> =
+    ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>;
 
-fn draw_overlay<DB: DrawingBackend>(
-    chart: &mut Chart<'_, DB>,
-    ax: &Axes,
-    o: &Overlay,
-) -> Result<(), VizError>
+fn draw_overlay<DB: DrawingBackend>(chart: &mut Chart<'_, DB>, ax: &Axes, o: &Overlay) -> Result<(), VizError>
 where
     DB::ErrorType: 'static,
 {
     match o {
-        Overlay::Path {
-            points,
-            color,
-            width,
-            label,
-        } => {
+        Overlay::Path { points, color, width, label } => {
             let c = rgb(*color);
             let w = *width;
             let s = chart
@@ -550,54 +445,31 @@ where
                 .map_err(draw_err)?;
             if let Some(l) = label {
                 s.label(l).legend(move |(x, y)| {
-                    PathElement::new(
-                        vec![(x, y), (x + 18, y)],
-                        ShapeStyle::from(c).stroke_width(w),
-                    )
+                    PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(c).stroke_width(w))
                 });
             }
         }
-        Overlay::Segments {
-            segments,
-            color,
-            label,
-        } => {
+        Overlay::Segments { segments, color, label } => {
             let c = rgb(*color).mix(0.6);
             let s = chart
                 .draw_series(segments.iter().map(|(a, b)| {
-                    PathElement::new(
-                        vec![project(ax, a), project(ax, b)],
-                        ShapeStyle::from(c).stroke_width(1),
-                    )
+                    PathElement::new(vec![project(ax, a), project(ax, b)], ShapeStyle::from(c).stroke_width(1))
                 }))
                 .map_err(draw_err)?;
             if let Some(l) = label {
                 s.label(l).legend(move |(x, y)| {
-                    PathElement::new(
-                        vec![(x, y), (x + 18, y)],
-                        ShapeStyle::from(c).stroke_width(1),
-                    )
+                    PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(c).stroke_width(1))
                 });
             }
         }
-        Overlay::Points {
-            points,
-            color,
-            size,
-            label,
-        } => {
+        Overlay::Points { points, color, size, label } => {
             let c = rgb(*color);
             let r = *size;
             let s = chart
-                .draw_series(
-                    points
-                        .iter()
-                        .map(|p| Circle::new(project(ax, p), r, c.filled())),
-                )
+                .draw_series(points.iter().map(|p| Circle::new(project(ax, p), r, c.filled())))
                 .map_err(draw_err)?;
             if let Some(l) = label {
-                s.label(l)
-                    .legend(move |(x, y)| Circle::new((x + 9, y), r, c.filled()));
+                s.label(l).legend(move |(x, y)| Circle::new((x + 9, y), r, c.filled()));
             }
         }
     }

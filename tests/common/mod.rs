@@ -22,11 +22,7 @@ pub fn reference_files() -> Vec<PathBuf> {
         .filter(|p| p.extension().is_some_and(|x| x == "json"))
         .collect();
     v.sort();
-    assert!(
-        v.len() >= 10,
-        "expected the 10 reference scenes in {}",
-        dir.display()
-    );
+    assert!(v.len() >= 10, "expected the 10 reference scenes in {}", dir.display());
     v
 }
 

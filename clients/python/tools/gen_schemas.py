@@ -1,0 +1,553 @@
+#!/usr/bin/env python3
+"""Generates proto/schemas/*.schema.json (JSON Schema draft 2020-12) from the message
+descriptions of proto/README.md.
+
+Each schema is self-contained (shared definitions such as the scene and trajectory
+formats are copied into its `$defs`), so any validator can use one file alone.
+
+    python3 clients/python/tools/gen_schemas.py            # write the files
+    python3 clients/python/tools/gen_schemas.py --check    # exit 1 if a file is stale
+
+Conventions:
+- Requests (and the embedded scene v1 / trajectory v1 formats, whose specification says
+  so) have `additionalProperties: false`: the README says unknown fields are errors.
+  Replies are open (`additionalProperties` allowed) so that clients stay compatible
+  with servers that add fields.
+- The schemas encode the types and the value ranges and limits the README states.
+  A payload that fails a *type* (wrong JSON type, unknown field, missing field) is
+  answered `malformed_payload` by the server; one that fails a *range* (Δ ∉ (0,1),
+  time limit ≤ 0, ...) is answered `invalid_request`, and one over a *limit*
+  (points, grid side) `limit_exceeded`.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import sys
+from pathlib import Path
+
+DIALECT = "https://json-schema.org/draft/2020-12/schema"
+BASE = "https://riskplan.invalid/proto/v1/"
+
+ROOT = Path(__file__).resolve().parents[3]
+OUT = ROOT / "proto" / "schemas"
+
+U64 = {"type": "integer", "minimum": 0, "maximum": 18446744073709551615}
+NUMBER = {"type": "number"}
+VECTOR = {"type": "array", "items": {"type": "number"}, "minItems": 1, "description": "a point: one coordinate per dimension of the scene"}
+SCENE_NAME = {
+    "type": "string",
+    "pattern": "^[A-Za-z0-9_.\\-]{1,128}$",
+    "description": "a scene name: 1-128 characters from A-Z a-z 0-9 _ - .",
+}
+ERROR_CODES = [
+    "malformed_payload",
+    "unsupported_encoding",
+    "payload_too_large",
+    "limit_exceeded",
+    "invalid_scene_name",
+    "unknown_scene",
+    "invalid_scene",
+    "invalid_request",
+    "invalid_trajectory",
+    "outside_workspace",
+    "unsafe_endpoint",
+    "no_plan",
+    "busy",
+    "internal",
+]
+
+# ---------------------------------------------------------------------------------
+# Shared definitions
+# ---------------------------------------------------------------------------------
+
+DEFS = {
+    "exact_number": {
+        "description": "a number of a scene file, read exactly: a JSON number (read through its shortest decimal text, so 0.3 is 3/10) or a string holding a decimal or a fraction such as \"37/300\"",
+        "anyOf": [
+            {"type": "number"},
+            {
+                "type": "string",
+                "pattern": "^\\s*[+-]?([0-9]+(\\.[0-9]*)?|\\.[0-9]+)([eE][+-]?[0-9]+)?\\s*(/\\s*[+-]?([0-9]+(\\.[0-9]*)?|\\.[0-9]+)([eE][+-]?[0-9]+)?\\s*)?$",
+            },
+        ],
+    },
+    "distribution": {
+        "description": "an uncertain parameter's distribution (scene format v1), tagged by `dist`",
+        "type": "object",
+        "required": ["dist"],
+        "properties": {"dist": {"enum": ["uniform", "normal", "beta", "gamma", "exponential", "laplace", "discrete", "moments"]}},
+        "oneOf": [
+            {
+                "properties": {"dist": {"const": "uniform"}, "low": {"$ref": "#/$defs/exact_number"}, "high": {"$ref": "#/$defs/exact_number"}},
+                "required": ["dist", "low", "high"],
+                "additionalProperties": False,
+            },
+            {
+                "properties": {"dist": {"const": "normal"}, "mean": {"$ref": "#/$defs/exact_number"}, "std": {"$ref": "#/$defs/exact_number", "description": "standard deviation, not variance"}},
+                "required": ["dist", "mean", "std"],
+                "additionalProperties": False,
+            },
+            {
+                "properties": {
+                    "dist": {"const": "beta"},
+                    "alpha": {"$ref": "#/$defs/exact_number"},
+                    "beta": {"$ref": "#/$defs/exact_number"},
+                    "low": {"$ref": "#/$defs/exact_number", "description": "default 0"},
+                    "high": {"$ref": "#/$defs/exact_number", "description": "default 1"},
+                },
+                "required": ["dist", "alpha", "beta"],
+                "additionalProperties": False,
+            },
+            {
+                "properties": {"dist": {"const": "gamma"}, "shape": {"$ref": "#/$defs/exact_number"}, "scale": {"$ref": "#/$defs/exact_number"}},
+                "required": ["dist", "shape", "scale"],
+                "additionalProperties": False,
+            },
+            {
+                "properties": {"dist": {"const": "exponential"}, "rate": {"$ref": "#/$defs/exact_number"}},
+                "required": ["dist", "rate"],
+                "additionalProperties": False,
+            },
+            {
+                "properties": {"dist": {"const": "laplace"}, "mean": {"$ref": "#/$defs/exact_number"}, "scale": {"$ref": "#/$defs/exact_number"}},
+                "required": ["dist", "mean", "scale"],
+                "additionalProperties": False,
+            },
+            {
+                "properties": {
+                    "dist": {"const": "discrete"},
+                    "values": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1},
+                    "weights": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "description": "probabilities, summing to 1"},
+                },
+                "required": ["dist", "values", "weights"],
+                "additionalProperties": False,
+            },
+            {
+                "properties": {
+                    "dist": {"const": "moments"},
+                    "raw": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "description": "E[w^1], E[w^2], ..."},
+                },
+                "required": ["dist", "raw"],
+                "additionalProperties": False,
+            },
+        ],
+    },
+    "params": {
+        "description": "uncertain parameters by name (every identifier of a polynomial other than x1..x{dim} and t)",
+        "type": "object",
+        "propertyNames": {"pattern": "^[A-Za-z_][A-Za-z0-9_]*$"},
+        "additionalProperties": {"$ref": "#/$defs/distribution"},
+    },
+    "polynomial": {
+        "type": "string",
+        "minLength": 1,
+        "description": "polynomial text: numbers (0.3, 1e-3, 37/300), identifiers (x1..x{dim}, t, parameters), + - * ^, parentheses, unary minus; ^ takes a non-negative integer literal; / divides by a numeric constant only. The obstacle is the set where poly >= 0.",
+    },
+    "obstacle_id": {
+        "type": "string",
+        "minLength": 1,
+        "description": "an obstacle id, unique in its scene (it is also a key-expression chunk in riskplan/scenes/<scene>/obstacles/<id>, so it should avoid / * $ ? #)",
+    },
+    "scene": {
+        "description": "a scene, scene format v1 (shared/reference/README.md); unknown top-level fields are errors. Limits: dim <= 8, degree <= 8 in (x, t) and per parameter, <= 2000 terms per obstacle, <= 512 obstacles.",
+        "type": "object",
+        "required": ["format", "name", "dim", "workspace", "horizon", "risk", "obstacles"],
+        "additionalProperties": False,
+        "properties": {
+            "format": {"const": "riskplan-scene/1"},
+            "name": {"type": "string"},
+            "description": {"type": "string"},
+            "dim": {"type": "integer", "minimum": 1, "maximum": 8},
+            "workspace": {
+                "type": "object",
+                "required": ["lower", "upper"],
+                "additionalProperties": False,
+                "properties": {
+                    "lower": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "maxItems": 8},
+                    "upper": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "maxItems": 8},
+                },
+            },
+            "horizon": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 2, "maxItems": 2, "description": "[t0, tf]"},
+            "risk": {"$ref": "#/$defs/exact_number", "description": "Δ in (0, 1): the bound on the probability of collision with each obstacle at every instant"},
+            "risk_levels": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}},
+            "params": {"$ref": "#/$defs/params"},
+            "obstacles": {
+                "type": "array",
+                "maxItems": 512,
+                "items": {
+                    "type": "object",
+                    "required": ["id", "poly"],
+                    "additionalProperties": False,
+                    "properties": {"id": {"$ref": "#/$defs/obstacle_id"}, "poly": {"$ref": "#/$defs/polynomial"}},
+                },
+            },
+            "start": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "maxItems": 8, "description": "x(t0); absent in contour-only scenes"},
+            "goal": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "maxItems": 8, "description": "x(tf); absent in contour-only scenes"},
+            "planner": {"description": "free form: planner parameters (the rrt_sos block is read by the planner)"},
+            "expected": {"description": "free form: what the paper reports"},
+            "notes": {"type": "array", "items": {"type": "string"}},
+        },
+    },
+    "piece": {
+        "description": "one polynomial piece x_d(t) = Σ_k coeffs[d][k]·t^k on [t0, t1], in absolute time",
+        "type": "object",
+        "required": ["t0", "t1", "coeffs"],
+        "additionalProperties": False,
+        "properties": {
+            "t0": NUMBER,
+            "t1": NUMBER,
+            "coeffs": {
+                "type": "array",
+                "minItems": 1,
+                "description": "one row per dimension; row d holds the coefficients of t^0, t^1, ... (degree <= 8)",
+                "items": {"type": "array", "items": {"type": "number"}, "minItems": 1, "maxItems": 9},
+            },
+        },
+    },
+    "trajectory": {
+        "description": "a trajectory, format v1: contiguous pieces (at most 10 000). The optional fields of a plan's output (planner, certified, stats, revision, scene, risk) may be present, so a plan_reply can be sent back as it is.",
+        "type": "object",
+        "required": ["format", "pieces"],
+        "additionalProperties": False,
+        "properties": {
+            "format": {"const": "riskplan-trajectory/1"},
+            "pieces": {"type": "array", "minItems": 1, "maxItems": 10000, "items": {"$ref": "#/$defs/piece"}},
+            "planner": {"type": "string"},
+            "certified": {"type": "boolean"},
+            "stats": {"type": "object"},
+            "revision": U64,
+            "scene": {"type": "string"},
+            "risk": NUMBER,
+        },
+    },
+    "method": {"enum": ["exact", "sos", "both"]},
+    "delta": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 1, "description": "risk level Δ in (0, 1); default: the scene's"},
+    "status": {"enum": ["safe", "unsafe", "undecided"]},
+    "witness": {
+        "description": "a time at which a constraint is <= 0 (absolute time) and the constraint's value there",
+        "anyOf": [
+            {"type": "null"},
+            {"type": "object", "required": ["t", "value"], "properties": {"t": NUMBER, "value": NUMBER}},
+        ],
+    },
+    "method_report": {
+        "type": "object",
+        "required": ["status"],
+        "properties": {
+            "status": {"$ref": "#/$defs/status"},
+            "margin": {"type": ["number", "null"]},
+            "witness": {"$ref": "#/$defs/witness"},
+            "reason": {"type": "string"},
+        },
+    },
+    "constraint_report": {
+        "type": "object",
+        "required": ["name", "status", "method"],
+        "properties": {
+            "name": {"enum": ["mean", "cantelli"], "description": "mean: −E[P] > 0; cantelli: E[P]² − (1−Δ)E[P²] > 0"},
+            "status": {"$ref": "#/$defs/status"},
+            "margin": {"type": ["number", "null"], "description": "proven lower bound on the constraint's minimum over the piece (safe), or the witness value (unsafe)"},
+            "witness": {"$ref": "#/$defs/witness"},
+            "method": {"type": "string"},
+            "reason": {"type": "string", "description": "why undecided"},
+            "methods": {
+                "type": "array",
+                "description": "per method, with method both: [name, report] pairs",
+                "items": {"type": "array", "prefixItems": [{"type": "string"}, {"$ref": "#/$defs/method_report"}], "minItems": 2, "maxItems": 2},
+            },
+        },
+    },
+    "piece_report": {
+        "type": "object",
+        "required": ["t0", "t1", "safe", "workspace", "obstacles"],
+        "properties": {
+            "t0": NUMBER,
+            "t1": NUMBER,
+            "safe": {"type": "boolean"},
+            "workspace": {
+                "type": "object",
+                "required": ["status"],
+                "properties": {"status": {"$ref": "#/$defs/status"}, "witness": {"$ref": "#/$defs/witness"}},
+            },
+            "obstacles": {
+                "type": "array",
+                "items": {
+                    "type": "object",
+                    "required": ["id", "status", "constraints"],
+                    "properties": {
+                        "id": {"type": "string"},
+                        "status": {"$ref": "#/$defs/status"},
+                        "constraints": {"type": "array", "items": {"$ref": "#/$defs/constraint_report"}},
+                    },
+                },
+            },
+        },
+    },
+    "counter": {
+        "type": "object",
+        "required": ["served", "failed"],
+        "properties": {"served": U64, "failed": U64},
+    },
+}
+
+# which definitions each definition uses (to copy only what a schema needs)
+def _refs(node, acc):
+    if isinstance(node, dict):
+        for k, v in node.items():
+            if k == "$ref" and isinstance(v, str) and v.startswith("#/$defs/"):
+                name = v[len("#/$defs/"):]
+                if name not in acc:
+                    acc.add(name)
+                    _refs(DEFS[name], acc)
+            else:
+                _refs(v, acc)
+    elif isinstance(node, list):
+        for v in node:
+            _refs(v, acc)
+    return acc
+
+
+def ref(name):
+    return {"$ref": f"#/$defs/{name}"}
+
+
+# ---------------------------------------------------------------------------------
+# Messages
+# ---------------------------------------------------------------------------------
+
+CHANGE_PUT = {
+    "type": "object",
+    "required": ["op", "id", "poly"],
+    "additionalProperties": False,
+    "properties": {
+        "op": {"const": "put"},
+        "id": ref("obstacle_id"),
+        "poly": ref("polynomial"),
+        "params": {**ref("params"), "description": "declares or replaces the parameters the obstacle introduces (scene format parameter syntax)"},
+    },
+}
+CHANGE_DELETE = {
+    "type": "object",
+    "required": ["op", "id"],
+    "additionalProperties": False,
+    "properties": {"op": {"const": "delete"}, "id": ref("obstacle_id")},
+}
+
+MESSAGES = {
+    "apply_request": {
+        "title": "apply_request",
+        "description": "get on riskplan/scenes/<scene>/apply. Either a whole scene (replace it, creating it if needed) or a list of obstacle changes applied atomically, in order, to an existing scene. The reply (apply_reply) is sent after the update is persisted.",
+        "type": "object",
+        "additionalProperties": False,
+        "properties": {
+            "scene": ref("scene"),
+            "changes": {"type": "array", "items": {"oneOf": [CHANGE_PUT, CHANGE_DELETE]}},
+        },
+        "oneOf": [{"required": ["scene"]}, {"required": ["changes"]}],
+    },
+    "apply_reply": {
+        "title": "apply_reply",
+        "description": "reply to apply_request, sent after the update is persisted",
+        "type": "object",
+        "required": ["scene", "revision"],
+        "properties": {"scene": SCENE_NAME, "revision": U64},
+    },
+    "obstacle_put": {
+        "title": "obstacle_put",
+        "description": "put on riskplan/scenes/<scene>/obstacles/<id>: add or replace one obstacle (no reply; a put that fails validation is counted in status requests.put.failed)",
+        "type": "object",
+        "required": ["poly"],
+        "additionalProperties": False,
+        "properties": {"poly": ref("polynomial"), "params": ref("params")},
+    },
+    "plan_request": {
+        "title": "plan_request",
+        "description": "get on riskplan/scenes/<scene>/plan. Every field is optional. Defaults: the scene's start and goal, rrt-sos, 10 s (capped by the server's --max-plan-seconds), seed 1, the scene's planner block, no improve, the scene's Δ, exact.",
+        "type": "object",
+        "additionalProperties": False,
+        "properties": {
+            "start": VECTOR,
+            "goal": VECTOR,
+            "planner": {"enum": ["rrt-sos", "mc-rrt"]},
+            "time_limit": {"type": "number", "exclusiveMinimum": 0, "description": "seconds (> 0); the server caps it at --max-plan-seconds"},
+            "seed": U64,
+            "pieces": {"type": "integer", "minimum": 1, "description": "pieces of the time-layered planner (forces it)"},
+            "improve": {"type": "boolean", "description": "the improve step (static scenes)"},
+            "delta": ref("delta"),
+            "certifier": ref("method"),
+        },
+    },
+    "plan_reply": {
+        "title": "plan_reply",
+        "description": "reply to plan_request: a trajectory (format v1) with its provenance",
+        "type": "object",
+        "required": ["format", "pieces", "planner", "certified", "stats", "revision", "scene", "risk"],
+        "properties": {
+            "format": {"const": "riskplan-trajectory/1"},
+            "pieces": {"type": "array", "minItems": 1, "items": ref("piece")},
+            "planner": {"enum": ["rrt-sos", "mc-rrt"]},
+            "certified": {"type": "boolean", "description": "every piece proven safe (always false for mc-rrt)"},
+            "stats": {
+                "type": "object",
+                "required": ["planning_time_s", "iterations", "edges_checked"],
+                "properties": {
+                    "planning_time_s": {"type": "number", "minimum": 0},
+                    "iterations": U64,
+                    "edges_checked": U64,
+                },
+            },
+            "revision": U64,
+            "scene": {"type": "string"},
+            "risk": {"type": "number", "description": "Δ used"},
+        },
+    },
+    "verify_request": {
+        "title": "verify_request",
+        "description": "get on riskplan/scenes/<scene>/verify: a trajectory (format v1) or one straight segment (default over the scene's horizon)",
+        "type": "object",
+        "additionalProperties": False,
+        "properties": {
+            "trajectory": ref("trajectory"),
+            "segment": {
+                "type": "object",
+                "required": ["from", "to"],
+                "additionalProperties": False,
+                "properties": {
+                    "from": VECTOR,
+                    "to": VECTOR,
+                    "t0": {"type": "number", "description": "default: the horizon's start"},
+                    "t1": {"type": "number", "description": "default: the horizon's end"},
+                },
+            },
+            "method": ref("method"),
+            "delta": ref("delta"),
+        },
+        "oneOf": [{"required": ["trajectory"]}, {"required": ["segment"]}],
+    },
+    "verify_reply": {
+        "title": "verify_reply",
+        "description": "reply to verify_request: the report of `riskplan verify`, plus the scene revision",
+        "type": "object",
+        "required": ["safe", "method", "risk", "pieces", "revision"],
+        "properties": {
+            "safe": {"type": "boolean", "description": "every piece certified safe (undecided counts as not safe)"},
+            "method": ref("method"),
+            "risk": {"type": "number", "description": "Δ used"},
+            "pieces": {"type": "array", "items": ref("piece_report")},
+            "revision": U64,
+        },
+    },
+    "risk_request": {
+        "title": "risk_request",
+        "description": "get on riskplan/scenes/<scene>/risk: Cantelli bounds at points, or on an N×N grid over the first two axes (other coordinates at `lower`), at one time (default: the horizon's start)",
+        "type": "object",
+        "additionalProperties": False,
+        "properties": {
+            "points": {"type": "array", "maxItems": 100000, "items": VECTOR, "description": "at most 100 000 points"},
+            "grid": {
+                "type": "object",
+                "required": ["lower", "upper", "n"],
+                "additionalProperties": False,
+                "properties": {
+                    "lower": VECTOR,
+                    "upper": VECTOR,
+                    "n": {"type": "integer", "minimum": 2, "maximum": 500, "description": "points per side (grid side <= 500)"},
+                },
+            },
+            "time": {"type": "number"},
+        },
+        "oneOf": [{"required": ["points"]}, {"required": ["grid"]}],
+    },
+    "risk_reply": {
+        "title": "risk_reply",
+        "description": "reply to risk_request. Bounds are the Cantelli bounds (floating point, for displays), one per point; `bounds` is the max over obstacles.",
+        "type": "object",
+        "required": ["revision", "time", "points", "bounds", "obstacles"],
+        "properties": {
+            "revision": U64,
+            "time": NUMBER,
+            "points": {"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
+            "bounds": {"type": "array", "items": {"type": "number"}},
+            "obstacles": {"type": "object", "additionalProperties": {"type": "array", "items": {"type": "number"}}},
+        },
+    },
+    "scene_reply": {
+        "title": "scene_reply",
+        "description": "reply to a get on riskplan/scenes/<scene>",
+        "type": "object",
+        "required": ["name", "revision", "scene"],
+        "properties": {"name": SCENE_NAME, "revision": U64, "scene": ref("scene")},
+    },
+    "status_reply": {
+        "title": "status_reply",
+        "description": "reply to a get on riskplan/status",
+        "type": "object",
+        "required": ["uptime_s", "scenes", "cache", "queue", "requests"],
+        "properties": {
+            "uptime_s": {"type": "number", "minimum": 0},
+            "scenes": {
+                "type": "array",
+                "items": {
+                    "type": "object",
+                    "required": ["name", "revision", "obstacles"],
+                    "properties": {"name": SCENE_NAME, "revision": U64, "obstacles": {**U64, "description": "number of obstacles"}},
+                },
+            },
+            "cache": {"type": "object", "required": ["entries", "hits", "misses"], "properties": {"entries": U64, "hits": U64, "misses": U64}},
+            "queue": {
+                "type": "object",
+                "required": ["depth", "running", "workers", "capacity"],
+                "properties": {"depth": U64, "running": U64, "workers": U64, "capacity": U64},
+            },
+            "requests": {"type": "object", "description": "per request kind (e.g. put)", "additionalProperties": ref("counter")},
+        },
+    },
+    "error": {
+        "title": "error",
+        "description": "the payload of every reply_err",
+        "type": "object",
+        "required": ["code", "message", "field"],
+        "properties": {
+            "code": {"enum": ERROR_CODES},
+            "message": {"type": "string"},
+            "field": {"type": ["string", "null"], "description": "a JSON path of the field at fault, or null"},
+        },
+    },
+}
+
+
+def build(name: str) -> dict:
+    body = copy.deepcopy(MESSAGES[name])
+    schema = {"$schema": DIALECT, "$id": f"{BASE}{name}.schema.json"}
+    schema.update(body)
+    used = sorted(_refs(body, set()))
+    if used:
+        schema["$defs"] = {k: copy.deepcopy(DEFS[k]) for k in used}
+    return schema
+
+
+def render(name: str) -> str:
+    return json.dumps(build(name), indent=2, ensure_ascii=False) + "\n"
+
+
+def main(argv: list[str]) -> int:
+    check = "--check" in argv
+    stale = []
+    OUT.mkdir(parents=True, exist_ok=True)
+    for name in MESSAGES:
+        path = OUT / f"{name}.schema.json"
+        text = render(name)
+        if check:
+            if not path.exists() or path.read_text() != text:
+                stale.append(str(path))
+        else:
+            path.write_text(text)
+    if stale:
+        print("stale schemas (run clients/python/tools/gen_schemas.py):", *stale, sep="\n  ")
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,199 @@
+//! `riskplan client ...`: talk to a running `riskplan serve`.
+
+use super::util::{print_out, CliError};
+use clap::{Args, Subcommand};
+use riskplan::service::proto::*;
+use riskplan::service::{Client, ClientError};
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Talk to a running server: put scenes, apply updates, plan, verify, query risk.
+#[derive(Args, Debug)]
+pub struct ClientArgs {
+    /// The server's endpoint.
+    #[arg(long, default_value = "tcp/127.0.0.1:7447", global = true)]
+    endpoint: String,
+    /// Query timeout in seconds (a plan adds its own time limit).
+    #[arg(long, default_value_t = 30.0, global = true)]
+    timeout: f64,
+    /// Speak JSON instead of bincode.
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    command: ClientCommand,
+}
+
+#[derive(Subcommand, Debug)]
+enum ClientCommand {
+    /// Put a whole scene file (fire and forget; prefer `apply` for an acknowledgement).
+    Put {
+        /// Scene name on the server.
+        #[arg(long)]
+        scene: String,
+        /// Scene file (format v1).
+        #[arg(long)]
+        file: PathBuf,
+    },
+    /// Acknowledged update: a whole scene (--file) or obstacle changes (--changes, a JSON list).
+    Apply {
+        /// Scene name on the server.
+        #[arg(long)]
+        scene: String,
+        /// Scene file (format v1).
+        #[arg(long, conflicts_with = "changes")]
+        file: Option<PathBuf>,
+        /// JSON file with a list of changes [{"op": "put", "id", "poly", "params"?} | {"op": "delete", "id"}].
+        #[arg(long)]
+        changes: Option<PathBuf>,
+    },
+    /// Plan on a scene; prints the trajectory.
+    Plan {
+        /// Scene name on the server.
+        #[arg(long)]
+        scene: String,
+        /// rrt-sos or mc-rrt.
+        #[arg(long, default_value = "rrt-sos")]
+        planner: String,
+        /// Time limit, seconds.
+        #[arg(long, default_value_t = 10.0)]
+        time_limit: f64,
+        /// Seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Pieces (layered planner).
+        #[arg(long)]
+        pieces: Option<u64>,
+        /// Improve step (static scenes).
+        #[arg(long)]
+        improve: bool,
+        /// Write the trajectory here instead of stdout.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Verify a trajectory file or a segment (--from ... --to ...). Exit 1 when not safe.
+    Verify {
+        /// Scene name on the server.
+        #[arg(long)]
+        scene: String,
+        /// Trajectory file.
+        #[arg(long)]
+        trajectory: Option<PathBuf>,
+        /// Segment start.
+        #[arg(long, num_args = 1.., allow_negative_numbers = true)]
+        from: Vec<f64>,
+        /// Segment end.
+        #[arg(long, num_args = 1.., allow_negative_numbers = true)]
+        to: Vec<f64>,
+        /// exact, sos or both.
+        #[arg(long)]
+        method: Option<String>,
+    },
+    /// Risk bound at a point.
+    Risk {
+        /// Scene name on the server.
+        #[arg(long)]
+        scene: String,
+        /// The point.
+        #[arg(long, num_args = 1.., allow_negative_numbers = true, required = true)]
+        point: Vec<f64>,
+        /// Time.
+        #[arg(long)]
+        time: Option<f64>,
+    },
+    /// The scene and its revision.
+    Get {
+        /// Scene name on the server.
+        #[arg(long)]
+        scene: String,
+    },
+    /// Server status.
+    Status,
+}
+
+fn read_json(p: &PathBuf) -> Result<serde_json::Value, CliError> {
+    let t = std::fs::read_to_string(p).map_err(|e| CliError(format!("{}: cannot read: {e}", p.display())))?;
+    serde_json::from_str(&t).map_err(|e| CliError(format!("{}: {e}", p.display())))
+}
+
+fn show<T: serde::Serialize>(v: &T) -> Result<(), CliError> {
+    print_out(&serde_json::to_string_pretty(v).map_err(|e| CliError(e.to_string()))?)
+}
+
+pub fn run(a: ClientArgs) -> Result<i32, CliError> {
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().map_err(|e| CliError(e.to_string()))?;
+    rt.block_on(async move {
+        let codec = if a.json { Codec::Json } else { Codec::Bincode };
+        let client = Client::connect(&a.endpoint, Duration::from_secs_f64(a.timeout.max(0.1)), codec).await.map_err(err)?;
+        let code = exec(&client, a.command).await;
+        client.close().await;
+        code
+    })
+}
+
+fn err(e: ClientError) -> CliError {
+    CliError(e.to_string())
+}
+
+async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
+    match cmd {
+        ClientCommand::Put { scene, file } => {
+            client.put_scene(&scene, &read_json(&file)?).await.map_err(err)?;
+            eprintln!("put riskplan/scenes/{scene} (not acknowledged; use `client apply` to wait for persistence)");
+            Ok(0)
+        }
+        ClientCommand::Apply { scene, file, changes } => {
+            let req = match (file, changes) {
+                (Some(f), None) => ApplyRequest { scene: Some(EmbeddedJson(read_json(&f)?)), changes: None },
+                (None, Some(c)) => {
+                    let ch: Vec<Change> = serde_json::from_value(read_json(&c)?).map_err(|e| CliError(format!("{}: {e}", c.display())))?;
+                    ApplyRequest { scene: None, changes: Some(ch) }
+                }
+                _ => return Err(CliError("give --file or --changes".into())),
+            };
+            show(&client.apply(&scene, &req).await.map_err(err)?)?;
+            Ok(0)
+        }
+        ClientCommand::Plan { scene, planner, time_limit, seed, pieces, improve, out } => {
+            let req = PlanRequest { planner: Some(planner), time_limit: Some(time_limit), seed: Some(seed), pieces, improve: Some(improve), ..Default::default() };
+            match client.plan(&scene, &req).await {
+                Ok(r) => {
+                    eprintln!("{}: plan ({}) at revision {}, {} pieces, {:.3} s", r.planner, if r.certified { "certified" } else { "NOT certified" }, r.revision, r.pieces.len(), r.stats.planning_time_s);
+                    let text = serde_json::to_string_pretty(&r).map_err(|e| CliError(e.to_string()))?;
+                    match out {
+                        Some(p) => std::fs::write(&p, text + "\n").map_err(|e| CliError(format!("{}: {e}", p.display())))?,
+                        None => print_out(&text)?,
+                    }
+                    Ok(0)
+                }
+                Err(ClientError::Server(e)) if e.code == "no_plan" => {
+                    eprintln!("no_plan: {}", e.message);
+                    Ok(1)
+                }
+                Err(e) => Err(err(e)),
+            }
+        }
+        ClientCommand::Verify { scene, trajectory, from, to, method } => {
+            let mut req = VerifyRequest { method, ..Default::default() };
+            match trajectory {
+                Some(p) => req.trajectory = Some(riskplan::scene::Trajectory::from_json(&read_json(&p)?.to_string()).map_err(|e| CliError(format!("{}: {e}", p.display())))?),
+                None if !from.is_empty() && !to.is_empty() => req.segment = Some(Segment { from, to, t0: None, t1: None }),
+                None => return Err(CliError("give --trajectory or --from ... --to ...".into())),
+            }
+            let r = client.verify(&scene, &req).await.map_err(err)?;
+            show(&r)?;
+            Ok(if r.safe { 0 } else { 1 })
+        }
+        ClientCommand::Risk { scene, point, time } => {
+            show(&client.risk(&scene, &RiskRequest { points: Some(vec![point]), grid: None, time }).await.map_err(err)?)?;
+            Ok(0)
+        }
+        ClientCommand::Get { scene } => {
+            show(&client.get_scene(&scene).await.map_err(err)?)?;
+            Ok(0)
+        }
+        ClientCommand::Status => {
+            show(&client.status().await.map_err(err)?)?;
+            Ok(0)
+        }
+    }
+}

@@ -1,0 +1,87 @@
+//! `riskplan serve`: the Zenoh planning service (the main job).
+
+use super::util::CliError;
+use clap::Args;
+use riskplan::service::{serve, ServerConfig};
+use std::path::PathBuf;
+
+/// Run the planning service over Zenoh (see proto/README.md for the protocol).
+///
+/// By default a Zenoh peer listens on tcp/127.0.0.1:7447 with multicast scouting off,
+/// and scenes are persisted under --data. Queries (apply, plan, verify, risk, status)
+/// are answered concurrently; certification and planning run on a bounded pool of
+/// --workers threads, and a query that finds --queue jobs already waiting is answered
+/// at once with the error "busy". Stops cleanly on SIGINT or SIGTERM.
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// A Zenoh JSON5 configuration file (the flags below override it).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Endpoints to listen on (default tcp/127.0.0.1:7447 without --config).
+    #[arg(long)]
+    listen: Vec<String>,
+    /// Endpoints to connect to (routers or peers).
+    #[arg(long)]
+    connect: Vec<String>,
+    /// Data directory: acknowledged scene updates are persisted here.
+    #[arg(long, default_value = "riskplan-data")]
+    data: PathBuf,
+    /// Load every *.json scene of this directory at start (name = file stem), unless stored already.
+    #[arg(long)]
+    preload: Option<PathBuf>,
+    /// Worker threads for certification and planning (default: the number of cores).
+    #[arg(long)]
+    workers: Option<usize>,
+    /// Jobs that may wait for a worker before queries are answered "busy".
+    #[arg(long, default_value_t = 64)]
+    queue: usize,
+    /// Cap on a plan request's time limit, in seconds.
+    #[arg(long, default_value_t = 60.0)]
+    max_plan_seconds: f64,
+    /// Log as JSON lines instead of human-readable text.
+    #[arg(long)]
+    log_json: bool,
+}
+
+pub fn run(a: ServeArgs) -> Result<i32, CliError> {
+    let filter = tracing_subscriber::EnvFilter::try_from_env("RISKPLAN_LOG").unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn"));
+    let builder = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr);
+    let _ = if a.log_json { builder.json().try_init() } else { builder.try_init() };
+    let z = |e: zenoh::Error| CliError(format!("zenoh configuration: {e}"));
+    let mut cfg = match &a.config {
+        Some(p) => zenoh::Config::from_file(p).map_err(|e| CliError(format!("--config {}: {e}", p.display())))?,
+        None => {
+            let mut c = zenoh::Config::default();
+            c.insert_json5("mode", r#""peer""#).map_err(z)?;
+            c.insert_json5("scouting/multicast/enabled", "false").map_err(z)?;
+            c
+        }
+    };
+    let listen = if a.listen.is_empty() && a.config.is_none() { vec!["tcp/127.0.0.1:7447".to_string()] } else { a.listen.clone() };
+    if !listen.is_empty() {
+        cfg.insert_json5("listen/endpoints", &serde_json::to_string(&listen).unwrap_or_default()).map_err(z)?;
+    }
+    if !a.connect.is_empty() {
+        cfg.insert_json5("connect/endpoints", &serde_json::to_string(&a.connect).unwrap_or_default()).map_err(z)?;
+    }
+    if !(a.max_plan_seconds > 0.0 && a.max_plan_seconds.is_finite()) {
+        return Err(CliError("--max-plan-seconds must be positive".into()));
+    }
+    let preload = match &a.preload {
+        Some(dir) => {
+            let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+                .map_err(|e| CliError(format!("--preload {}: {e}", dir.display())))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "json"))
+                .collect();
+            v.sort();
+            v
+        }
+        None => vec![],
+    };
+    let workers = a.workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(2));
+    let config = ServerConfig { zenoh: cfg, data: a.data, preload, workers, queue: a.queue, max_plan_seconds: a.max_plan_seconds, listen };
+    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().max_blocking_threads(workers.max(1) + 4).build().map_err(|e| CliError(e.to_string()))?;
+    rt.block_on(serve(config)).map_err(CliError)?;
+    Ok(0)
+}

@@ -1,0 +1,141 @@
+//! A Rust client of the service (bincode by default, JSON on request).
+
+use super::proto::*;
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use std::time::Duration;
+use thiserror::Error;
+use zenoh::bytes::Encoding;
+use zenoh::query::{ConsolidationMode, QueryTarget};
+
+/// What can go wrong with a request.
+#[derive(Debug, Error)]
+pub enum ClientError {
+    /// Zenoh could not connect or send.
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+    /// The server answered with a typed error.
+    #[error("{}: {}{}", .0.code, .0.message, .0.field.as_ref().map(|f| format!(" (field {f})")).unwrap_or_default())]
+    Server(ErrorReply),
+    /// No reply at all: no server, or it died during the query.
+    #[error("no reply: is `riskplan serve` running and reachable?")]
+    NoReply,
+    /// The query timed out.
+    #[error("the query timed out")]
+    Timeout,
+    /// A reply that does not decode.
+    #[error("cannot decode the reply: {0}")]
+    Decode(String),
+}
+
+/// A connection to a riskplan server.
+pub struct Client {
+    session: zenoh::Session,
+    codec: Codec,
+    timeout: Duration,
+}
+
+impl Client {
+    /// Connects in client mode to `endpoint` (e.g. `tcp/127.0.0.1:7447`), multicast off.
+    pub async fn connect(endpoint: &str, timeout: Duration, codec: Codec) -> Result<Client, ClientError> {
+        let z = |e: zenoh::Error| ClientError::Zenoh(e.to_string());
+        let mut c = zenoh::Config::default();
+        c.insert_json5("mode", r#""client""#).map_err(z)?;
+        c.insert_json5("connect/endpoints", &serde_json::to_string(&[endpoint]).unwrap_or_default()).map_err(z)?;
+        c.insert_json5("scouting/multicast/enabled", "false").map_err(z)?;
+        let session = zenoh::open(c).await.map_err(z)?;
+        Ok(Client { session, codec, timeout })
+    }
+
+    async fn query<Req: Serialize, Rep: DeserializeOwned>(&self, key: &str, req: Option<&Req>, timeout: Duration) -> Result<Rep, ClientError> {
+        let enc = match self.codec {
+            Codec::Json => Encoding::APPLICATION_JSON,
+            Codec::Bincode => Encoding::from(BINCODE),
+        };
+        let mut get = self.session.get(key).consolidation(ConsolidationMode::None).target(QueryTarget::BestMatching).timeout(timeout);
+        if let Some(r) = req {
+            get = get.payload(self.codec.encode(r)).encoding(enc);
+        }
+        let replies = get.await.map_err(|e| ClientError::Zenoh(e.to_string()))?;
+        let Ok(reply) = replies.recv_async().await else { return Err(ClientError::NoReply) };
+        match reply.result() {
+            Ok(sample) => {
+                let codec = Codec::from_encoding(&sample.encoding().to_string()).unwrap_or(self.codec);
+                codec.decode(&sample.payload().to_bytes()).map_err(|(m, _)| ClientError::Decode(m))
+            }
+            Err(err) => {
+                let codec = Codec::from_encoding(&err.encoding().to_string()).unwrap_or(Codec::Json);
+                match codec.decode::<ErrorReply>(&err.payload().to_bytes()) {
+                    Ok(e) => Err(ClientError::Server(e)),
+                    Err(_) => {
+                        let text = err.payload().try_to_string().map(|s| s.to_string()).unwrap_or_default();
+                        if text.contains("Timeout") {
+                            Err(ClientError::Timeout)
+                        } else {
+                            Err(ClientError::Decode(text))
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Puts a whole scene (fire and forget).
+    pub async fn put_scene(&self, name: &str, scene: &serde_json::Value) -> Result<(), ClientError> {
+        self.session
+            .put(format!("riskplan/scenes/{name}"), scene.to_string())
+            .encoding(Encoding::APPLICATION_JSON)
+            .await
+            .map_err(|e| ClientError::Zenoh(e.to_string()))
+    }
+
+    /// Puts one obstacle (fire and forget).
+    pub async fn update_obstacle(&self, name: &str, id: &str, put: &ObstaclePut) -> Result<(), ClientError> {
+        self.session
+            .put(format!("riskplan/scenes/{name}/obstacles/{id}"), Codec::Json.encode(put))
+            .encoding(Encoding::APPLICATION_JSON)
+            .await
+            .map_err(|e| ClientError::Zenoh(e.to_string()))
+    }
+
+    /// Deletes one obstacle (fire and forget).
+    pub async fn remove_obstacle(&self, name: &str, id: &str) -> Result<(), ClientError> {
+        self.session.delete(format!("riskplan/scenes/{name}/obstacles/{id}")).await.map_err(|e| ClientError::Zenoh(e.to_string()))
+    }
+
+    /// Acknowledged update; returns the new revision once persisted.
+    pub async fn apply(&self, name: &str, req: &ApplyRequest) -> Result<ApplyReply, ClientError> {
+        self.query(&format!("riskplan/scenes/{name}/apply"), Some(req), self.timeout).await
+    }
+
+    /// Plans (the query's timeout covers the time limit).
+    pub async fn plan(&self, name: &str, req: &PlanRequest) -> Result<PlanReply, ClientError> {
+        let t = self.timeout + Duration::from_secs_f64(req.time_limit.unwrap_or(10.0).clamp(0.0, 3600.0));
+        self.query(&format!("riskplan/scenes/{name}/plan"), Some(req), t).await
+    }
+
+    /// Verifies a trajectory or a segment.
+    pub async fn verify(&self, name: &str, req: &VerifyRequest) -> Result<VerifyReply, ClientError> {
+        self.query(&format!("riskplan/scenes/{name}/verify"), Some(req), self.timeout).await
+    }
+
+    /// Risk bounds.
+    pub async fn risk(&self, name: &str, req: &RiskRequest) -> Result<RiskReply, ClientError> {
+        self.query(&format!("riskplan/scenes/{name}/risk"), Some(req), self.timeout).await
+    }
+
+    /// The scene and its revision.
+    pub async fn get_scene(&self, name: &str) -> Result<SceneReply, ClientError> {
+        self.query::<(), _>(&format!("riskplan/scenes/{name}"), None, self.timeout).await
+    }
+
+    /// Server status.
+    pub async fn status(&self) -> Result<StatusReply, ClientError> {
+        self.query::<(), _>("riskplan/status", None, self.timeout).await
+    }
+
+    /// Closes the session.
+    pub async fn close(self) {
+        let _ = self.session.close().await;
+    }
+}

@@ -1,0 +1,120 @@
+//! Typed service errors and their stable wire codes (proto/README.md).
+
+use super::proto::ErrorReply;
+use crate::plan::PlanError;
+use crate::scene::SceneError;
+use thiserror::Error;
+
+/// Everything a request can fail with.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ServiceError {
+    /// Payload does not parse.
+    #[error("malformed payload: {message}")]
+    Malformed {
+        /// Parser message.
+        message: String,
+        /// Field path.
+        field: Option<String>,
+    },
+    /// Encoding other than JSON or bincode.
+    #[error("unsupported encoding '{0}': use application/json or application/bincode")]
+    UnsupportedEncoding(String),
+    /// Payload over the limit.
+    #[error("payload of {0} bytes exceeds the limit of {1} bytes")]
+    PayloadTooLarge(usize, usize),
+    /// A documented limit.
+    #[error("{message}")]
+    LimitExceeded {
+        /// What.
+        message: String,
+        /// Field.
+        field: Option<String>,
+    },
+    /// Bad scene name.
+    #[error("invalid scene name '{0}': use 1 to 128 characters from A-Z a-z 0-9 _ - .")]
+    InvalidSceneName(String),
+    /// No such scene.
+    #[error("unknown scene '{0}'")]
+    UnknownScene(String),
+    /// Scene validation failed.
+    #[error("invalid scene: {0}")]
+    InvalidScene(SceneError),
+    /// Bad request field.
+    #[error("{message}")]
+    InvalidRequest {
+        /// What.
+        message: String,
+        /// Field.
+        field: Option<String>,
+    },
+    /// Bad trajectory.
+    #[error("invalid trajectory: {message}")]
+    InvalidTrajectory {
+        /// What.
+        message: String,
+        /// Field.
+        field: Option<String>,
+    },
+    /// Planner request error.
+    #[error("{0}")]
+    Plan(PlanError),
+    /// No plan found.
+    #[error("{0}")]
+    NoPlan(String),
+    /// Queue full.
+    #[error("the job queue is full ({0} jobs): try again later")]
+    Busy(usize),
+    /// Our bug.
+    #[error("internal error: {0}")]
+    Internal(String),
+}
+
+impl ServiceError {
+    /// The stable code.
+    pub fn code(&self) -> &'static str {
+        match self {
+            ServiceError::Malformed { .. } => "malformed_payload",
+            ServiceError::UnsupportedEncoding(_) => "unsupported_encoding",
+            ServiceError::PayloadTooLarge(..) => "payload_too_large",
+            ServiceError::LimitExceeded { .. } => "limit_exceeded",
+            ServiceError::InvalidSceneName(_) => "invalid_scene_name",
+            ServiceError::UnknownScene(_) => "unknown_scene",
+            ServiceError::InvalidScene(_) => "invalid_scene",
+            ServiceError::InvalidRequest { .. } => "invalid_request",
+            ServiceError::InvalidTrajectory { .. } => "invalid_trajectory",
+            ServiceError::Plan(PlanError::OutsideWorkspace { .. }) => "outside_workspace",
+            ServiceError::Plan(PlanError::UnsafeEndpoint { .. }) => "unsafe_endpoint",
+            ServiceError::Plan(_) => "invalid_request",
+            ServiceError::NoPlan(_) => "no_plan",
+            ServiceError::Busy(_) => "busy",
+            ServiceError::Internal(_) => "internal",
+        }
+    }
+
+    /// The field at fault.
+    pub fn field(&self) -> Option<String> {
+        match self {
+            ServiceError::Malformed { field, .. }
+            | ServiceError::LimitExceeded { field, .. }
+            | ServiceError::InvalidRequest { field, .. }
+            | ServiceError::InvalidTrajectory { field, .. } => field.clone(),
+            ServiceError::InvalidScene(e) => (!e.path.is_empty()).then(|| e.path.clone()),
+            ServiceError::Plan(PlanError::InvalidRequest { field, .. }) => Some(field.clone()),
+            ServiceError::Plan(PlanError::OutsideWorkspace { which, .. } | PlanError::UnsafeEndpoint { which, .. }) => {
+                Some(which.clone())
+            }
+            ServiceError::Plan(PlanError::InvalidOption { option, .. }) => Some(option.clone()),
+            _ => None,
+        }
+    }
+
+    /// The wire payload.
+    pub fn reply(&self) -> ErrorReply {
+        ErrorReply { code: self.code().to_string(), message: self.to_string(), field: self.field() }
+    }
+}
+
+/// Shorthand for a request-field error.
+pub fn invalid(field: &str, message: impl Into<String>) -> ServiceError {
+    ServiceError::InvalidRequest { message: message.into(), field: Some(field.to_string()) }
+}

@@ -1,0 +1,375 @@
+//! Wire messages of `proto/README.md`, as serde types shared by the server and the
+//! Rust client, with the JSON / bincode codec. No field uses
+//! `skip_serializing_if` or untagged/internally tagged enums, so that every type
+//! round-trips through bincode (which is positional and cannot `deserialize_any`).
+
+use crate::plan::PlanStats;
+use crate::scene::{Piece, Trajectory};
+use crate::verify::PieceReport;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::collections::BTreeMap;
+
+/// Largest request payload accepted.
+pub const MAX_PAYLOAD_BYTES: usize = 1 << 20;
+/// Largest number of points in one risk query.
+pub const MAX_RISK_POINTS: usize = 100_000;
+/// Largest grid side in one risk query.
+pub const MAX_GRID_SIDE: usize = 500;
+/// The bincode encoding name.
+pub const BINCODE: &str = "application/bincode";
+
+/// Free-form JSON carried inside a message: as JSON itself in JSON, as a string
+/// holding JSON text in bincode (which cannot carry self-describing data).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EmbeddedJson(pub serde_json::Value);
+
+impl Serialize for EmbeddedJson {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if s.is_human_readable() {
+            self.0.serialize(s)
+        } else {
+            s.serialize_str(&self.0.to_string())
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for EmbeddedJson {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        if d.is_human_readable() {
+            serde_json::Value::deserialize(d).map(EmbeddedJson)
+        } else {
+            let text = String::deserialize(d)?;
+            serde_json::from_str(&text).map(EmbeddedJson).map_err(serde::de::Error::custom)
+        }
+    }
+}
+
+/// `apply_request`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct ApplyRequest {
+    /// A whole scene (format v1).
+    #[serde(default)]
+    pub scene: Option<EmbeddedJson>,
+    /// Obstacle changes, applied in order.
+    #[serde(default)]
+    pub changes: Option<Vec<Change>>,
+}
+
+/// One change of an `apply_request`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Change {
+    /// `put` or `delete`.
+    pub op: String,
+    /// Obstacle id.
+    pub id: String,
+    /// Polynomial text (put).
+    #[serde(default)]
+    pub poly: Option<String>,
+    /// Parameters it declares or replaces (put): `{name: distribution}`.
+    #[serde(default)]
+    pub params: Option<EmbeddedJson>,
+}
+
+/// `apply_reply`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ApplyReply {
+    /// Scene name.
+    pub scene: String,
+    /// New revision.
+    pub revision: u64,
+}
+
+/// `obstacle_put`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstaclePut {
+    /// Polynomial text.
+    pub poly: String,
+    /// Parameters it declares or replaces.
+    #[serde(default)]
+    pub params: Option<EmbeddedJson>,
+}
+
+/// `plan_request`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PlanRequest {
+    /// Start (default: the scene's).
+    #[serde(default)]
+    pub start: Option<Vec<f64>>,
+    /// Goal (default: the scene's).
+    #[serde(default)]
+    pub goal: Option<Vec<f64>>,
+    /// `rrt-sos` or `mc-rrt`.
+    #[serde(default)]
+    pub planner: Option<String>,
+    /// Seconds (capped by the server).
+    #[serde(default)]
+    pub time_limit: Option<f64>,
+    /// RNG seed.
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// Pieces of the layered planner.
+    #[serde(default)]
+    pub pieces: Option<u64>,
+    /// Improve step (static scenes).
+    #[serde(default)]
+    pub improve: Option<bool>,
+    /// Δ (default: the scene's).
+    #[serde(default)]
+    pub delta: Option<f64>,
+    /// `exact`, `sos` or `both`.
+    #[serde(default)]
+    pub certifier: Option<String>,
+}
+
+/// `plan_reply`: a trajectory in format v1 with its provenance.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlanReply {
+    /// `riskplan-trajectory/1`.
+    pub format: String,
+    /// The pieces.
+    pub pieces: Vec<Piece>,
+    /// Planner.
+    pub planner: String,
+    /// Every piece proven safe.
+    pub certified: bool,
+    /// Statistics.
+    pub stats: PlanStats,
+    /// Scene revision used.
+    pub revision: u64,
+    /// Scene name.
+    pub scene: String,
+    /// Δ used.
+    pub risk: f64,
+}
+
+/// A straight segment to verify.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Segment {
+    /// From.
+    pub from: Vec<f64>,
+    /// To.
+    pub to: Vec<f64>,
+    /// Start time (default: horizon start).
+    #[serde(default)]
+    pub t0: Option<f64>,
+    /// End time (default: horizon end).
+    #[serde(default)]
+    pub t1: Option<f64>,
+}
+
+/// `verify_request`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct VerifyRequest {
+    /// A trajectory (format v1).
+    #[serde(default)]
+    pub trajectory: Option<Trajectory>,
+    /// Or one segment.
+    #[serde(default)]
+    pub segment: Option<Segment>,
+    /// `exact`, `sos` or `both`.
+    #[serde(default)]
+    pub method: Option<String>,
+    /// Δ (default: the scene's).
+    #[serde(default)]
+    pub delta: Option<f64>,
+}
+
+/// `verify_reply`: the `riskplan verify` report and the revision.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VerifyReply {
+    /// Every piece certified safe.
+    pub safe: bool,
+    /// Method.
+    pub method: String,
+    /// Δ.
+    pub risk: f64,
+    /// Per piece.
+    pub pieces: Vec<PieceReport>,
+    /// Scene revision used.
+    pub revision: u64,
+}
+
+/// A grid of a risk query.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Grid {
+    /// Lower corner.
+    pub lower: Vec<f64>,
+    /// Upper corner.
+    pub upper: Vec<f64>,
+    /// Points per side.
+    pub n: u64,
+}
+
+/// `risk_request`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RiskRequest {
+    /// Points.
+    #[serde(default)]
+    pub points: Option<Vec<Vec<f64>>>,
+    /// Or a grid.
+    #[serde(default)]
+    pub grid: Option<Grid>,
+    /// Time (default: horizon start).
+    #[serde(default)]
+    pub time: Option<f64>,
+}
+
+/// `risk_reply`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RiskReply {
+    /// Scene revision.
+    pub revision: u64,
+    /// Time.
+    pub time: f64,
+    /// The points.
+    pub points: Vec<Vec<f64>>,
+    /// Max over obstacles of the Cantelli bound.
+    pub bounds: Vec<f64>,
+    /// Per obstacle.
+    pub obstacles: BTreeMap<String, Vec<f64>>,
+}
+
+/// `scene_reply`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneReply {
+    /// Name.
+    pub name: String,
+    /// Revision.
+    pub revision: u64,
+    /// The scene, format v1.
+    pub scene: EmbeddedJson,
+}
+
+/// A scene in `status_reply`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneStatus {
+    /// Name.
+    pub name: String,
+    /// Revision.
+    pub revision: u64,
+    /// Obstacles.
+    pub obstacles: u64,
+}
+
+/// Contour cache counters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CacheStatus {
+    /// Cached contours.
+    pub entries: u64,
+    /// Lookups that found one.
+    pub hits: u64,
+    /// Lookups that built one.
+    pub misses: u64,
+}
+
+/// Job queue state.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QueueStatus {
+    /// Jobs waiting.
+    pub depth: u64,
+    /// Jobs running.
+    pub running: u64,
+    /// Worker threads.
+    pub workers: u64,
+    /// Waiting jobs accepted before `busy`.
+    pub capacity: u64,
+}
+
+/// Served and failed requests of one kind.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+pub struct Counter {
+    /// Successful replies.
+    pub served: u64,
+    /// Error replies (or failed puts).
+    pub failed: u64,
+}
+
+/// `status_reply`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StatusReply {
+    /// Seconds since start.
+    pub uptime_s: f64,
+    /// Scenes.
+    pub scenes: Vec<SceneStatus>,
+    /// Contour cache.
+    pub cache: CacheStatus,
+    /// Job queue.
+    pub queue: QueueStatus,
+    /// Per request kind.
+    pub requests: BTreeMap<String, Counter>,
+}
+
+/// `error`: the payload of every `reply_err`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ErrorReply {
+    /// Stable snake_case code (see proto/README.md).
+    pub code: String,
+    /// Human-readable message.
+    pub message: String,
+    /// Field path at fault, if any.
+    pub field: Option<String>,
+}
+
+/// A wire encoding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Codec {
+    /// `application/json`.
+    Json,
+    /// `application/bincode`.
+    Bincode,
+}
+
+impl Codec {
+    /// The codec for an encoding name, `None` when unsupported. No encoding, Zenoh's
+    /// default `zenoh/bytes` and `text/plain` are read as JSON.
+    pub fn from_encoding(enc: &str) -> Option<Codec> {
+        let base = enc.split(';').next().unwrap_or("");
+        match base {
+            "application/json" | "zenoh/bytes" | "text/plain" | "" => Some(Codec::Json),
+            BINCODE => Some(Codec::Bincode),
+            _ => None,
+        }
+    }
+
+    /// Encoding name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Codec::Json => "application/json",
+            Codec::Bincode => BINCODE,
+        }
+    }
+
+    /// Serialises a message.
+    pub fn encode<T: Serialize>(&self, v: &T) -> Vec<u8> {
+        match self {
+            Codec::Json => serde_json::to_vec(v).unwrap_or_else(|e| format!("{{\"code\":\"internal\",\"message\":\"{e}\",\"field\":null}}").into_bytes()),
+            Codec::Bincode => bincode::serde::encode_to_vec(v, bincode::config::standard()).unwrap_or_default(),
+        }
+    }
+
+    /// Parses a message; the error names the field at fault where the format can.
+    pub fn decode<T: serde::de::DeserializeOwned>(&self, bytes: &[u8]) -> Result<T, (String, Option<String>)> {
+        match self {
+            Codec::Json => {
+                let de = &mut serde_json::Deserializer::from_slice(bytes);
+                serde_path_to_error::deserialize(de).map_err(|e| {
+                    let p = e.path().to_string();
+                    (e.into_inner().to_string(), (p != ".").then_some(p))
+                })
+            }
+            Codec::Bincode => match bincode::serde::decode_from_slice(bytes, bincode::config::standard()) {
+                Ok((v, n)) if n == bytes.len() => Ok(v),
+                Ok((_, n)) => Err((format!("{} trailing bytes after the message", bytes.len() - n), None)),
+                Err(e) => Err((e.to_string(), None)),
+            },
+        }
+    }
+}

@@ -1,0 +1,200 @@
+//! The scenes a server holds: validated scenes with their revisions, the shared
+//! contour cache, and the store behind them. Updates are serialised by one write
+//! lock and persisted before they become visible (and before `apply` replies).
+
+use super::error::{invalid, ServiceError};
+use super::proto::{Change, EmbeddedJson, ObstaclePut};
+use super::store::Store;
+use crate::scene::{ContourCache, Scene};
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex, RwLock};
+
+/// A scene at one revision.
+#[derive(Clone, Debug)]
+pub struct Entry {
+    /// The validated scene with its cached contours.
+    pub scene: Arc<Scene>,
+    /// Revision (increases with every update).
+    pub revision: u64,
+    /// The scene file as JSON.
+    pub json: serde_json::Value,
+}
+
+/// All scenes of a server.
+#[derive(Debug)]
+pub struct Registry {
+    scenes: RwLock<BTreeMap<String, Entry>>,
+    write: Mutex<()>,
+    /// Contours shared between revisions.
+    pub cache: ContourCache,
+    store: Store,
+}
+
+/// Scene names: 1–128 of `A–Z a–z 0–9 _ - .` (no key-expression specials), not starting with '.'.
+pub fn valid_scene_name(name: &str) -> bool {
+    !name.is_empty()
+        && name.len() <= 128
+        && !name.starts_with('.')
+        && name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+}
+
+fn check_name(name: &str) -> Result<(), ServiceError> {
+    if valid_scene_name(name) {
+        Ok(())
+    } else {
+        Err(ServiceError::InvalidSceneName(name.to_string()))
+    }
+}
+
+fn internal(e: impl std::fmt::Display) -> ServiceError {
+    ServiceError::Internal(e.to_string())
+}
+
+impl Registry {
+    /// Loads every stored scene; returns the problems met (unreadable or invalid files).
+    pub fn open(store: Store) -> (Registry, Vec<String>) {
+        let reg = Registry { scenes: RwLock::new(BTreeMap::new()), write: Mutex::new(()), cache: ContourCache::default(), store };
+        let (stored, mut problems) = reg.store.load_all();
+        for s in stored {
+            match reg.build(&s.scene) {
+                Ok(scene) => {
+                    if let Ok(mut m) = reg.scenes.write() {
+                        m.insert(s.name.clone(), Entry { scene: Arc::new(scene), revision: s.revision, json: s.scene });
+                    }
+                }
+                Err(e) => problems.push(format!("stored scene '{}': {e}", s.name)),
+            }
+        }
+        (reg, problems)
+    }
+
+    fn build(&self, json: &serde_json::Value) -> Result<Scene, ServiceError> {
+        let text = json.to_string();
+        let de = &mut serde_json::Deserializer::from_str(&text);
+        let file = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            ServiceError::InvalidScene(crate::scene::SceneError {
+                path: if path == "." { String::new() } else { path },
+                kind: crate::scene::SceneErrorKind::Syntax(e.into_inner().to_string()),
+            })
+        })?;
+        Scene::from_file_cached(file, &self.cache).map_err(ServiceError::InvalidScene)
+    }
+
+    /// The scene `name`.
+    pub fn get(&self, name: &str) -> Result<Entry, ServiceError> {
+        check_name(name)?;
+        self.scenes.read().map_err(internal)?.get(name).cloned().ok_or_else(|| ServiceError::UnknownScene(name.to_string()))
+    }
+
+    /// (name, revision, obstacles) of every scene.
+    pub fn list(&self) -> Vec<(String, u64, usize)> {
+        self.scenes.read().map(|m| m.iter().map(|(k, e)| (k.clone(), e.revision, e.scene.obstacles.len())).collect()).unwrap_or_default()
+    }
+
+    /// Validates, persists and publishes a new version of `name` produced by `edit`
+    /// from the current JSON (`None` when the scene does not exist).
+    fn update(&self, name: &str, edit: impl FnOnce(Option<&serde_json::Value>) -> Result<serde_json::Value, ServiceError>) -> Result<u64, ServiceError> {
+        check_name(name)?;
+        let _w = self.write.lock().map_err(internal)?;
+        let current = self.scenes.read().map_err(internal)?.get(name).cloned();
+        let mut json = edit(current.as_ref().map(|e| &e.json))?;
+        if let Some(o) = json.as_object_mut() {
+            o.insert("name".into(), serde_json::Value::String(name.to_string()));
+        }
+        let scene = self.build(&json)?;
+        let revision = current.map_or(1, |e| e.revision + 1);
+        self.store.save(name, revision, &json).map_err(|e| internal(format!("cannot persist scene '{name}': {e}")))?;
+        let mut m = self.scenes.write().map_err(internal)?;
+        m.insert(name.to_string(), Entry { scene: Arc::new(scene), revision, json });
+        self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
+        Ok(revision)
+    }
+
+    /// Replaces (or creates) a whole scene.
+    pub fn put_scene(&self, name: &str, json: serde_json::Value) -> Result<u64, ServiceError> {
+        self.update(name, |_| Ok(json))
+    }
+
+    /// Applies obstacle changes atomically to an existing scene.
+    pub fn apply_changes(&self, name: &str, changes: &[Change]) -> Result<u64, ServiceError> {
+        self.update(name, |cur| {
+            let mut json = cur.cloned().ok_or_else(|| ServiceError::UnknownScene(name.to_string()))?;
+            for (i, c) in changes.iter().enumerate() {
+                match c.op.as_str() {
+                    "put" => {
+                        let poly = c.poly.clone().ok_or_else(|| invalid(&format!("changes[{i}].poly"), "a put needs 'poly'"))?;
+                        put_obstacle_json(&mut json, &c.id, &poly, c.params.as_ref(), &format!("changes[{i}]"))?;
+                    }
+                    "delete" => delete_obstacle_json(&mut json, &c.id, &format!("changes[{i}].id"))?,
+                    other => return Err(invalid(&format!("changes[{i}].op"), format!("'{other}' is not an operation (put or delete)"))),
+                }
+            }
+            Ok(json)
+        })
+    }
+
+    /// Adds or replaces one obstacle.
+    pub fn put_obstacle(&self, name: &str, id: &str, put: &ObstaclePut) -> Result<u64, ServiceError> {
+        self.update(name, |cur| {
+            let mut json = cur.cloned().ok_or_else(|| ServiceError::UnknownScene(name.to_string()))?;
+            put_obstacle_json(&mut json, id, &put.poly, put.params.as_ref(), "obstacle")?;
+            Ok(json)
+        })
+    }
+
+    /// Removes one obstacle.
+    pub fn delete_obstacle(&self, name: &str, id: &str) -> Result<u64, ServiceError> {
+        self.update(name, |cur| {
+            let mut json = cur.cloned().ok_or_else(|| ServiceError::UnknownScene(name.to_string()))?;
+            delete_obstacle_json(&mut json, id, "id")?;
+            Ok(json)
+        })
+    }
+
+    /// Removes a scene.
+    pub fn delete_scene(&self, name: &str) -> Result<(), ServiceError> {
+        check_name(name)?;
+        let _w = self.write.lock().map_err(internal)?;
+        if !self.scenes.read().map_err(internal)?.contains_key(name) {
+            return Err(ServiceError::UnknownScene(name.to_string()));
+        }
+        self.store.remove(name).map_err(|e| internal(format!("cannot remove scene '{name}': {e}")))?;
+        let mut m = self.scenes.write().map_err(internal)?;
+        m.remove(name);
+        self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
+        Ok(())
+    }
+}
+
+fn put_obstacle_json(json: &mut serde_json::Value, id: &str, poly: &str, params: Option<&EmbeddedJson>, path: &str) -> Result<(), ServiceError> {
+    if id.is_empty() {
+        return Err(invalid(&format!("{path}.id"), "an obstacle id must not be empty"));
+    }
+    if let Some(EmbeddedJson(p)) = params {
+        let Some(new) = p.as_object() else { return Err(invalid(&format!("{path}.params"), "must be an object {name: distribution}")) };
+        let obj = json.as_object_mut().ok_or_else(|| internal("scene is not an object"))?;
+        let slot = obj.entry("params").or_insert_with(|| serde_json::json!({}));
+        let Some(existing) = slot.as_object_mut() else { return Err(invalid("params", "the scene's params is not an object")) };
+        for (k, v) in new {
+            existing.insert(k.clone(), v.clone());
+        }
+    }
+    let obstacles = json.get_mut("obstacles").and_then(|o| o.as_array_mut()).ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
+    let entry = serde_json::json!({"id": id, "poly": poly});
+    match obstacles.iter_mut().find(|o| o["id"] == id) {
+        Some(o) => *o = entry,
+        None => obstacles.push(entry),
+    }
+    Ok(())
+}
+
+fn delete_obstacle_json(json: &mut serde_json::Value, id: &str, path: &str) -> Result<(), ServiceError> {
+    let obstacles = json.get_mut("obstacles").and_then(|o| o.as_array_mut()).ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
+    let before = obstacles.len();
+    obstacles.retain(|o| o["id"] != id);
+    if obstacles.len() == before {
+        return Err(invalid(path, format!("no obstacle '{id}' in the scene")));
+    }
+    Ok(())
+}

@@ -1,0 +1,344 @@
+//! The Zenoh server: one queryable on `riskplan/**` dispatching by key, one
+//! subscriber on `riskplan/scenes/**` for puts and deletes, a bounded blocking job
+//! pool for computation, clean shutdown on SIGINT/SIGTERM.
+
+use super::error::ServiceError;
+use super::handlers;
+use super::proto::*;
+use super::registry::Registry;
+use super::store::{embedded, Store};
+use std::collections::BTreeMap;
+use std::panic::AssertUnwindSafe;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+use tokio::sync::Semaphore;
+use tracing::{info, warn, Instrument};
+use zenoh::bytes::Encoding;
+use zenoh::query::Query;
+use zenoh::sample::SampleKind;
+
+/// Server settings (from `riskplan serve` flags).
+#[derive(Clone, Debug)]
+pub struct ServerConfig {
+    /// The Zenoh configuration.
+    pub zenoh: zenoh::Config,
+    /// Data directory (scenes are persisted under it).
+    pub data: PathBuf,
+    /// Scene files to load at start (name = file stem), unless already stored.
+    pub preload: Vec<PathBuf>,
+    /// Blocking worker threads.
+    pub workers: usize,
+    /// Jobs that may wait for a worker before `busy`.
+    pub queue: usize,
+    /// Cap on a plan's time limit, seconds.
+    pub max_plan_seconds: f64,
+    /// Endpoints printed in the ready line.
+    pub listen: Vec<String>,
+}
+
+/// The bounded job pool: `workers` permits; at most `workers + queue` jobs admitted.
+#[derive(Debug)]
+pub struct Jobs {
+    sem: Arc<Semaphore>,
+    workers: usize,
+    capacity: usize,
+    admitted: AtomicUsize,
+    running: AtomicUsize,
+}
+
+impl Jobs {
+    fn new(workers: usize, capacity: usize) -> Jobs {
+        Jobs { sem: Arc::new(Semaphore::new(workers)), workers, capacity, admitted: AtomicUsize::new(0), running: AtomicUsize::new(0) }
+    }
+
+    /// Runs `f` on a blocking thread, or answers `busy` at once when full. A panic
+    /// in `f` becomes an `internal` error.
+    pub async fn run<T: Send + 'static>(&self, f: impl FnOnce() -> Result<T, ServiceError> + Send + 'static) -> Result<T, ServiceError> {
+        let limit = self.workers + self.capacity;
+        let before = self.admitted.fetch_add(1, Ordering::SeqCst);
+        if before >= limit {
+            self.admitted.fetch_sub(1, Ordering::SeqCst);
+            return Err(ServiceError::Busy(limit));
+        }
+        let permit = self.sem.clone().acquire_owned().await;
+        self.running.fetch_add(1, Ordering::SeqCst);
+        let r = tokio::task::spawn_blocking(move || std::panic::catch_unwind(AssertUnwindSafe(f))).await;
+        self.running.fetch_sub(1, Ordering::SeqCst);
+        self.admitted.fetch_sub(1, Ordering::SeqCst);
+        drop(permit);
+        match r {
+            Ok(Ok(v)) => v,
+            Ok(Err(p)) => Err(ServiceError::Internal(format!("a job panicked: {}", panic_text(&p)))),
+            Err(e) => Err(ServiceError::Internal(format!("a job failed: {e}"))),
+        }
+    }
+
+    fn status(&self) -> QueueStatus {
+        let admitted = self.admitted.load(Ordering::SeqCst) as u64;
+        let running = self.running.load(Ordering::SeqCst) as u64;
+        QueueStatus { depth: admitted.saturating_sub(running), running, workers: self.workers as u64, capacity: self.capacity as u64 }
+    }
+}
+
+fn panic_text(p: &Box<dyn std::any::Any + Send>) -> String {
+    p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown panic".into())
+}
+
+/// Shared server state.
+#[derive(Debug)]
+pub struct State {
+    /// Scenes.
+    pub registry: Registry,
+    /// Job pool.
+    pub jobs: Jobs,
+    started: Instant,
+    counters: Mutex<BTreeMap<String, Counter>>,
+    max_plan_seconds: f64,
+}
+
+impl State {
+    fn count(&self, kind: &str, ok: bool) {
+        if let Ok(mut c) = self.counters.lock() {
+            let e = c.entry(kind.to_string()).or_default();
+            if ok {
+                e.served += 1;
+            } else {
+                e.failed += 1;
+            }
+        }
+    }
+
+    fn status(&self) -> StatusReply {
+        let (entries, hits, misses) = self.registry.cache.stats();
+        StatusReply {
+            uptime_s: self.started.elapsed().as_secs_f64(),
+            scenes: self.registry.list().into_iter().map(|(name, revision, n)| SceneStatus { name, revision, obstacles: n as u64 }).collect(),
+            cache: CacheStatus { entries: entries as u64, hits, misses },
+            queue: self.jobs.status(),
+            requests: self.counters.lock().map(|c| c.clone()).unwrap_or_default(),
+        }
+    }
+}
+
+fn bincode_encoding() -> Encoding {
+    Encoding::from(BINCODE)
+}
+
+fn encoding_of(c: Codec) -> Encoding {
+    match c {
+        Codec::Json => Encoding::APPLICATION_JSON,
+        Codec::Bincode => bincode_encoding(),
+    }
+}
+
+/// Runs the server until SIGINT or SIGTERM.
+pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
+    let store = Store::open(&cfg.data).map_err(|e| format!("--data {}: {e}", cfg.data.display()))?;
+    let (registry, problems) = Registry::open(store);
+    for p in &problems {
+        warn!("{p}");
+    }
+    for path in &cfg.preload {
+        let name = path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+        if registry.get(&name).is_ok() {
+            continue;
+        }
+        let loaded = std::fs::read_to_string(path).map_err(|e| e.to_string()).and_then(|t| serde_json::from_str::<serde_json::Value>(&t).map_err(|e| e.to_string()));
+        match loaded.map(|json| registry.put_scene(&name, json)) {
+            Ok(Ok(rev)) => info!(scene = %name, revision = rev, "preloaded {}", path.display()),
+            Ok(Err(e)) => warn!("--preload {}: {e}", path.display()),
+            Err(e) => warn!("--preload {}: {e}", path.display()),
+        }
+    }
+    let state = Arc::new(State {
+        registry,
+        jobs: Jobs::new(cfg.workers.max(1), cfg.queue),
+        started: Instant::now(),
+        counters: Mutex::new(BTreeMap::new()),
+        max_plan_seconds: cfg.max_plan_seconds,
+    });
+    let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
+    let queryable = session.declare_queryable("riskplan/**").await.map_err(|e| format!("cannot declare the queryable: {e}"))?;
+    let subscriber = session.declare_subscriber("riskplan/scenes/**").await.map_err(|e| format!("cannot declare the subscriber: {e}"))?;
+    eprintln!("riskplan: listening on {} ({} scenes, {} workers, queue {})", cfg.listen.join(", "), state.registry.list().len(), cfg.workers, cfg.queue);
+    info!(listen = %cfg.listen.join(","), "serving");
+    let shutdown = shutdown_signal();
+    tokio::pin!(shutdown);
+    loop {
+        tokio::select! {
+            _ = &mut shutdown => break,
+            q = queryable.recv_async() => match q {
+                Ok(query) => { let st = state.clone(); tokio::spawn(async move { handle_query(st, query).await }); }
+                Err(_) => break,
+            },
+            s = subscriber.recv_async() => match s {
+                Ok(sample) => {
+                    let st = state.clone();
+                    let key = sample.key_expr().as_str().to_string();
+                    let kind = sample.kind();
+                    let bytes = sample.payload().to_bytes().into_owned();
+                    // Puts are applied in arrival order: wait for each before the next.
+                    let r = tokio::task::spawn_blocking(move || handle_put(&st, &key, kind, &bytes)).await;
+                    if let Err(e) = r { warn!("put handler failed: {e}"); }
+                }
+                Err(_) => break,
+            },
+        }
+    }
+    info!("shutting down");
+    let _ = session.close().await;
+    Ok(())
+}
+
+async fn shutdown_signal() {
+    let ctrl_c = tokio::signal::ctrl_c();
+    #[cfg(unix)]
+    {
+        let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(t) => t,
+            Err(_) => {
+                let _ = ctrl_c.await;
+                return;
+            }
+        };
+        tokio::select! { _ = ctrl_c => {}, _ = term.recv() => {} }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = ctrl_c.await;
+    }
+}
+
+/// `riskplan/scenes/<scene>` and `.../obstacles/<id>` puts and deletes.
+fn handle_put(state: &State, key: &str, kind: SampleKind, bytes: &[u8]) {
+    let parts: Vec<&str> = key.split('/').collect();
+    let span = tracing::info_span!("put", key = %key);
+    let _g = span.enter();
+    let r: Result<Option<u64>, ServiceError> = (|| match (parts.as_slice(), kind) {
+        (["riskplan", "scenes", name], SampleKind::Put) => {
+            let json: serde_json::Value = Codec::Json.decode(bytes).map_err(|(m, f)| ServiceError::Malformed { message: m, field: f })?;
+            state.registry.put_scene(name, json).map(Some)
+        }
+        (["riskplan", "scenes", name], SampleKind::Delete) => state.registry.delete_scene(name).map(|_| None),
+        (["riskplan", "scenes", name, "obstacles", id], SampleKind::Put) => {
+            if bytes.len() > MAX_PAYLOAD_BYTES {
+                return Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES));
+            }
+            let put: ObstaclePut = Codec::Json.decode(bytes).map_err(|(m, f)| ServiceError::Malformed { message: m, field: f })?;
+            state.registry.put_obstacle(name, id, &put).map(Some)
+        }
+        (["riskplan", "scenes", name, "obstacles", id], SampleKind::Delete) => state.registry.delete_obstacle(name, id).map(Some),
+        _ => Ok(None),
+    })();
+    match r {
+        Ok(rev) => {
+            state.count("put", true);
+            info!(revision = ?rev, "applied");
+        }
+        Err(e) => {
+            state.count("put", false);
+            warn!(code = e.code(), "put rejected: {e}");
+        }
+    }
+}
+
+async fn handle_query(state: Arc<State>, query: Query) {
+    let t0 = Instant::now();
+    let key = query.key_expr().as_str().to_string();
+    let parts: Vec<String> = key.split('/').map(str::to_string).collect();
+    let kind = match parts.iter().map(String::as_str).collect::<Vec<_>>().as_slice() {
+        ["riskplan", "status"] => "status",
+        ["riskplan", "scenes", _] => "scene",
+        ["riskplan", "scenes", _, k @ ("apply" | "plan" | "verify" | "risk")] => k,
+        _ => "unknown",
+    }
+    .to_string();
+    let scene = if parts.len() >= 3 && parts[1] == "scenes" { parts[2].clone() } else { String::new() };
+    let span = tracing::info_span!("request", kind = %kind, scene = %scene, planner = tracing::field::Empty, revision = tracing::field::Empty, duration_ms = tracing::field::Empty);
+    async move {
+        let enc = query.encoding().map(|e| e.to_string()).unwrap_or_default();
+        let bytes = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
+        let (codec, result) = match Codec::from_encoding(&enc) {
+            None => (Codec::Json, Err(ServiceError::UnsupportedEncoding(enc.clone()))),
+            Some(c) if bytes.len() > MAX_PAYLOAD_BYTES => (c, Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES))),
+            Some(c) => (c, dispatch(&state, &kind, &scene, c, bytes).await),
+        };
+        let ok = result.is_ok();
+        state.count(&kind, ok);
+        let span = tracing::Span::current();
+        span.record("duration_ms", t0.elapsed().as_secs_f64() * 1e3);
+        let sent = match result {
+            Ok((payload, rev)) => {
+                if let Some(r) = rev {
+                    span.record("revision", r);
+                }
+                query.reply(query.key_expr().clone(), payload).encoding(encoding_of(codec)).await
+            }
+            Err(e) => {
+                info!(code = e.code(), "error reply: {e}");
+                query.reply_err(codec.encode(&e.reply())).encoding(encoding_of(codec)).await
+            }
+        };
+        if let Err(e) = sent {
+            warn!("cannot send the reply: {e}");
+        }
+        info!(ok, "done");
+    }
+    .instrument(span)
+    .await
+}
+
+fn malformed((message, field): (String, Option<String>)) -> ServiceError {
+    ServiceError::Malformed { message, field }
+}
+
+async fn dispatch(state: &Arc<State>, kind: &str, scene: &str, codec: Codec, bytes: Vec<u8>) -> Result<(Vec<u8>, Option<u64>), ServiceError> {
+    match kind {
+        "status" => Ok((codec.encode(&state.status()), None)),
+        "scene" => {
+            let e = state.registry.get(scene)?;
+            Ok((codec.encode(&SceneReply { name: scene.to_string(), revision: e.revision, scene: embedded(&e.json) }), Some(e.revision)))
+        }
+        "apply" => {
+            let req: ApplyRequest = codec.decode(&bytes).map_err(malformed)?;
+            let st = state.clone();
+            let name = scene.to_string();
+            let rev = state
+                .jobs
+                .run(move || match (req.scene, req.changes) {
+                    (Some(EmbeddedJson(json)), None) => st.registry.put_scene(&name, json),
+                    (None, Some(ch)) => st.registry.apply_changes(&name, &ch),
+                    _ => Err(super::error::invalid("scene", "give exactly one of scene and changes")),
+                })
+                .await?;
+            Ok((codec.encode(&ApplyReply { scene: scene.to_string(), revision: rev }), Some(rev)))
+        }
+        "plan" => {
+            let req: PlanRequest = codec.decode(&bytes).map_err(malformed)?;
+            let entry = state.registry.get(scene)?;
+            tracing::Span::current().record("planner", req.planner.as_deref().unwrap_or("rrt-sos"));
+            let cap = state.max_plan_seconds;
+            let cancel = Arc::new(AtomicBool::new(false));
+            let rev = entry.revision;
+            let reply = state.jobs.run(move || handlers::plan(&entry, &req, cap, cancel)).await?;
+            Ok((codec.encode(&reply), Some(rev)))
+        }
+        "verify" => {
+            let req: VerifyRequest = codec.decode(&bytes).map_err(malformed)?;
+            let entry = state.registry.get(scene)?;
+            let rev = entry.revision;
+            let reply = state.jobs.run(move || handlers::verify_request(&entry, &req)).await?;
+            Ok((codec.encode(&reply), Some(rev)))
+        }
+        "risk" => {
+            let req: RiskRequest = codec.decode(&bytes).map_err(malformed)?;
+            let entry = state.registry.get(scene)?;
+            let rev = entry.revision;
+            let reply = state.jobs.run(move || handlers::risk(&entry, &req)).await?;
+            Ok((codec.encode(&reply), Some(rev)))
+        }
+        _ => Err(ServiceError::InvalidRequest { message: "unknown key: use riskplan/status, riskplan/scenes/<scene> or riskplan/scenes/<scene>/{apply,plan,verify,risk}".into(), field: None }),
+    }
+}
