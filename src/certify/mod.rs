@@ -5,6 +5,11 @@
 //! (algorithms.md §3). Everything here reduces to positivity of a univariate
 //! polynomial on [0, 1]; see [`Verdict`].
 
+pub mod bernstein;
+pub mod sturm;
+#[doc(hidden)]
+pub mod testgen;
 mod verdict;
 
+pub use bernstein::{check, check_exact, check_interval, DEFAULT_MAX_DEPTH};
 pub use verdict::{Undecided, Verdict, Witness};
