@@ -3,7 +3,9 @@
 //! A trajectory piece is safe for an obstacle over its whole time interval when both
 //! contour constraints composed with the piece are positive on the interval
 //! (algorithms.md §3). Everything here reduces to positivity of a univariate
-//! polynomial on [0, 1]; see [`Verdict`].
+//! polynomial on [0, 1]; see [`Verdict`]. Two independent deciders: [`bernstein`]
+//! (exact subdivision, no SDP) and [`sos`] (the SOS certificate of eq. (15) on
+//! Clarabel, re-checked rigorously); [`sturm`] is the exact oracle of the tests.
 
 pub mod bernstein;
 mod compose;
@@ -13,6 +15,6 @@ pub mod sturm;
 pub mod testgen;
 mod verdict;
 
+pub use bernstein::{check, check_exact, check_interval, DEFAULT_MAX_DEPTH};
 pub use compose::{coordinates_exact, restrict_exact, restrict_interval, restrict_poly_exact, PieceRef, Restricted};
-
 pub use verdict::{Undecided, Verdict, Witness};
