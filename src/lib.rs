@@ -27,3 +27,4 @@ pub mod mc;
 pub mod moments;
 pub mod poly;
 pub mod scene;
+pub mod sdp;

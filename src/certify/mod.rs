@@ -5,6 +5,7 @@
 //! (algorithms.md §3). Everything here reduces to positivity of a univariate
 //! polynomial on [0, 1]; see [`Verdict`].
 
+pub mod sos;
 mod verdict;
 
 pub use verdict::{Undecided, Verdict, Witness};
