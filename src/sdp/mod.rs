@@ -10,7 +10,8 @@
 //!   upper-triangle entry holding the *raw* value `Q_ij` (`i ≤ j`), in Clarabel's svec
 //!   order (column-major upper triangle, position `j(j+1)/2 + i`), plus `N(N+1)/2`
 //!   PSD rows with `A = −1` (diagonal) or `A = −√2` (off-diagonal) and `b = 0`, so the
-//!   slack is `s = svec(Q)`. When `Q` enters a linear expression as a full symmetric
+//!   slack is `s = svec(Q)`. Sides 1 and 2 use exactly equivalent cheaper cones by
+//!   default ([`PsdForm`]: a nonnegative row, a 3-dimensional second-order cone). When `Q` enters a linear expression as a full symmetric
 //!   sum `Σ_ij c_ij Q_ij`, the raw variable `Q_ij` (`i < j`) must get `c_ij + c_ji`
 //!   ([`GramBlock::sym_factor`] gives the factor 2 for the common case `c_ij = c_ji`);
 //! * **affine PSD constraints** `M0 + Σ_k x_k M_k ⪰ 0` ([`Model::add_psd_affine`],
@@ -197,15 +198,86 @@ pub fn unpack_svec(v: &[f64]) -> Option<Vec<Vec<f64>>> {
     unpack_upper(&raw)
 }
 
+/// How a PSD constraint of side `N` is handed to Clarabel. All forms are exactly
+/// equivalent to `M ⪰ 0`; the small ones avoid Clarabel's dense PSD-cone machinery
+/// (eigen-decompositions and BLAS calls every iteration), which dominates the cost of
+/// the tiny SDPs of eq. (15).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PsdForm {
+    /// `PSDTriangleConeT(N)`, rows `svec(M)` (√2 off the diagonal): any `N`.
+    Triangle,
+    /// `N = 2`: `(M00 + M11, M00 − M11, 2·M01) ∈ SOC(3)`, which holds iff
+    /// `M00, M11 ≥ 0` and `M00·M11 ≥ M01²`, i.e. iff `M ⪰ 0`.
+    Soc,
+    /// `N = 1`: one nonnegative row `M00 ≥ 0`.
+    Nonneg,
+}
+
+/// The cone rows of one PSD constraint `M ⪰ 0` (from [`Model::add_gram`] or
+/// [`Model::add_psd_affine`]), with its [`PsdForm`]. In every form the duals `z` of
+/// the rows and the dual matrix `Z` returned by [`PsdBlock::dual_matrix`] satisfy
+/// `zᵀs = ⟨Z, M⟩` and `Z ⪰ 0`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PsdBlock {
+    rows: Rows,
+    side: usize,
+    form: PsdForm,
+}
+
+impl PsdBlock {
+    /// The cone rows.
+    pub fn rows(&self) -> Rows {
+        self.rows
+    }
+    /// Matrix side `N`.
+    pub fn side(&self) -> usize {
+        self.side
+    }
+    /// How the constraint was encoded.
+    pub fn form(&self) -> PsdForm {
+        self.form
+    }
+
+    /// Decodes a matrix from per-row values `v` (duals `z` or slacks `s`). For the
+    /// triangle the rows are a scaled svec; for the SOC form `(a+c, a−c, 2b)` the
+    /// slack decodes to `[[a, b], [b, c]]` and the dual `(z0, z1, z2)` to
+    /// `[[z0+z1, z2], [z2, z0−z1]]` (so that `zᵀs = ⟨Z, M⟩`).
+    fn decode(&self, v: &[f64], dual: bool) -> Option<Vec<Vec<f64>>> {
+        let v = v.get(self.rows.range())?;
+        match self.form {
+            PsdForm::Triangle => unpack_svec(v),
+            PsdForm::Nonneg => Some(vec![vec![v[0]]]),
+            PsdForm::Soc => {
+                let (a, c, b) = if dual {
+                    (v[0] + v[1], v[0] - v[1], v[2])
+                } else {
+                    (0.5 * (v[0] + v[1]), 0.5 * (v[0] - v[1]), 0.5 * v[2])
+                };
+                Some(vec![vec![a, b], vec![b, c]])
+            }
+        }
+    }
+
+    /// The dual matrix `Z ⪰ 0` from the dual vector `z` of a solution.
+    pub fn dual_matrix(&self, z: &[f64]) -> Option<Vec<Vec<f64>>> {
+        self.decode(z, true)
+    }
+
+    /// The slack matrix `M(x)` from the slack vector `s` of a solution.
+    pub fn slack_matrix(&self, s: &[f64]) -> Option<Vec<Vec<f64>>> {
+        self.decode(s, false)
+    }
+}
+
 /// A PSD Gram block `Q ⪰ 0` of a [`Model`] (pattern 1 of algorithms.md §0.2).
 ///
 /// Its `N(N+1)/2` variables hold the raw upper-triangle entries `Q_ij`, `i ≤ j`, in
-/// svec order; its PSD cone rows are the same positions.
+/// svec order (`svec_index(i, j)`); its cone rows are described by [`GramBlock::psd`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GramBlock {
     first: usize,
     side: usize,
-    rows: Rows,
+    psd: PsdBlock,
 }
 
 impl GramBlock {
@@ -233,9 +305,9 @@ impl GramBlock {
         }
     }
 
-    /// The PSD cone rows (for the dual matrix, see [`GramBlock::dual_matrix`]).
-    pub fn rows(&self) -> Rows {
-        self.rows
+    /// The cone rows of `Q ⪰ 0`.
+    pub fn psd(&self) -> PsdBlock {
+        self.psd
     }
 
     /// The raw upper-triangle values from a primal vector, in svec order.
@@ -248,9 +320,9 @@ impl GramBlock {
         unpack_upper(self.raw(x)?)
     }
 
-    /// The dual matrix `Z ⪰ 0` of the block's cone (unscaled from svec).
+    /// The dual matrix `Z ⪰ 0` of the block's cone.
     pub fn dual_matrix(&self, z: &[f64]) -> Option<Vec<Vec<f64>>> {
-        unpack_svec(z.get(self.rows.range())?)
+        self.psd.dual_matrix(z)
     }
 }
 
@@ -435,6 +507,7 @@ pub struct Model {
     a_val: Vec<f64>,
     b: Vec<f64>,
     blocks: Vec<(ConeKind, usize)>,
+    force_triangle: bool,
 }
 
 impl Model {
@@ -453,6 +526,7 @@ impl Model {
             a_val: Vec::with_capacity(nnz),
             b: Vec::with_capacity(rows),
             blocks: Vec::new(),
+            force_triangle: false,
         }
     }
 
@@ -464,6 +538,12 @@ impl Model {
     /// Number of constraint rows.
     pub fn num_rows(&self) -> usize {
         self.b.len()
+    }
+
+    /// The right-hand side `b` as stored (one entry per row); a starting point for
+    /// [`Prepared::update_b`].
+    pub fn rhs(&self) -> &[f64] {
+        &self.b
     }
 
     /// A new free scalar variable.
@@ -579,7 +659,9 @@ impl Model {
     }
 
     /// A new Gram block `Q ⪰ 0` of side `side ≥ 1` (pattern 1 of §0.2): `side(side+1)/2`
-    /// new variables (raw `Q_ij`, svec order) and as many PSD rows `s = svec(Q)`.
+    /// new variables (raw `Q_ij`, svec order) and the cone rows of `Q ⪰ 0`: PSD rows
+    /// `s = svec(Q)` (coefficients −1 on the diagonal, −√2 off it), or the equivalent
+    /// small form for side ≤ 2 (see [`PsdForm`], [`Model::set_force_psd_triangle`]).
     pub fn add_gram(&mut self, side: usize) -> Result<GramBlock, SdpError> {
         if side == 0 {
             return Err(SdpError::BadConeSize("Gram block of side 0".into()));
@@ -589,26 +671,24 @@ impl Model {
         for _ in 0..len {
             self.add_var();
         }
-        for j in 0..side {
-            for i in 0..=j {
-                let k = svec_index(i, j);
-                let c = if i == j { 1.0 } else { SQRT2 };
-                self.push_row(&[(Var(first + k), c)], -1.0, 0.0);
-            }
-        }
-        let rows = self.push_block(ConeKind::Psd(side), len);
-        Ok(GramBlock { first, side, rows })
+        let entries: Vec<AffineExpr> = (first..first + len)
+            .map(|v| AffineExpr::var(Var(v)))
+            .collect();
+        let psd = self.push_psd(side, &entries);
+        Ok(GramBlock { first, side, psd })
     }
 
     /// The affine matrix inequality `M(x) = M0 + Σ_k x_k M_k ⪰ 0` of side `side ≥ 1`
     /// (pattern 2 of §0.2). `entries` holds the *raw* (unscaled) entries `M(x)_ij`,
     /// `i ≤ j`, in svec order (`entries[svec_index(i, j)]`); the √2 scaling of the
-    /// off-diagonal rows is applied here.
+    /// off-diagonal rows (`A = −c_ij (M_k)_ij`, `b = c_ij (M0)_ij`) is applied here.
+    /// Side ≤ 2 uses the equivalent small form unless
+    /// [`Model::set_force_psd_triangle`] is set.
     pub fn add_psd_affine(
         &mut self,
         side: usize,
         entries: &[AffineExpr],
-    ) -> Result<Rows, SdpError> {
+    ) -> Result<PsdBlock, SdpError> {
         if side == 0 || entries.len() != svec_len(side) {
             return Err(SdpError::BadConeSize(format!(
                 "affine PSD block of side {side} with {} entries (need {})",
@@ -619,14 +699,60 @@ impl Model {
         for e in entries {
             self.check_expr(e, "affine PSD entry")?;
         }
-        for j in 0..side {
-            for i in 0..=j {
-                let e = &entries[svec_index(i, j)];
-                let c = if i == j { 1.0 } else { SQRT2 };
-                self.push_row(&e.terms, -c, c * e.constant);
+        Ok(self.push_psd(side, entries))
+    }
+
+    /// Always use `PSDTriangleConeT`, even for sides 1 and 2 (default: off, the small
+    /// exact forms of [`PsdForm`] are used). Affects blocks added afterwards.
+    pub fn set_force_psd_triangle(&mut self, on: bool) {
+        self.force_triangle = on;
+    }
+
+    /// Rows of `M ⪰ 0` for checked entries (raw, svec order).
+    fn push_psd(&mut self, side: usize, entries: &[AffineExpr]) -> PsdBlock {
+        let start = self.b.len();
+        let form = match side {
+            1 if !self.force_triangle => PsdForm::Nonneg,
+            2 if !self.force_triangle => PsdForm::Soc,
+            _ => PsdForm::Triangle,
+        };
+        match form {
+            PsdForm::Triangle => {
+                for j in 0..side {
+                    for i in 0..=j {
+                        let e = &entries[svec_index(i, j)];
+                        let c = if i == j { 1.0 } else { SQRT2 };
+                        self.push_row(&e.terms, -c, c * e.constant);
+                    }
+                }
+                self.push_block(ConeKind::Psd(side), svec_len(side));
+            }
+            PsdForm::Nonneg => {
+                self.push_row(&entries[0].terms, -1.0, entries[0].constant);
+                self.push_block(ConeKind::Nonneg, 1);
+            }
+            PsdForm::Soc => {
+                let (a, b, c) = (&entries[0], &entries[1], &entries[2]);
+                let mut t: Vec<(Var, f64)> = Vec::with_capacity(a.terms.len() + c.terms.len());
+                t.extend_from_slice(&a.terms);
+                t.extend_from_slice(&c.terms);
+                self.push_row(&t, -1.0, a.constant + c.constant);
+                t.clear();
+                t.extend_from_slice(&a.terms);
+                t.extend(c.terms.iter().map(|&(v, k)| (v, -k)));
+                self.push_row(&t, -1.0, a.constant - c.constant);
+                self.push_row(&b.terms, -2.0, 2.0 * b.constant);
+                self.push_block(ConeKind::Soc, 3);
             }
         }
-        Ok(self.push_block(ConeKind::Psd(side), svec_len(side)))
+        PsdBlock {
+            rows: Rows {
+                start,
+                len: self.b.len() - start,
+            },
+            side,
+            form,
+        }
     }
 
     /// Sets the objective `min Σ c·x` (repeated variables add up; replaces any
@@ -703,6 +829,14 @@ impl Model {
     /// Solves with Clarabel. An `Ok` result may still have any status; only the
     /// caller's own re-check can turn the point into a proof.
     pub fn solve(&self, settings: &SdpSettings) -> Result<SdpSolution, SdpError> {
+        self.prepare(settings)?.solve()
+    }
+
+    /// Builds the Clarabel solver once (setup: KKT assembly, ordering, equilibration)
+    /// so that it can be re-solved after [`Prepared::update_b`] / [`Prepared::update_q`]
+    /// — the iterated SDPs of algorithms.md §5 change only `q`, and a family of
+    /// certificates of one degree (§3.3) changes only `b`.
+    pub fn prepare(&self, settings: &SdpSettings) -> Result<Prepared, SdpError> {
         let cs = settings.to_clarabel()?;
         if self.a_val.iter().any(|v| !v.is_finite()) {
             return Err(SdpError::NonFinite("constraint matrix"));
@@ -711,32 +845,121 @@ impl Model {
         let p = CscMatrix::zeros((self.n, self.n));
         let cones = self.cones();
         let (q, b) = (&self.q, &self.b);
-        let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            let mut solver = DefaultSolver::new(&p, q, &a, b, &cones, cs)
-                .map_err(|e| SdpError::Setup(e.to_string()))?;
+        let solver = guarded(|| {
+            DefaultSolver::new(&p, q, &a, b, &cones, cs).map_err(|e| SdpError::Setup(e.to_string()))
+        })?;
+        Ok(Prepared {
+            solver,
+            n: self.n,
+            m: self.b.len(),
+        })
+    }
+}
+
+/// Runs `f`, turning a panic inside Clarabel into [`SdpError::Panicked`].
+fn guarded<T>(f: impl FnOnce() -> Result<T, SdpError>) -> Result<T, SdpError> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(payload) => {
+            let msg = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(SdpError::Panicked(msg))
+        }
+    }
+}
+
+/// A set-up Clarabel solver for one [`Model`] (see [`Model::prepare`]). Every
+/// [`Prepared::solve`] starts from Clarabel's default initial point, but Clarabel
+/// keeps some internal state between solves, so a re-solve agrees with a fresh
+/// solve of the updated model only to solver tolerance, not bit for bit. After an
+/// `Err` the solver may be unusable; drop it.
+pub struct Prepared {
+    solver: DefaultSolver<f64>,
+    n: usize,
+    m: usize,
+}
+
+impl fmt::Debug for Prepared {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Prepared")
+            .field("n", &self.n)
+            .field("m", &self.m)
+            .finish()
+    }
+}
+
+impl Prepared {
+    /// Number of variables.
+    pub fn num_vars(&self) -> usize {
+        self.n
+    }
+
+    /// Number of rows.
+    pub fn num_rows(&self) -> usize {
+        self.m
+    }
+
+    /// Replaces the right-hand side `b` (one entry per row, in the model's row order:
+    /// an equality's `rhs`, an affine expression's constant, …, exactly as the model
+    /// stored it; see [`Model::rhs`]).
+    pub fn update_b(&mut self, b: &[f64]) -> Result<(), SdpError> {
+        if b.len() != self.m {
+            return Err(SdpError::BadConeSize(format!(
+                "b has {} entries, model has {} rows",
+                b.len(),
+                self.m
+            )));
+        }
+        if b.iter().any(|v| !v.is_finite()) {
+            return Err(SdpError::NonFinite("right-hand side"));
+        }
+        let solver = &mut self.solver;
+        guarded(|| {
+            solver
+                .update_b(&b.to_vec())
+                .map_err(|e| SdpError::Setup(e.to_string()))
+        })
+    }
+
+    /// Replaces the objective vector `q` (one entry per variable).
+    pub fn update_q(&mut self, q: &[f64]) -> Result<(), SdpError> {
+        if q.len() != self.n {
+            return Err(SdpError::BadConeSize(format!(
+                "q has {} entries, model has {} variables",
+                q.len(),
+                self.n
+            )));
+        }
+        if q.iter().any(|v| !v.is_finite()) {
+            return Err(SdpError::NonFinite("objective"));
+        }
+        let solver = &mut self.solver;
+        guarded(|| {
+            solver
+                .update_q(&q.to_vec())
+                .map_err(|e| SdpError::Setup(e.to_string()))
+        })
+    }
+
+    /// Solves (from Clarabel's default start).
+    pub fn solve(&mut self) -> Result<SdpSolution, SdpError> {
+        let solver = &mut self.solver;
+        guarded(|| {
             solver.solve();
-            let sol = solver.solution;
+            let sol = &solver.solution;
             Ok(SdpSolution {
                 status: sol.status.into(),
-                x: sol.x,
-                z: sol.z,
-                s: sol.s,
+                x: sol.x.clone(),
+                z: sol.z.clone(),
+                s: sol.s.clone(),
                 obj_primal: sol.obj_val,
                 obj_dual: sol.obj_val_dual,
                 iterations: sol.iterations,
                 solve_time: sol.solve_time,
             })
-        }));
-        match run {
-            Ok(r) => r,
-            Err(payload) => {
-                let msg = payload
-                    .downcast_ref::<&str>()
-                    .map(|s| s.to_string())
-                    .or_else(|| payload.downcast_ref::<String>().cloned())
-                    .unwrap_or_else(|| "unknown panic".into());
-                Err(SdpError::Panicked(msg))
-            }
-        }
+        })
     }
 }

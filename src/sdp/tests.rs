@@ -63,40 +63,84 @@ fn svec_layout_is_column_major_upper() {
 }
 
 /// min tr Q s.t. Q_01 = 1, Q ⪰ 0 (2×2): Q = [[1,1],[1,1]], optimum 2. With the √2 of
-/// the cone rows forgotten the solver would see Q_01/√2 and report √2.
+/// the cone rows forgotten the solver would see Q_01/√2 and report √2. Checked with
+/// the PSD triangle and with the equivalent SOC form.
 #[test]
 fn gram_block_min_trace_fixed_offdiagonal() {
-    let mut m = Model::new();
-    let q = m.add_gram(2).unwrap();
-    m.add_eq(&[(q.var(0, 1), 1.0)], 1.0).unwrap();
-    m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0)])
-        .unwrap();
-    let s = m.solve(&SdpSettings::default()).unwrap();
-    assert_eq!(s.status, SdpStatus::Solved);
-    assert!((s.obj_primal - 2.0).abs() < 1e-7, "{}", s.obj_primal);
-    let mat = q.matrix(&s.x).unwrap();
-    for row in &mat {
-        for &v in row {
-            assert!((v - 1.0).abs() < 1e-6);
+    for force in [false, true] {
+        let mut m = Model::new();
+        m.set_force_psd_triangle(force);
+        let q = m.add_gram(2).unwrap();
+        assert_eq!(
+            q.psd().form(),
+            if force {
+                PsdForm::Triangle
+            } else {
+                PsdForm::Soc
+            }
+        );
+        m.add_eq(&[(q.var(0, 1), 1.0)], 1.0).unwrap();
+        m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0)])
+            .unwrap();
+        let s = m.solve(&SdpSettings::default()).unwrap();
+        assert_eq!(s.status, SdpStatus::Solved);
+        assert!((s.obj_primal - 2.0).abs() < 1e-7, "{}", s.obj_primal);
+        let mat = q.matrix(&s.x).unwrap();
+        for row in &mat {
+            for &v in row {
+                assert!((v - 1.0).abs() < 1e-6);
+            }
         }
+        // the slack decodes back to Q
+        let sm = q.psd().slack_matrix(&s.s).unwrap();
+        for i in 0..2 {
+            for j in 0..2 {
+                assert!((sm[i][j] - mat[i][j]).abs() < 1e-6, "{sm:?} vs {mat:?}");
+            }
+        }
+        // the same constraint written as a full symmetric sum ⟨[[0,1],[1,0]], Q⟩ = 2
+        let mut m = Model::new();
+        m.set_force_psd_triangle(force);
+        let q = m.add_gram(2).unwrap();
+        let eq = m
+            .add_eq(&[(q.var(1, 0), GramBlock::sym_factor(0, 1))], 2.0)
+            .unwrap();
+        m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0)])
+            .unwrap();
+        let s = m.solve(&SdpSettings::default()).unwrap();
+        assert!((s.obj_primal - 2.0).abs() < 1e-7);
+        // dual matrix: stationarity gives Z = I − y·[[0,1],[1,0]] (C − Σ y A), Z ⪰ 0,
+        // and complementarity ⟨Z, Q⟩ ≈ 0
+        let z = q.dual_matrix(&s.z).unwrap();
+        let y = -s.duals(eq)[0];
+        assert!(
+            (z[0][0] - 1.0).abs() < 1e-6 && (z[1][1] - 1.0).abs() < 1e-6,
+            "{z:?}"
+        );
+        assert!((z[0][1] + y).abs() < 1e-6, "{z:?} y = {y}");
+        let qm = q.matrix(&s.x).unwrap();
+        let inner: f64 = (0..2)
+            .flat_map(|i| (0..2).map(move |j| (i, j)))
+            .map(|(i, j)| z[i][j] * qm[i][j])
+            .sum();
+        assert!(inner.abs() < 1e-6, "complementarity {inner}");
     }
-    // the same constraint written as a full symmetric sum ⟨[[0,1],[1,0]], Q⟩ = 2
-    let mut m = Model::new();
-    let q = m.add_gram(2).unwrap();
-    m.add_eq(&[(q.var(1, 0), GramBlock::sym_factor(0, 1))], 2.0)
-        .unwrap();
-    m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0)])
-        .unwrap();
-    let s = m.solve(&SdpSettings::default()).unwrap();
-    assert!((s.obj_primal - 2.0).abs() < 1e-7);
-    // the dual matrix Z of the PSD cone satisfies Z = C − y·A-part ⪰ 0 and ⟨Z, Q⟩ ≈ 0
-    let z = q.dual_matrix(&s.z).unwrap();
-    let qm = q.matrix(&s.x).unwrap();
-    let inner: f64 = (0..2)
-        .flat_map(|i| (0..2).map(move |j| (i, j)))
-        .map(|(i, j)| z[i][j] * qm[i][j])
-        .sum();
-    assert!(inner.abs() < 1e-6, "complementarity {inner}");
+}
+
+/// Side 1 is a nonnegative row: min q s.t. q ≥ 0, q + x = 1, x ≤ 0.25 gives q = 0.75.
+#[test]
+fn gram_block_side_one() {
+    for force in [false, true] {
+        let mut m = Model::new();
+        m.set_force_psd_triangle(force);
+        let q = m.add_gram(1).unwrap();
+        let x = m.add_var();
+        m.add_eq(&[(q.var(0, 0), 1.0), (x, 1.0)], 1.0).unwrap();
+        m.add_le(&[(x, 1.0)], 0.25).unwrap();
+        m.set_objective(&[(q.var(0, 0), 1.0)]).unwrap();
+        let s = m.solve(&SdpSettings::default()).unwrap();
+        assert!((s.value(q.var(0, 0)) - 0.75).abs() < 1e-7);
+    }
 }
 
 /// 3×3: min tr Q s.t. Q_01 = Q_12 = 1. Optimum 2√2 (Q = v vᵀ with v = (a, b, a),
@@ -120,21 +164,45 @@ fn gram_block_3x3_known_optimum() {
     );
 }
 
-/// max x s.t. [[1, x], [x, 4]] ⪰ 0: x = 2 (pattern 2; a forgotten √2 gives 2√2).
+/// max x s.t. [[1, x], [x, 4]] ⪰ 0: x = 2 (pattern 2; a forgotten √2 gives 2√2), and
+/// a 3×3 affine block: max x s.t. [[1, x, 0], [x, 1, x], [0, x, 1]] ⪰ 0: x = 1/√2.
 #[test]
 fn affine_psd_pattern_two() {
+    for force in [false, true] {
+        let mut m = Model::new();
+        m.set_force_psd_triangle(force);
+        let x = m.add_var();
+        let entries = vec![
+            AffineExpr::constant(1.0),
+            AffineExpr::var(x),
+            AffineExpr::constant(4.0),
+        ];
+        let blk = m.add_psd_affine(2, &entries).unwrap();
+        m.set_objective(&[(x, -1.0)]).unwrap();
+        let s = m.solve(&SdpSettings::default()).unwrap();
+        assert_eq!(s.status, SdpStatus::Solved);
+        assert!((s.value(x) - 2.0).abs() < 1e-6, "{}", s.value(x));
+        let sm = blk.slack_matrix(&s.s).unwrap();
+        assert!(
+            (sm[0][1] - 2.0).abs() < 1e-6 && (sm[1][1] - 4.0).abs() < 1e-9,
+            "{sm:?}"
+        );
+    }
     let mut m = Model::new();
     let x = m.add_var();
-    let entries = vec![
-        AffineExpr::constant(1.0),
+    let one = AffineExpr::constant(1.0);
+    let e = vec![
+        one.clone(),
         AffineExpr::var(x),
-        AffineExpr::constant(4.0),
+        one.clone(),
+        AffineExpr::constant(0.0),
+        AffineExpr::var(x),
+        one,
     ];
-    m.add_psd_affine(2, &entries).unwrap();
+    m.add_psd_affine(3, &e).unwrap();
     m.set_objective(&[(x, -1.0)]).unwrap();
     let s = m.solve(&SdpSettings::default()).unwrap();
-    assert_eq!(s.status, SdpStatus::Solved);
-    assert!((s.value(x) - 2.0).abs() < 1e-6, "{}", s.value(x));
+    assert!((s.value(x) - 1.0 / SQRT2).abs() < 1e-6, "{}", s.value(x));
 }
 
 /// min x + y s.t. ‖(x, y)‖ ≤ 1: −√2.
@@ -258,4 +326,42 @@ fn errors_instead_of_panics() {
     let s = u.solve(&SdpSettings::default()).unwrap();
     assert!(!s.status.has_solution(), "{:?}", s.status);
     assert_eq!(s.status.to_string(), format!("{:?}", s.status));
+}
+
+/// A prepared solver re-solves with a new right-hand side and objective, giving the
+/// same answers as a fresh solve.
+#[test]
+fn prepared_update_b_and_q() {
+    let mut m = Model::new();
+    let g = m.add_gram(2).unwrap();
+    let x = m.add_var();
+    let r = m.add_eq(&[(g.var(0, 1), 1.0)], 1.0).unwrap();
+    m.add_eq(&[(x, 1.0), (g.var(0, 0), -1.0)], 0.0).unwrap();
+    m.set_objective(&[(g.var(0, 0), 1.0), (g.var(1, 1), 1.0)])
+        .unwrap();
+    let mut prep = m.prepare(&SdpSettings::default()).unwrap();
+    let s1 = prep.solve().unwrap();
+    assert!((s1.obj_primal - 2.0).abs() < 1e-7);
+    let mut b = m.rhs().to_vec();
+    b[r.start] = 3.0; // Q_01 = 3: min trace 6
+    prep.update_b(&b).unwrap();
+    let s2 = prep.solve().unwrap();
+    assert!((s2.obj_primal - 6.0).abs() < 1e-6, "{}", s2.obj_primal);
+    let mut fresh = m.clone();
+    fresh.add_eq(&[], 0.0).unwrap(); // same problem plus an empty row, solved from scratch
+                                     // q: minimise Q00 + 4 Q11 with Q01 = 3: 2·sqrt(4)·3 = 12
+    let mut q = vec![0.0; prep.num_vars()];
+    q[g.var(0, 0).index()] = 1.0;
+    q[g.var(1, 1).index()] = 4.0;
+    prep.update_q(&q).unwrap();
+    let s3 = prep.solve().unwrap();
+    assert!((s3.obj_primal - 12.0).abs() < 1e-6, "{}", s3.obj_primal);
+    assert!(matches!(
+        prep.update_b(&[1.0]),
+        Err(SdpError::BadConeSize(_))
+    ));
+    assert!(matches!(
+        prep.update_q(&vec![f64::NAN; prep.num_vars()]),
+        Err(SdpError::NonFinite(_))
+    ));
 }

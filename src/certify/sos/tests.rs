@@ -442,3 +442,91 @@ fn example3_piece2_tangent_is_not_safe() {
         );
     }
 }
+
+/// The per-thread prepared solver (opt-in) agrees with a fresh solve to solver
+/// tolerance, for a sequence of polynomials of mixed degrees (only `b` changes
+/// between them). It is not bit-identical: Clarabel carries some internal state
+/// from one solve to the next.
+#[test]
+fn solver_reuse_matches_fresh_solves() {
+    let fresh = SosSettings::default();
+    let reuse = SosSettings {
+        reuse_solver: true,
+        ..SosSettings::default()
+    };
+    let polys = [
+        points(&[0.5, -1.0, 1.0]),
+        points(&[0.3, -0.5, 0.2, 0.1, 0.4]),
+        points(&[0.1, -1.0, 1.0]),
+        points(&[0.01, 0.0625, -0.5, 1.5, -2.0, 1.0]),
+        points(&[1.0, -0.8, 0.9, -0.5, 0.3]),
+        points(&[0.3, -0.5, 0.2, 0.1, 0.4]),
+    ];
+    for p in &polys {
+        for _ in 0..2 {
+            let (a, b) = (certify(p, &fresh), certify(p, &reuse));
+            assert_eq!(a.verdict.is_safe(), b.verdict.is_safe());
+            let (ca, cb) = (a.certificate.unwrap(), b.certificate.unwrap());
+            assert!(
+                (ca.gamma - cb.gamma).abs() < 1e-6,
+                "{} vs {}",
+                ca.gamma,
+                cb.gamma
+            );
+        }
+    }
+}
+
+/// The duals of the matching rows are moments of a measure on the minimisers (§3.3):
+/// y1/y0 ≈ argmin p.
+#[test]
+fn dual_moments_locate_the_minimiser() {
+    for (t0, lift) in [(0.7, 1e-4), (0.25, -1e-4), (0.5, 0.0)] {
+        // (τ − t0)² (1 + τ²) + lift, degree 4
+        let sq = [t0 * t0, -2.0 * t0, 1.0];
+        let mut c = [0.0; 5];
+        for (i, a) in sq.iter().enumerate() {
+            c[i] += a;
+            c[i + 2] += a;
+        }
+        c[0] += lift;
+        let (sol, lay) = solve_margin_sdp(&c, 2, &SosSettings::default()).unwrap();
+        let y = sol.duals(lay.eq_rows);
+        let t = y[1] / y[0];
+        assert!((t - t0).abs() < 1e-3, "τ* = {t}, expected {t0}");
+        assert!((sol.value(lay.gamma) - lift).abs() < 1e-6);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+    /// Near-tangent generator (§3.7, generator 1): p = a·(τ − r1)²·((τ − r2)² + d) ± 10^-k
+    /// in exact rationals, r1 ∈ [0, 1]. With −10^-k, p(r1) < 0 exactly: never Safe;
+    /// with +10^-k, p > 0: never Unsafe, and a Safe margin is at most p(r1) = 10^-k.
+    #[test]
+    fn near_tangent_never_misjudged(r1 in 0.0f64..=1.0, r2 in -1.0f64..2.0, d in 0.01f64..1.0,
+                                    a in 0.1f64..10.0, k in 1i32..=12, neg in proptest::bool::ANY) {
+        let r = |x: f64| f64_to_rational(x).unwrap();
+        let lin = |root: f64| UPoly::new(vec![-r(root), q(1, 1)]);
+        let eps = BigRational::new(1.into(), num_traits::pow(num_bigint::BigInt::from(10), k as usize));
+        let eps = if neg { -eps } else { eps };
+        let base = lin(r1).mul(&lin(r1)).mul(&lin(r2).mul(&lin(r2)).add(&UPoly::constant(r(d)))).scale(&r(a));
+        let exact = base.add(&UPoly::constant(eps.clone()));
+        let p = enclose(exact.coeffs());
+        let out = run(&p);
+        if neg {
+            prop_assert!(!out.verdict.is_safe(), "p(r1) = {} < 0 but Safe", eps);
+        } else {
+            prop_assert!(!out.verdict.is_unsafe(), "p > 0 but {:?}", out.verdict);
+        }
+        match out.verdict {
+            Verdict::Safe { margin } => {
+                prop_assert!(r(margin) <= exact.eval(&r(r1)), "margin {} above p(r1)", margin);
+            }
+            Verdict::Unsafe(w) => {
+                prop_assert!(exact.eval(&r(w.tau)) <= BigRational::from_integer(0.into()));
+            }
+            Verdict::Undecided(_) => {}
+        }
+    }
+}
