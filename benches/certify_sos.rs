@@ -1,0 +1,75 @@
+//! Speed of the eq. (15) SOS certifier (`riskplan::certify::sos`) on realistic
+//! positive constraints: the disk `w² − x1² − x2²`, `w ~ U[0.3, 0.4]`, Δ = 0.1
+//! (Example 3), restricted to trajectory pieces passing ≈ 0.5 from the disk.
+//!
+//! * degree 2: `g2 = −E[P] = ρ − 37/300` on the segment (−1, 0.85) → (1, 0.85);
+//! * degree 4: `g1 = E[P]² − 0.9·E[P²]` on the same segment;
+//! * degree 8: `g1` on the quadratic piece `(−1 + 2τ, 0.85 + 0.3τ(1−τ))`.
+//!
+//! Run with `OPENBLAS_NUM_THREADS=1 cargo bench --no-default-features --bench certify_sos`.
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use num_rational::BigRational;
+use riskplan::certify::sos::{certify, recheck, SosSettings};
+use riskplan::poly::{Interval, UPoly};
+
+fn q(n: i64, d: i64) -> BigRational {
+    BigRational::new(n.into(), d.into())
+}
+
+/// (g1, g2) restricted to the path `(x1(τ), x2(τ))`, enclosed in intervals.
+fn constraints(
+    x1: UPoly<BigRational>,
+    x2: UPoly<BigRational>,
+) -> (UPoly<Interval>, UPoly<Interval>) {
+    let rho = x1.mul(&x1).add(&x2.mul(&x2));
+    let ep = UPoly::constant(q(37, 300)).sub(&rho);
+    let ep2 = UPoly::constant(q(781, 50000))
+        .sub(&rho.scale(&q(37, 150)))
+        .add(&rho.mul(&rho));
+    let g1 = ep.mul(&ep).sub(&ep2.scale(&q(9, 10)));
+    let g2 = ep.neg();
+    (
+        g1.map(Interval::enclose_rational),
+        g2.map(Interval::enclose_rational),
+    )
+}
+
+fn bench(c: &mut Criterion) {
+    let seg_x1 = UPoly::new(vec![q(-1, 1), q(2, 1)]);
+    let seg_x2 = UPoly::constant(q(85, 100));
+    let (g1_seg, g2_seg) = constraints(seg_x1.clone(), seg_x2);
+    let quad_x2 = UPoly::new(vec![q(85, 100), q(3, 10), q(-3, 10)]);
+    let (g1_quad, _) = constraints(seg_x1, quad_x2);
+    let settings = SosSettings::default();
+    let cases = [("deg2", &g2_seg), ("deg4", &g1_seg), ("deg8", &g1_quad)];
+    for (name, p) in cases {
+        let out = certify(p, &settings);
+        assert_eq!(p.degree(), name[3..].parse::<usize>().unwrap());
+        assert!(out.verdict.is_safe(), "{name}: {:?}", out.verdict);
+        let cert = out.certificate.expect("certificate");
+        eprintln!("{name}: {:?}, {} iterations", out.verdict, cert.iterations);
+    }
+    let mut g = c.benchmark_group("certify_sos");
+    for (name, p) in cases {
+        g.bench_function(name, |b| b.iter(|| certify(black_box(p), &settings)));
+    }
+    // opt-in solver reuse (skips Clarabel's setup; see SosSettings::reuse_solver)
+    let reuse = SosSettings {
+        reuse_solver: true,
+        ..SosSettings::default()
+    };
+    g.bench_function("deg4_reuse", |b| {
+        b.iter(|| certify(black_box(&g1_seg), &reuse))
+    });
+    let cert = certify(&g1_seg, &settings)
+        .certificate
+        .expect("certificate");
+    g.bench_function("recheck_deg4", |b| {
+        b.iter(|| recheck(black_box(&g1_seg), black_box(&cert)))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
