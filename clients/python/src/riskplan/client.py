@@ -1,0 +1,360 @@
+"""The riskplan client: a Zenoh session in client mode talking to ``riskplan serve``
+(wire protocol v1, proto/README.md)."""
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import zenoh
+
+from .errors import (
+    ConnectError,
+    InvalidSceneNameError,
+    NoReplyError,
+    QueryTimeoutError,
+    RiskplanError,
+    error_from_reply,
+)
+from .plan import Plan, Trajectory
+
+PREFIX = "riskplan"
+JSON = "application/json"
+# Characters that would change a key expression's meaning (chunk separator, wildcards,
+# parameters, ...). The server checks the full name rules; the client only refuses
+# names that would address other keys than the one meant.
+_KEY_SPECIALS = set("/*$?#")
+
+Json = Dict[str, Any]
+
+
+def _check_chunk(value: str, what: str) -> str:
+    if not isinstance(value, str) or not value or any(c in _KEY_SPECIALS for c in value):
+        raise InvalidSceneNameError(
+            f"{what} {value!r} cannot be a key-expression chunk (empty, or contains one of / * $ ? #); "
+            "refused by the client",
+            field="name" if what == "scene name" else "id",
+        )
+    return value
+
+
+def scene_key(name: str, *rest: str) -> str:
+    """The key expression ``riskplan/scenes/<name>[/rest...]``."""
+    return "/".join([PREFIX, "scenes", _check_chunk(name, "scene name"), *rest])
+
+
+def _encode(payload: Any) -> Optional[bytes]:
+    if payload is None:
+        return None
+    if isinstance(payload, bytes):
+        return payload
+    if isinstance(payload, str):
+        return payload.encode()
+    return json.dumps(payload, allow_nan=False).encode()
+
+
+def _encoding(enc: Union[None, str, zenoh.Encoding]) -> Optional[zenoh.Encoding]:
+    if enc is None:
+        return None
+    if isinstance(enc, zenoh.Encoding):
+        return enc
+    return zenoh.Encoding(enc)
+
+
+def _decode_ok(sample: zenoh.Sample) -> Any:
+    data = sample.payload.to_bytes()
+    enc = str(sample.encoding)
+    if enc.startswith("application/bincode"):
+        raise RiskplanError(f"the client cannot decode a reply in {enc}", code="unsupported_encoding")
+    try:
+        return json.loads(data)
+    except ValueError as e:
+        raise RiskplanError(f"reply is not JSON ({enc}): {e}: {data[:200]!r}", code="bad_reply") from None
+
+
+def _decode_err(err: zenoh.ReplyError) -> RiskplanError:
+    text = err.payload.to_bytes().decode("utf-8", errors="replace")
+    if text.strip() == "Timeout":
+        return QueryTimeoutError("the query timed out (the server is hung, busy with it, or slower than the timeout)")
+    try:
+        payload = json.loads(text)
+    except ValueError:
+        return RiskplanError(f"error reply ({err.encoding}): {text}", code="unknown")
+    if isinstance(payload, dict) and "code" in payload:
+        return error_from_reply(payload)
+    return RiskplanError(f"error reply ({err.encoding}): {text}", code="unknown")
+
+
+class Client:
+    """A connection to a riskplan server.
+
+    ``endpoint``: a Zenoh locator (``tcp/127.0.0.1:7447``) or a list of them. The
+    session runs in client mode with multicast scouting off, so it talks only to the
+    endpoint(s) given. ``timeout``: seconds per query (plans use at least their time
+    limit plus a margin). Use as a context manager, or call :meth:`close`.
+    """
+
+    def __init__(self, endpoint: Union[str, Sequence[str]] = "tcp/127.0.0.1:7447", timeout: float = 30.0,
+                 *, config: Optional[zenoh.Config] = None):
+        self.endpoint = endpoint
+        self.timeout = float(timeout)
+        if config is None:
+            config = zenoh.Config()
+            endpoints = [endpoint] if isinstance(endpoint, str) else list(endpoint)
+            config.insert_json5("mode", '"client"')
+            config.insert_json5("connect/endpoints", json.dumps(endpoints))
+            config.insert_json5("scouting/multicast/enabled", "false")
+        try:
+            self._session = zenoh.open(config)
+        except zenoh.ZError as e:
+            raise ConnectError(f"cannot open a Zenoh session to {endpoint}: {e}") from None
+        self.last_replies = 0
+
+    # -- lifecycle -----------------------------------------------------------------
+
+    def close(self) -> None:
+        """Closes the Zenoh session (idempotent)."""
+        s = getattr(self, "_session", None)
+        if s is not None and not s.is_closed():
+            s.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self):  # pragma: no cover - best effort
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    # -- low level -----------------------------------------------------------------
+
+    def query(self, key: str, request: Any = None, *, encoding: Union[None, str, zenoh.Encoding] = JSON,
+              timeout: Optional[float] = None) -> Any:
+        """One ``get`` on ``key`` with ``request`` as payload (a dict/list is sent as JSON;
+        ``str``/``bytes`` as they are) and the given encoding (``None``: no encoding).
+        Returns the decoded JSON reply; raises a :class:`RiskplanError` subclass for an
+        error reply, :class:`QueryTimeoutError` on timeout, :class:`NoReplyError` when
+        nothing answered."""
+        kwargs: Dict[str, Any] = dict(
+            consolidation=zenoh.ConsolidationMode.NONE,
+            target=zenoh.QueryTarget.BEST_MATCHING,
+            timeout=float(timeout if timeout is not None else self.timeout),
+        )
+        data = _encode(request)
+        if data is not None:
+            kwargs["payload"] = data
+        enc = _encoding(encoding)
+        if enc is not None:
+            kwargs["encoding"] = enc
+        replies = list(self._session.get(key, **kwargs))
+        self.last_replies = len(replies)
+        if not replies:
+            raise NoReplyError(f"no reply to the query on {key}: no server serves it (absent, or it died meanwhile)")
+        oks = [r.ok for r in replies if r.ok is not None]
+        errs = [_decode_err(r.err) for r in replies if r.ok is None]
+        real_errs = [e for e in errs if not isinstance(e, QueryTimeoutError)]
+        if len(oks) + len(real_errs) > 1:
+            warnings.warn(f"{len(oks) + len(real_errs)} replies to one query on {key} (expected one); using the first",
+                          RuntimeWarning, stacklevel=2)
+        # the first real reply, in arrival order
+        for r in replies:
+            if r.ok is not None:
+                return _decode_ok(r.ok)
+            e = _decode_err(r.err)
+            if not isinstance(e, QueryTimeoutError):
+                raise e
+        raise errs[0]
+
+    def put(self, key: str, payload: Any, *, encoding: Union[None, str, zenoh.Encoding] = JSON) -> None:
+        """A ``put`` on ``key`` (fire and forget)."""
+        kwargs = {}
+        enc = _encoding(encoding)
+        if enc is not None:
+            kwargs["encoding"] = enc
+        self._session.put(key, _encode(payload) or b"", **kwargs)
+
+    def delete(self, key: str) -> None:
+        """A ``delete`` on ``key`` (fire and forget)."""
+        self._session.delete(key)
+
+    # -- scenes --------------------------------------------------------------------
+
+    def put_scene(self, name: str, scene: Json) -> None:
+        """Replaces (or creates) scene ``name`` with a whole scene (format v1), fire and
+        forget: nothing is acknowledged, use :meth:`apply` when you must know."""
+        self.put(scene_key(name), scene)
+
+    def delete_scene(self, name: str) -> None:
+        """Deletes scene ``name`` (fire and forget)."""
+        self.delete(scene_key(name))
+
+    def apply(self, name: str, scene: Optional[Json] = None, changes: Optional[List[Json]] = None,
+              *, timeout: Optional[float] = None) -> int:
+        """Replaces the whole scene (``scene=``) or applies obstacle ``changes``
+        atomically, in order (``[{"op": "put", "id", "poly", "params"?} |
+        {"op": "delete", "id"}]``). Returns the new revision, acknowledged after the
+        update is persisted."""
+        if (scene is None) == (changes is None):
+            raise ValueError("apply needs exactly one of scene= and changes=")
+        request = {"scene": scene} if scene is not None else {"changes": list(changes)}
+        reply = self.query(scene_key(name, "apply"), request, timeout=timeout)
+        return int(reply["revision"])
+
+    def update_obstacle(self, name: str, id: str, poly: str, params: Optional[Json] = None) -> None:
+        """Adds or replaces obstacle ``id`` of scene ``name`` (a put on
+        ``riskplan/scenes/<name>/obstacles/<id>``; fire and forget). ``params`` declares
+        or replaces parameters the obstacle introduces (``{name: distribution}``)."""
+        body: Json = {"poly": poly}
+        if params is not None:
+            body["params"] = params
+        self.put(scene_key(name, "obstacles", _check_chunk(id, "obstacle id")), body)
+
+    def remove_obstacle(self, name: str, id: str) -> None:
+        """Removes obstacle ``id`` of scene ``name`` (a delete; fire and forget)."""
+        self.delete(scene_key(name, "obstacles", _check_chunk(id, "obstacle id")))
+
+    def get_scene(self, name: str) -> Json:
+        """The ``scene_reply`` of scene ``name``: ``{"name", "revision", "scene"}`` (the
+        scene itself, format v1, under ``"scene"``)."""
+        return self.query(scene_key(name))
+
+    def revision(self, name: str) -> int:
+        """The current revision of scene ``name``."""
+        return int(self.get_scene(name)["revision"])
+
+    # -- planning ------------------------------------------------------------------
+
+    def plan_timeout(self, time_limit: Optional[float]) -> float:
+        """The query timeout used for a plan with this time limit: a bit longer than it."""
+        if time_limit is None or not math.isfinite(time_limit) or time_limit <= 0:
+            return self.timeout
+        return max(self.timeout, 1.25 * float(time_limit) + 5.0)
+
+    def plan(self, name: str, start: Optional[Sequence[float]] = None, goal: Optional[Sequence[float]] = None,
+             planner: Optional[str] = "rrt-sos", time_limit: Optional[float] = 10.0, seed: Optional[int] = 1,
+             timeout: Optional[float] = None, **options: Any) -> Plan:
+        """Plans on scene ``name`` (``plan_request``). ``options``: ``pieces``,
+        ``improve``, ``delta``, ``certifier`` (any other key is sent as is, and the
+        server rejects it as ``malformed_payload``). ``None`` leaves a field out (the
+        server's default). Raises :class:`NoPlanError` when no plan is found in time."""
+        request: Json = {}
+        if start is not None:
+            request["start"] = [float(v) for v in start]
+        if goal is not None:
+            request["goal"] = [float(v) for v in goal]
+        if planner is not None:
+            request["planner"] = planner
+        if time_limit is not None:
+            request["time_limit"] = float(time_limit)
+        if seed is not None:
+            request["seed"] = int(seed)
+        for k, v in options.items():
+            if v is not None:
+                request[k] = v
+        reply = self.query(scene_key(name, "plan"), request,
+                           timeout=timeout if timeout is not None else self.plan_timeout(time_limit))
+        return Plan(reply)
+
+    def verify(self, name: str, trajectory: Union[None, Json, Trajectory] = None,
+               segment: Union[None, Json, Sequence] = None, method: Optional[str] = None,
+               delta: Optional[float] = None, *, timeout: Optional[float] = None) -> Json:
+        """Verifies a trajectory (a :class:`Plan`, a plan_reply dict or a trajectory v1
+        dict) or one straight segment (``{"from", "to", "t0"?, "t1"?}`` or a tuple
+        ``(from, to[, t0, t1])``) against scene ``name``. Returns the ``verify_reply``
+        (``{"safe", "method", "risk", "pieces", "revision"}``)."""
+        if (trajectory is None) == (segment is None):
+            raise ValueError("verify needs exactly one of trajectory= and segment=")
+        request: Json = {}
+        if trajectory is not None:
+            if isinstance(trajectory, Trajectory):
+                request["trajectory"] = trajectory.trajectory()
+            else:
+                request["trajectory"] = {"format": trajectory.get("format", "riskplan-trajectory/1"),
+                                         "pieces": trajectory["pieces"]}
+        else:
+            if isinstance(segment, dict):
+                seg = dict(segment)
+            else:
+                seg_list = list(segment)
+                if len(seg_list) not in (2, 4):
+                    raise ValueError("segment: (from, to) or (from, to, t0, t1)")
+                seg = {"from": seg_list[0], "to": seg_list[1]}
+                if len(seg_list) == 4:
+                    seg["t0"], seg["t1"] = seg_list[2], seg_list[3]
+            for k in ("from", "to"):
+                seg[k] = [float(v) for v in seg[k]]
+            for k in ("t0", "t1"):
+                if seg.get(k) is not None:
+                    seg[k] = float(seg[k])
+                else:
+                    seg.pop(k, None)
+            request["segment"] = seg
+        if method is not None:
+            request["method"] = method
+        if delta is not None:
+            request["delta"] = float(delta)
+        return self.query(scene_key(name, "verify"), request, timeout=timeout)
+
+    # -- risk ----------------------------------------------------------------------
+
+    def risk_query(self, name: str, request: Json, *, timeout: Optional[float] = None) -> Json:
+        """A raw ``risk_request``; returns the ``risk_reply`` dict."""
+        return self.query(scene_key(name, "risk"), request, timeout=timeout)
+
+    def risk(self, name: str, points: Union[np.ndarray, Sequence], time: Optional[float] = None,
+             *, timeout: Optional[float] = None) -> np.ndarray:
+        """Cantelli bounds (max over obstacles) at ``points`` (an ``(n, dim)`` array, or
+        one point) at ``time`` (default: the horizon's start): an ``(n,)`` array."""
+        pts = np.asarray(points, dtype=float)
+        if pts.ndim == 1:
+            pts = pts.reshape(1, -1)
+        request: Json = {"points": pts.tolist()}
+        if time is not None:
+            request["time"] = float(time)
+        reply = self.risk_query(name, request, timeout=timeout)
+        return np.asarray(reply["bounds"], dtype=float)
+
+    def risk_grid(self, name: str, lower: Sequence[float], upper: Sequence[float], n: int,
+                  time: Optional[float] = None, *, timeout: Optional[float] = None
+                  ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Cantelli bounds on an ``n``×``n`` grid over the first two axes (other
+        coordinates at ``lower``). Returns ``(X, Y, B)``, each ``(n, n)``, as from
+        ``numpy.meshgrid`` (``X`` varies along axis 1): ready for ``plt.contour``."""
+        lower = [float(v) for v in lower]
+        upper = [float(v) for v in upper]
+        n = int(n)
+        request: Json = {"grid": {"lower": lower, "upper": upper, "n": n}}
+        if time is not None:
+            request["time"] = float(time)
+        reply = self.risk_query(name, request, timeout=timeout)
+        xs = np.linspace(lower[0], upper[0], n)
+        ys = np.linspace(lower[1], upper[1], n)
+        X, Y = np.meshgrid(xs, ys)
+        pts = np.asarray(reply["points"], dtype=float).reshape(-1, len(lower))
+        bounds = np.asarray(reply["bounds"], dtype=float)
+        if pts.shape[0] != n * n or bounds.shape[0] != n * n:
+            raise RiskplanError(f"risk grid reply has {pts.shape[0]} points and {bounds.shape[0]} bounds, "
+                                f"expected {n * n}", code="bad_reply")
+        # Place each returned point by its coordinates (the order of the reply's points
+        # is not specified by the protocol).
+        def index(v, lo, hi):
+            if n == 1 or hi == lo:
+                return np.zeros(v.shape, dtype=int)
+            return np.clip(np.rint((v - lo) / (hi - lo) * (n - 1)).astype(int), 0, n - 1)
+        i = index(pts[:, 0], lower[0], upper[0])
+        j = index(pts[:, 1], lower[1], upper[1])
+        B = np.full((n, n), np.nan)
+        B[j, i] = bounds
+        return X, Y, B
+
+    # -- server --------------------------------------------------------------------
+
+    def status(self, *, timeout: Optional[float] = None) -> Json:
+        """The ``status_reply``: uptime, scenes, cache, queue and request counters."""
+        return self.query(f"{PREFIX}/status", None, encoding=None, timeout=timeout)

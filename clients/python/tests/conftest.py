@@ -1,0 +1,232 @@
+"""Fixtures: the real `riskplan serve` binary on a free 127.0.0.1 port, a client, the
+reference scenes, the golden examples and JSON Schemas of proto/."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import uuid
+from pathlib import Path
+from typing import List, Optional
+
+import pytest
+
+import riskplan
+
+REPO = Path(__file__).resolve().parents[3]
+PROTO = REPO / "proto"
+SCHEMAS = PROTO / "schemas"
+EXAMPLES = PROTO / "examples"
+SCENES = Path(os.environ.get("RISKPLAN_SCENES", REPO.parent / "shared" / "reference" / "scenes"))
+if not SCENES.is_dir():
+    SCENES = Path("/work/shared/reference/scenes")
+
+START_LIMIT_S = 30.0
+READY_LINE = "riskplan: listening on"
+
+
+def riskplan_bin() -> Optional[Path]:
+    """$RISKPLAN_BIN, else target/release/riskplan, else target/debug/riskplan."""
+    env = os.environ.get("RISKPLAN_BIN")
+    if env:
+        return Path(env)
+    for p in (REPO / "target" / "release" / "riskplan", REPO / "target" / "debug" / "riskplan"):
+        if p.is_file() and os.access(p, os.X_OK):
+            return p
+    return None
+
+
+def has_serve(binary: Optional[Path]) -> bool:
+    if binary is None or not binary.is_file():
+        return False
+    try:
+        r = subprocess.run([str(binary), "serve", "--help"], capture_output=True, timeout=20)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return r.returncode == 0
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Server:
+    """One `riskplan serve` process listening on 127.0.0.1 only."""
+
+    def __init__(self, binary: Path, data_dir: Path, extra: Optional[List[str]] = None, port: Optional[int] = None):
+        self.binary = binary
+        self.data_dir = Path(data_dir)
+        self.extra = list(extra or []) + os.environ.get("RISKPLAN_SERVE_ARGS", "").split()
+        self.port = port or free_port()
+        self.endpoint = f"tcp/127.0.0.1:{self.port}"
+        self.proc: Optional[subprocess.Popen] = None
+        self.lines: List[str] = []
+        self._ready = threading.Event()
+
+    @property
+    def argv(self) -> List[str]:
+        return [str(self.binary), "serve", "--listen", self.endpoint, "--data", str(self.data_dir), *self.extra]
+
+    def start(self, limit: float = START_LIMIT_S) -> "Server":
+        self.lines = []
+        self._ready.clear()
+        self.proc = subprocess.Popen(self.argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.PIPE, text=True, errors="replace")
+        threading.Thread(target=self._drain, args=(self.proc,), daemon=True).start()
+        deadline = time.monotonic() + limit
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"riskplan serve exited with {self.proc.returncode}: {self.log()}")
+            if self._ready.wait(0.2):
+                return self
+            # also accept a server that answers status without printing the line
+            if self._status_answers():
+                return self
+        self.kill()
+        raise RuntimeError(f"riskplan serve not ready after {limit} s: {self.log()}")
+
+    def _drain(self, proc: subprocess.Popen) -> None:
+        for line in proc.stderr:
+            self.lines.append(line.rstrip("\n"))
+            if READY_LINE in line:
+                self._ready.set()
+
+    def _status_answers(self) -> bool:
+        try:
+            with riskplan.Client(self.endpoint, timeout=1.0) as c:
+                c.status()
+            return True
+        except riskplan.RiskplanError:
+            return False
+
+    def log(self) -> str:
+        return "\n".join(self.lines[-40:])
+
+    def kill(self, sig: int = signal.SIGKILL) -> None:
+        """Kills the process (SIGKILL by default) and waits for it."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(timeout=15)
+
+    def stop(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.kill(signal.SIGTERM)
+
+    def client(self, timeout: float = 30.0) -> riskplan.Client:
+        return riskplan.Client(self.endpoint, timeout=timeout)
+
+
+@pytest.fixture(scope="session")
+def binary() -> Path:
+    b = riskplan_bin()
+    if not has_serve(b):
+        pytest.skip(f"no riskplan binary with `serve` (looked at $RISKPLAN_BIN, target/release, target/debug: {b})")
+    return b
+
+
+@pytest.fixture(scope="session")
+def server(binary, tmp_path_factory) -> Server:
+    s = Server(binary, tmp_path_factory.mktemp("riskplan-data")).start()
+    yield s
+    s.stop()
+
+
+@pytest.fixture(scope="session")
+def client(server) -> riskplan.Client:
+    c = server.client()
+    yield c
+    c.close()
+
+
+def load_scene(name: str) -> dict:
+    return json.loads((SCENES / f"{name}.json").read_text())
+
+
+@pytest.fixture
+def scene3() -> dict:
+    """illustrative-3: a static disk, (-1,-1) → (1,1), Δ = 0.1."""
+    return load_scene("illustrative-3")
+
+
+@pytest.fixture
+def unique(request):
+    """A fresh scene name per call, derived from the test's name."""
+    base = "".join(c if c.isalnum() or c in "_-." else "-" for c in request.node.name)[:80]
+
+    def make(tag: str = "") -> str:
+        return f"{base}{('-' + tag) if tag else ''}-{uuid.uuid4().hex[:8]}"
+
+    return make
+
+
+# An enclosed goal: a thin ring of radius 0.2-0.5 around (0.5, 0.5) (P >= 0 on the ring,
+# P < 0 inside and outside), so no path reaches the goal at its centre.
+RING_SCENE = {
+    "format": "riskplan-scene/1",
+    "name": "ring",
+    "description": "goal enclosed by a ring-shaped obstacle: no plan exists",
+    "dim": 2,
+    "workspace": {"lower": [-1, -1], "upper": [1, 1]},
+    "horizon": [0, 1],
+    "risk": 0.1,
+    "params": {"w": {"dist": "uniform", "low": -0.001, "high": 0.001}},
+    "obstacles": [
+        {"id": "ring",
+         "poly": "(0.25 - (x1 - 0.5)^2 - (x2 - 0.5)^2) * ((x1 - 0.5)^2 + (x2 - 0.5)^2 - 0.04) + w"}
+    ],
+    "start": [-1, -1],
+    "goal": [0.5, 0.5],
+}
+
+
+@pytest.fixture
+def ring_scene() -> dict:
+    return json.loads(json.dumps(RING_SCENE))
+
+
+def load_schema(message: str) -> dict:
+    return json.loads((SCHEMAS / f"{message}.schema.json").read_text())
+
+
+_VALIDATORS = {}
+
+
+def validate(message: str, payload) -> None:
+    """Validates ``payload`` against proto/schemas/<message>.schema.json (raises)."""
+    import jsonschema
+
+    v = _VALIDATORS.get(message)
+    if v is None:
+        schema = load_schema(message)
+        v = _VALIDATORS[message] = jsonschema.Draft202012Validator(schema, format_checker=jsonschema.FormatChecker())
+    errors = sorted(v.iter_errors(payload), key=lambda e: list(e.absolute_path))
+    if errors:
+        detail = "; ".join(f"{'/'.join(map(str, e.absolute_path)) or '<root>'}: {e.message[:300]}" for e in errors[:5])
+        raise AssertionError(f"{message} does not validate: {detail}")
+
+
+def wait_for(predicate, limit: float = 10.0, every: float = 0.05, what: str = "condition"):
+    """Polls ``predicate`` until it returns a truthy value (returned) or ``limit`` s pass."""
+    deadline = time.monotonic() + limit
+    last_exc = None
+    while time.monotonic() < deadline:
+        try:
+            v = predicate()
+            if v:
+                return v
+        except riskplan.RiskplanError as e:  # e.g. unknown_scene until a put lands
+            last_exc = e
+        time.sleep(every)
+    raise AssertionError(f"timed out after {limit} s waiting for {what} (last error: {last_exc!r})")
