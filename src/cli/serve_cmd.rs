@@ -45,7 +45,10 @@ pub struct ServeArgs {
 
 pub fn run(a: ServeArgs) -> Result<i32, CliError> {
     let filter = tracing_subscriber::EnvFilter::try_from_env("RISKPLAN_LOG").unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn"));
-    let builder = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr);
+    let builder = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .with_writer(std::io::stderr);
     let _ = if a.log_json { builder.json().try_init() } else { builder.try_init() };
     let z = |e: zenoh::Error| CliError(format!("zenoh configuration: {e}"));
     let mut cfg = match &a.config {

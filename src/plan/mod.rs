@@ -220,7 +220,7 @@ pub enum PlanStatus {
 }
 
 /// What a planner reports about its run.
-#[derive(Clone, Debug, Default, Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
 pub struct PlanStats {
     /// Wall time of `solve`, seconds.
     pub planning_time_s: f64,
