@@ -5,11 +5,9 @@
 //! Run with `--nocapture` to see the counts. `RISKPLAN_DIFF_CASES` overrides the number
 //! of random cases (default 100 000).
 
-use num_bigint::BigInt;
-use num_integer::Integer;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
-use riskplan::certify::testgen::{Generator, Truth};
+use riskplan::certify::testgen::{Generator, IntPoly, Truth};
 use riskplan::certify::{
     bernstein, check, check_exact, check_interval, sturm, Verdict, DEFAULT_MAX_DEPTH,
 };
@@ -29,43 +27,6 @@ fn exact_of(x: f64) -> BigRational {
     BigRational::from_float(x).expect("finite")
 }
 
-/// `p = Σ c_i τ^i / den` with integer `c_i`: exact evaluation at floats with a single
-/// reduction (BigRational Horner reduces at every step, which dominates the test).
-struct IntPoly {
-    c: Vec<BigInt>,
-    den: BigInt,
-}
-
-impl IntPoly {
-    fn new(p: &UPoly<BigRational>) -> Self {
-        let den = p
-            .coeffs()
-            .iter()
-            .fold(BigInt::one(), |l, x| l.lcm(x.denom()));
-        IntPoly {
-            c: p.coeffs()
-                .iter()
-                .map(|x| x.numer() * (&den / x.denom()))
-                .collect(),
-            den,
-        }
-    }
-
-    /// `p(t)` exactly, for a finite float `t`.
-    fn at(&self, t: f64) -> BigRational {
-        let t = exact_of(t);
-        let (n, d) = (t.numer(), t.denom());
-        let mut acc = BigInt::zero();
-        let mut dpow = BigInt::one();
-        for c in self.c.iter().rev() {
-            acc = acc * n + c * &dpow;
-            dpow *= d;
-        }
-        // acc = Σ c_i n^i d^(deg−i); dpow = d^(deg+1)
-        BigRational::new(acc * d, &self.den * dpow)
-    }
-}
-
 /// Margins are checked against `p` on this grid (and against Sturm's margin).
 const GRID: usize = 16;
 
@@ -74,8 +35,8 @@ const GRID: usize = 16;
 fn positive_by_root_count(p: &UPoly<BigRational>, fast: &IntPoly) -> bool {
     let (zero, one) = (BigRational::zero(), BigRational::one());
     !p.is_zero()
-        && fast.at(0.0).is_positive()
-        && fast.at(1.0).is_positive()
+        && fast.at(&BigRational::zero()).is_positive()
+        && fast.at(&BigRational::one()).is_positive()
         && (p.degree() == 0 || sturm::count_roots_in(p, &zero, &one) == 0)
 }
 
@@ -119,7 +80,7 @@ fn check_case(
     recipe: &str,
     tally: &mut Tally,
 ) {
-    let fast = IntPoly::new(p);
+    let fast = IntPoly::from_upoly(p);
     let positive = positive_by_root_count(p, &fast);
     match truth {
         Truth::Positive => assert!(
@@ -174,7 +135,7 @@ fn check_case(
                 let m = exact_of(*margin);
                 let values = grid.get_or_insert_with(|| {
                     (0..=GRID)
-                        .map(|k| fast.at(k as f64 / GRID as f64))
+                        .map(|k| fast.at(&BigRational::new(k.into(), GRID.into())))
                         .collect()
                 });
                 for (k, v) in values.iter().enumerate() {
@@ -197,7 +158,7 @@ fn check_case(
                     "{name}: witness τ = {} outside [0,1]: {recipe}",
                     w.tau
                 );
-                let val = fast.at(w.tau);
+                let val = fast.at(&exact_of(w.tau));
                 assert!(
                     !val.is_positive(),
                     "{name}: witness {w:?} has p(τ) = {val} > 0: {recipe}"

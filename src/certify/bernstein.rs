@@ -113,33 +113,43 @@ pub fn check_interval(p: &UPoly<Interval>, max_depth: u32) -> Verdict {
     if m > MAX_DEGREE + 1 {
         let mut b = vec![Interval::point(0.0); m];
         bernstein_interval_into(a, &mut b);
-        let mut work = IntervalWork {
-            cur: vec![b[0]; m],
-            tmp: vec![b[0]; m],
-            stack: vec![b[0]; m * max_depth as usize],
+        if let Some(v) = decide_root(a, &b, max_depth) {
+            return v;
+        }
+        let (mut cur, mut tmp) = (b.clone(), b.clone());
+        let mut stack = vec![b[0]; m * max_depth as usize];
+        let mut work = Slices {
+            cur: &mut cur,
+            tmp: &mut tmp,
+            stack: &mut stack,
         };
-        return subdivide_interval(a, &b, max_depth, &mut work.as_slices());
+        return subdivide_interval(a, &b, max_depth, &mut work);
     }
     let mut b = [Interval::point(0.0); MAX_DEGREE + 1];
-    bernstein_interval_into(a, &mut b[..m]);
+    let b = &mut b[..m];
+    bernstein_interval_into(a, b);
+    // most pieces are decided by the root's coefficients: settle those before any
+    // work buffer is set up (zeroing it costs more than the whole decision)
+    if let Some(v) = decide_root(a, b, max_depth) {
+        return v;
+    }
     let need = m * max_depth as usize;
-    if need <= 256 {
-        run_in_stack_buffer::<256>(a, &b[..m], max_depth)
+    if need <= 128 {
+        run_in_stack_buffer::<128>(a, b, max_depth)
+    } else if need <= 256 {
+        run_in_stack_buffer::<256>(a, b, max_depth)
     } else if need <= 512 {
-        run_in_stack_buffer::<512>(a, &b[..m], max_depth)
+        run_in_stack_buffer::<512>(a, b, max_depth)
     } else {
-        run_in_stack_buffer::<{ (MAX_DEGREE + 1) * MAX_DEPTH_LIMIT as usize }>(
-            a,
-            &b[..m],
-            max_depth,
-        )
+        run_in_stack_buffer::<{ (MAX_DEGREE + 1) * MAX_DEPTH_LIMIT as usize }>(a, b, max_depth)
     }
 }
 
 /// Decides `p > 0` on [0, 1] in exact rational arithmetic (same algorithm as
 /// [`check_interval`]). Every witness value is exact (reported rounded to nearest);
 /// the margin is an exact leaf bound rounded down. `Undecided(DepthLimit)` remains
-/// only for tangencies at non-dyadic points and minima below about `2^-2·max_depth`.
+/// only for tangencies at non-dyadic points and minima below about `2^(−2·max_depth)`.
+/// (The margin is `0.0` only if `min p` is below the smallest positive `f64`.)
 pub fn check_exact(p: &UPoly<BigRational>, max_depth: u32) -> Verdict {
     if p.is_zero() {
         return Verdict::Unsafe(ZERO_WITNESS);
@@ -306,23 +316,6 @@ fn horner(a: &[Interval], t: f64) -> Interval {
         .fold(Interval::point(0.0), |acc, &c| acc * t + c)
 }
 
-/// Heap buffers for degrees above [`MAX_DEGREE`].
-struct IntervalWork {
-    cur: Vec<Interval>,
-    tmp: Vec<Interval>,
-    stack: Vec<Interval>,
-}
-
-impl IntervalWork {
-    fn as_slices(&mut self) -> Slices<'_> {
-        Slices {
-            cur: &mut self.cur,
-            tmp: &mut self.tmp,
-            stack: &mut self.stack,
-        }
-    }
-}
-
 /// Working memory of one subdivision: the current node, the left half being built,
 /// and the pending right halves (at most one per depth level, `max_depth` rows).
 struct Slices<'a> {
@@ -357,10 +350,6 @@ fn subdivide_interval(
     w: &mut Slices<'_>,
 ) -> Verdict {
     let m = b.len();
-    let n = m - 1;
-    if b.iter().any(|x| !(x.lo.is_finite() && x.hi.is_finite())) {
-        return Verdict::Undecided(Undecided::NonFinite);
-    }
     let cur = &mut w.cur[..m];
     let tmp = &mut w.tmp[..m];
     cur.copy_from_slice(b);
@@ -370,42 +359,19 @@ fn subdivide_interval(
     let (mut depth, mut index) = (0u32, 0u64);
     let mut margin = f64::INFINITY;
     for _ in 0..MAX_INTERVAL_NODES {
-        if cur[0].hi <= 0.0 {
-            return Verdict::Unsafe(interval_witness(dyadic(index, depth), cur[0]));
-        }
-        if cur[n].hi <= 0.0 {
-            return Verdict::Unsafe(interval_witness(dyadic(index + 1, depth), cur[n]));
-        }
-        let mut lo_min = f64::INFINITY;
-        let positive = cur.iter().all(|x| {
-            lo_min = lo_min.min(x.lo);
-            x.lo > 0.0
-        });
-        if positive {
-            margin = margin.min(lo_min);
-        } else if depth >= max_depth {
-            // a last chance for a witness: direct evaluation at the leaf's midpoint
-            // (its own rounding, not the accumulated subdivision error)
-            let mid = dyadic(2 * index + 1, depth + 1);
-            let at_mid = horner(a, mid);
-            if at_mid.hi <= 0.0 {
-                return Verdict::Unsafe(interval_witness(mid, at_mid));
+        match visit(a, cur, index, depth, max_depth) {
+            Node::Decided(v) => return v,
+            Node::Certified(lo) => margin = margin.min(lo),
+            Node::Split => {
+                split_interval(cur, tmp);
+                w.stack[sp * m..(sp + 1) * m].copy_from_slice(cur);
+                pending[sp] = (depth + 1, 2 * index + 1);
+                sp += 1;
+                cur.copy_from_slice(tmp);
+                depth += 1;
+                index *= 2;
+                continue;
             }
-            let finite = cur.iter().all(|x| x.lo.is_finite() && x.hi.is_finite());
-            return Verdict::Undecided(if finite {
-                Undecided::DepthLimit
-            } else {
-                Undecided::NonFinite
-            });
-        } else {
-            split_interval(cur, tmp);
-            w.stack[sp * m..(sp + 1) * m].copy_from_slice(cur);
-            pending[sp] = (depth + 1, 2 * index + 1);
-            sp += 1;
-            cur.copy_from_slice(tmp);
-            depth += 1;
-            index *= 2;
-            continue;
         }
         if sp == 0 {
             return Verdict::Safe { margin };
@@ -415,6 +381,71 @@ fn subdivide_interval(
         (depth, index) = pending[sp];
     }
     Verdict::Undecided(Undecided::DepthLimit)
+}
+
+/// What one node of the work-list settles.
+enum Node {
+    /// The whole search ends: a witness, or undecided at the depth limit.
+    Decided(Verdict),
+    /// `p > 0` on the node, with this lower bound.
+    Certified(f64),
+    /// Undecided above the depth limit: halve it.
+    Split,
+}
+
+/// The tests of §3.5 on one node `[index/2^depth, (index+1)/2^depth]` with interval
+/// Bernstein coefficients `c` (of the polynomial with power coefficients `a`).
+fn visit(a: &[Interval], c: &[Interval], index: u64, depth: u32, max_depth: u32) -> Node {
+    let n = c.len() - 1;
+    if c[0].hi <= 0.0 {
+        return Node::Decided(Verdict::Unsafe(interval_witness(
+            dyadic(index, depth),
+            c[0],
+        )));
+    }
+    if c[n].hi <= 0.0 {
+        return Node::Decided(Verdict::Unsafe(interval_witness(
+            dyadic(index + 1, depth),
+            c[n],
+        )));
+    }
+    let mut lo_min = f64::INFINITY;
+    let positive = c.iter().all(|x| {
+        lo_min = lo_min.min(x.lo);
+        x.lo > 0.0
+    });
+    if positive {
+        return Node::Certified(lo_min);
+    }
+    if depth < max_depth {
+        return Node::Split;
+    }
+    // a last chance for a witness: direct evaluation at the leaf's midpoint (its own
+    // rounding, not the accumulated subdivision error)
+    let mid = dyadic(2 * index + 1, depth + 1);
+    let at_mid = horner(a, mid);
+    if at_mid.hi <= 0.0 {
+        return Node::Decided(Verdict::Unsafe(interval_witness(mid, at_mid)));
+    }
+    let finite = c.iter().all(|x| x.lo.is_finite() && x.hi.is_finite());
+    Node::Decided(Verdict::Undecided(if finite {
+        Undecided::DepthLimit
+    } else {
+        Undecided::NonFinite
+    }))
+}
+
+/// The root node alone: `Some` verdict when it settles the question, `None` when the
+/// search must subdivide. Non-finite Bernstein coefficients (overflow) are undecided.
+fn decide_root(a: &[Interval], b: &[Interval], max_depth: u32) -> Option<Verdict> {
+    if b.iter().any(|x| !(x.lo.is_finite() && x.hi.is_finite())) {
+        return Some(Verdict::Undecided(Undecided::NonFinite));
+    }
+    match visit(a, b, 0, 0, max_depth) {
+        Node::Decided(v) => Some(v),
+        Node::Certified(lo) => Some(Verdict::Safe { margin: lo }),
+        Node::Split => None,
+    }
 }
 
 /// A witness from an enclosure `e` of `p(tau)` with `e.hi ≤ 0`; the reported value is

@@ -20,10 +20,13 @@ use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use std::cmp::Ordering;
 
-/// Relative accuracy of the margin [`decide`] reports: the margin `μ̂` satisfies
-/// `(1 − 2^-10)·min p ≤ μ̂ ≤ min p`. Only the lower-bound direction matters for
-/// soundness; this constant only controls how much tighter than that it is.
-pub const MARGIN_REL_TOL: f64 = 1.0 / 1024.0;
+/// Relative accuracy of the margin [`decide`] reports, as a power of two: the margin
+/// `μ̂` satisfies `(1 − 2^-10)·min p ≤ μ̂ ≤ min p`. Only the lower-bound direction
+/// matters for soundness; this constant only controls how much tighter than that it is.
+pub const MARGIN_REL_TOL_BITS: u32 = 10;
+
+/// [`MARGIN_REL_TOL_BITS`] as a number, `2^-10`.
+pub const MARGIN_REL_TOL: f64 = 1.0 / (1u64 << MARGIN_REL_TOL_BITS) as f64;
 
 /// Bisection depth (in bits) at which root isolation gives up. Distinct roots of an
 /// integer polynomial are separated by a positive amount, so isolation always ends;
@@ -35,6 +38,10 @@ pub const MAX_ISOLATION_BITS: u32 = 4096;
 /// Refinement cap (bits) of [`min_on_unit`] around each critical point; reaching it
 /// only leaves [`MinEnclosure::converged`] false (the bounds stay valid).
 pub const MAX_MIN_REFINE_BITS: u32 = 512;
+
+/// Most bisections between two Taylor bounds in [`min_on_unit`]; each halving shrinks
+/// the bound's gap about fourfold near a critical point, so 32 covers a factor 2^64.
+const MAX_BISECTIONS_PER_BOUND: u32 = 32;
 
 /// Decides `p > 0` on [0, 1] exactly.
 ///
@@ -68,7 +75,8 @@ pub fn decide(p: &UPoly<BigRational>) -> Verdict {
     let sqf = square_free(&z);
     let seq = SturmSeq::new(&sqf);
     if seq.count_unit() == 0 {
-        let min = min_enclosure(p, &Tol::Relative(BigRational::new(1.into(), 1024.into())));
+        let rel = BigRational::new(BigInt::one(), BigInt::one() << MARGIN_REL_TOL_BITS as usize);
+        let min = min_enclosure(p, &Tol::Relative(rel));
         return Verdict::Safe {
             margin: f64_below(&min.lower),
         };
@@ -163,70 +171,117 @@ fn min_enclosure(p: &UPoly<BigRational>, tol: &Tol) -> MinEnclosure {
         at(z.first().cloned().unwrap_or_default()),
         at(z.iter().sum()),
     );
-    let (mut upper, mut argmin) = if p1 < p0 {
-        (p1, BigRational::one())
-    } else {
-        (p0, BigRational::zero())
+    let mut lower = if p1 < p0 { p1.clone() } else { p0.clone() };
+    let mut best = Best {
+        upper: p0,
+        argmin: BigRational::zero(),
     };
-    let mut lower = upper.clone();
+    best.offer(p1, BigRational::one);
     if p.degree() == 0 {
         return MinEnclosure {
             lower,
-            upper,
-            argmin,
+            upper: best.upper,
+            argmin: best.argmin,
             converged: true,
         };
     }
     let dz = square_free(&derivative(&z));
-    let seq = SturmSeq::new(&dz);
-    let Some(crit) = seq.isolate_unit() else {
+    let Some(crit) = SturmSeq::new(&dz).isolate_unit() else {
         // |p| ≤ Σ|a_i| on [0, 1]: crude but sound
         let bound: BigRational = p.coeffs().iter().map(Signed::abs).sum();
         return MinEnclosure {
             lower: -bound,
-            upper,
-            argmin,
+            upper: best.upper,
+            argmin: best.argmin,
             converged: false,
         };
     };
-    let value = |x: &Dyadic| {
-        BigRational::new(x.eval(&z), BigInt::one() << (x.e as usize * (z.len() - 1))) * &scale
+    let search = MinSearch {
+        z: &z,
+        scale: &scale,
+        dz: &dz,
+        tol,
     };
-    // first pass: the value at each critical cell's midpoint lowers `upper` early
+    // first pass: the value at each critical cell's midpoint lowers `upper` early, so
+    // that fewer cells need refining
     for cell in &crit {
-        let m = cell.mid();
-        let v = value(&m);
-        if v < upper {
-            upper = v;
-            argmin = m.to_rational();
-        }
+        search.offer_at(&cell.mid(), &mut best);
     }
     let mut converged = true;
-    for mut cell in crit {
-        let sign_b = eval_sign(&dz, &cell.right());
-        let lb = loop {
-            if sign_b == Ordering::Equal {
-                // the critical point is exactly the cell's right end
-                let b = cell.right();
-                let v = value(&b);
-                if v < upper {
-                    upper = v.clone();
-                    argmin = b.to_rational();
-                }
-                break v;
-            }
-            let (lb, at_m) = cell.taylor_bounds(&z, &scale);
-            if at_m < upper {
-                upper = at_m.clone();
-                argmin = cell.mid().to_rational();
-            }
-            let floor = tol.floor(&upper);
+    for cell in crit {
+        let (lb, ok) = search.refine(cell, &mut best);
+        converged &= ok;
+        if lb < lower {
+            lower = lb;
+        }
+    }
+    if lower > best.upper {
+        lower = best.upper.clone();
+    }
+    converged &= lower >= tol.floor(&best.upper);
+    MinEnclosure {
+        lower,
+        upper: best.upper,
+        argmin: best.argmin,
+        converged,
+    }
+}
+
+/// The smallest value of `p` found so far and where.
+struct Best {
+    upper: BigRational,
+    argmin: BigRational,
+}
+
+impl Best {
+    fn offer(&mut self, v: BigRational, at: impl FnOnce() -> BigRational) {
+        if v < self.upper {
+            self.upper = v;
+            self.argmin = at();
+        }
+    }
+}
+
+/// `p = scale·z` and the square-free part `dz` of `z'`, whose roots are the critical
+/// points.
+struct MinSearch<'a> {
+    z: &'a [BigInt],
+    scale: &'a BigRational,
+    dz: &'a [BigInt],
+    tol: &'a Tol,
+}
+
+impl MinSearch<'_> {
+    fn value(&self, x: &Dyadic) -> BigRational {
+        let den = BigInt::one() << (x.e as usize * (self.z.len() - 1));
+        BigRational::new(x.eval(self.z), den) * self.scale
+    }
+
+    /// Offers `p(x)` to `best`; returns it.
+    fn offer_at(&self, x: &Dyadic, best: &mut Best) -> BigRational {
+        let v = self.value(x);
+        best.offer(v.clone(), || x.to_rational());
+        v
+    }
+
+    /// A lower bound of `p` around the one critical point in `cell` that is within the
+    /// tolerance of `best.upper`, and whether that was reached before
+    /// [`MAX_MIN_REFINE_BITS`]. Bisects by the sign of `dz` (a simple root in the cell).
+    fn refine(&self, mut cell: Cell, best: &mut Best) -> (BigRational, bool) {
+        let sign_b = eval_sign(self.dz, &cell.right());
+        if sign_b == Ordering::Equal {
+            // the critical point is exactly the cell's right end
+            return (self.offer_at(&cell.right(), best), true);
+        }
+        loop {
+            let (lb, at_m) = cell.taylor_bounds(self.z, self.scale);
+            best.offer(at_m.clone(), || cell.mid().to_rational());
+            let floor = self.tol.floor(&best.upper);
             if lb >= floor {
-                break lb;
+                return (lb, true);
             }
             if cell.e >= MAX_MIN_REFINE_BITS {
-                converged = false;
-                break lb;
+                return (lb, false);
             }
             // the gap shrinks about 4× per halving near a critical point
             let room = &at_m - &floor;
@@ -238,42 +293,17 @@ fn min_enclosure(p: &UPoly<BigRational>, tol: &Tol) -> MinEnclosure {
             let steps = if ratio.is_finite() {
                 (ratio.log2() / 2.0).ceil() as u32 + 1
             } else {
-                32
+                MAX_BISECTIONS_PER_BOUND
             };
-            let mut exact_root = None;
-            for _ in 0..steps.clamp(1, 32) {
+            for _ in 0..steps.clamp(1, MAX_BISECTIONS_PER_BOUND) {
                 let m = cell.mid();
-                match eval_sign(&dz, &m) {
-                    Ordering::Equal => {
-                        exact_root = Some(m);
-                        break;
-                    }
+                match eval_sign(self.dz, &m) {
+                    Ordering::Equal => return (self.offer_at(&m, best), true),
                     s if s == sign_b => cell = cell.left_half(),
                     _ => cell = cell.right_half(),
                 }
             }
-            if let Some(m) = exact_root {
-                let v = value(&m);
-                if v < upper {
-                    upper = v.clone();
-                    argmin = m.to_rational();
-                }
-                break v;
-            }
-        };
-        if lb < lower {
-            lower = lb;
         }
-    }
-    if lower > upper {
-        lower = upper.clone();
-    }
-    converged &= lower >= tol.floor(&upper);
-    MinEnclosure {
-        lower,
-        upper,
-        argmin,
-        converged,
     }
 }
 

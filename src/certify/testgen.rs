@@ -71,16 +71,55 @@ const DENOMINATORS: [i64; 12] = [1, 2, 3, 4, 5, 7, 8, 10, 16, 20, 25, 100];
 
 /// A polynomial `Σ c_i t^i / den` with integer coefficients (`den > 0`). The generator
 /// works in this form because `BigRational` reduces (a gcd) after every operation,
-/// which made generation slower than the checkers under test.
+/// which made generation slower than the checkers under test; tests use it for the
+/// same reason to evaluate exactly.
 #[derive(Clone, Debug)]
-struct ZPoly {
+pub struct IntPoly {
     c: Vec<BigInt>,
     den: BigInt,
 }
 
-impl ZPoly {
+impl IntPoly {
+    /// The same polynomial over the common denominator of its coefficients.
+    pub fn from_upoly(p: &UPoly<BigRational>) -> Self {
+        let den = p
+            .coeffs()
+            .iter()
+            .fold(BigInt::one(), |l, x| l.lcm(x.denom()));
+        let c = p
+            .coeffs()
+            .iter()
+            .map(|x| x.numer() * (&den / x.denom()))
+            .collect();
+        IntPoly { c, den }
+    }
+
+    /// The value at `x`, exactly (one reduction).
+    pub fn at(&self, x: &BigRational) -> BigRational {
+        let deg = self.c.len().saturating_sub(1);
+        let d_deg = num_traits::pow(x.denom().clone(), deg);
+        BigRational::new(self.homogenised(x), &self.den * d_deg)
+    }
+
+    /// The sign of the value at `x` (no reduction at all).
+    pub fn sign_at(&self, x: &BigRational) -> std::cmp::Ordering {
+        self.homogenised(x).sign().cmp(&num_bigint::Sign::NoSign)
+    }
+
+    /// `Σ c_i n^i d^(deg−i)` for `x = n/d`, `d > 0`: `d^deg · den` times the value.
+    fn homogenised(&self, x: &BigRational) -> BigInt {
+        let (n, d) = (x.numer(), x.denom());
+        let mut acc = BigInt::zero();
+        let mut dpow = BigInt::one();
+        for c in self.c.iter().rev() {
+            acc = acc * n + c * &dpow;
+            dpow *= d;
+        }
+        acc
+    }
+
     fn constant(r: &BigRational) -> Self {
-        ZPoly {
+        IntPoly {
             c: vec![r.numer().clone()],
             den: r.denom().clone(),
         }
@@ -94,7 +133,7 @@ impl ZPoly {
                 c[i + j] += a * b;
             }
         }
-        ZPoly {
+        IntPoly {
             c,
             den: &self.den * f_den,
         }
@@ -120,7 +159,7 @@ impl ZPoly {
     }
 
     fn neg(&self) -> Self {
-        ZPoly {
+        IntPoly {
             c: self.c.iter().map(|x| -x).collect(),
             den: self.den.clone(),
         }
@@ -131,22 +170,10 @@ impl ZPoly {
         let (en, ed) = (e.numer(), e.denom());
         let mut c: Vec<BigInt> = self.c.iter().map(|x| x * ed).collect();
         c[0] += en * &self.den;
-        ZPoly {
+        IntPoly {
             c,
             den: &self.den * ed,
         }
-    }
-
-    /// Sign of the value at the rational `x = n/d` (homogenised Horner, no reduction).
-    fn sign_at(&self, x: &BigRational) -> std::cmp::Ordering {
-        let (n, d) = (x.numer(), x.denom());
-        let mut acc = BigInt::zero();
-        let mut dpow = BigInt::one();
-        for c in self.c.iter().rev() {
-            acc = acc * n + c * &dpow;
-            dpow *= d;
-        }
-        acc.sign().cmp(&num_bigint::Sign::NoSign)
     }
 
     /// `self(t1 + w·τ)`: with `t1 = A/L`, `w = C/L`, `L^deg · self((A + Cτ)/L)` is the
@@ -168,7 +195,7 @@ impl ZPoly {
             next[0] += ci * &lpow;
             acc = next;
         }
-        ZPoly {
+        IntPoly {
             c: acc,
             den: &self.den * lpow,
         }
@@ -215,7 +242,7 @@ impl Generator {
         );
         let c = self.rational(1, 50).abs() + BigRational::new(1.into(), 10.into());
         recipe += &format!(": {c}");
-        let mut p0 = ZPoly::constant(&c);
+        let mut p0 = IntPoly::constant(&c);
         let mut inside: Vec<(BigRational, u32)> = Vec::new();
         let mut left = deg;
         while left > 0 {
@@ -356,7 +383,7 @@ impl Generator {
 
 /// A point of `[t1, t2]` where `p0 ≠ 0` (one of 18 equally spaced points; `p0` has at
 /// most `deg ≤ 17` roots there unless it is zero).
-fn probe_point(p0: &ZPoly, t1: &BigRational, t2: &BigRational) -> BigRational {
+fn probe_point(p0: &IntPoly, t1: &BigRational, t2: &BigRational) -> BigRational {
     (0..=17)
         .map(|k| t1 + (t2 - t1) * BigRational::new(k.into(), 17.into()))
         .find(|t| !p0.sign_at(t).is_eq())
