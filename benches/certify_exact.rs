@@ -24,36 +24,18 @@ fn q(text: &str) -> BigRational {
 }
 
 /// `(g1, g2)` of obstacle `text` at Δ = 0.1, restricted to the segment `a → b`.
-fn constraints_on_segment(
-    text: &str,
-    a: [&str; 2],
-    b: [&str; 2],
-) -> (UPoly<BigRational>, UPoly<BigRational>) {
+fn constraints_on_segment(text: &str, a: [&str; 2], b: [&str; 2]) -> (UPoly<BigRational>, UPoly<BigRational>) {
     let vars = VarTable::new(["x1", "x2", "t", "w"].map(String::from));
-    let p = parse(text, &mut |n: &str| {
-        vars.get(n).ok_or_else(|| n.to_string())
-    })
-    .expect("obstacle");
-    let w = Distribution::Uniform {
-        low: q("0.3"),
-        high: q("0.4"),
-    };
+    let p = parse(text, &mut |n: &str| vars.get(n).ok_or_else(|| n.to_string())).expect("obstacle");
+    let w = Distribution::Uniform { low: q("0.3"), high: q("0.4") };
     let moments = w.raw_moments(8).expect("uniform moments");
-    let contour = RiskContour::new(
-        Layout { dim: 2 },
-        &p,
-        &|_, k| moments.get(k as usize).cloned(),
-        &|v| vars.name(v),
-    )
-    .expect("contour");
+    let contour = RiskContour::new(Layout { dim: 2 }, &p, &|_, k| moments.get(k as usize).cloned(), &|v| vars.name(v))
+        .expect("contour");
     let cons = contour.constraints(&q("0.1"));
     // x(τ) = a + (b − a)τ; t is unused by a static obstacle
     let line = |i: usize| UPoly::linear(q(a[i]), q(b[i]) - q(a[i]));
     let subs = [line(0), line(1), UPoly::linear(q("0"), q("1"))];
-    (
-        cons.cantelli.compose_univariate(&subs),
-        cons.mean.compose_univariate(&subs),
-    )
+    (cons.cantelli.compose_univariate(&subs), cons.mean.compose_univariate(&subs))
 }
 
 struct Case {
@@ -83,12 +65,7 @@ fn cases() -> Vec<Case> {
     list.into_iter()
         .map(|(name, exact, safe)| {
             let interval = exact.map(Interval::enclose_rational);
-            Case {
-                name,
-                exact,
-                interval,
-                safe,
-            }
+            Case { name, exact, interval, safe }
         })
         .collect()
 }
@@ -100,25 +77,14 @@ fn bench(c: &mut Criterion) {
         let v = check_interval(&case.interval, DEFAULT_MAX_DEPTH);
         assert_eq!(v.is_safe(), case.safe, "{}: {v:?}", case.name);
         assert!(!matches!(v, Verdict::Undecided(_)), "{}: {v:?}", case.name);
-        assert_eq!(
-            sturm::decide(&case.exact).is_safe(),
-            case.safe,
-            "{}",
-            case.name
-        );
-        println!(
-            "{}: degree {}, interval verdict {v:?}",
-            case.name,
-            case.exact.degree()
-        );
+        assert_eq!(sturm::decide(&case.exact).is_safe(), case.safe, "{}", case.name);
+        println!("{}: degree {}, interval verdict {v:?}", case.name, case.exact.degree());
     }
     let mut g = c.benchmark_group("interval");
     for case in &cases {
-        g.bench_with_input(
-            BenchmarkId::from_parameter(case.name),
-            &case.interval,
-            |b, p| b.iter(|| check_interval(black_box(p), DEFAULT_MAX_DEPTH)),
-        );
+        g.bench_with_input(BenchmarkId::from_parameter(case.name), &case.interval, |b, p| {
+            b.iter(|| check_interval(black_box(p), DEFAULT_MAX_DEPTH))
+        });
     }
     g.finish();
     // for comparison: the recommended entry point (same work when decided), and the

@@ -18,21 +18,13 @@ fn q(n: i64, d: i64) -> BigRational {
 }
 
 /// (g1, g2) restricted to the path `(x1(τ), x2(τ))`, enclosed in intervals.
-fn constraints(
-    x1: UPoly<BigRational>,
-    x2: UPoly<BigRational>,
-) -> (UPoly<Interval>, UPoly<Interval>) {
+fn constraints(x1: UPoly<BigRational>, x2: UPoly<BigRational>) -> (UPoly<Interval>, UPoly<Interval>) {
     let rho = x1.mul(&x1).add(&x2.mul(&x2));
     let ep = UPoly::constant(q(37, 300)).sub(&rho);
-    let ep2 = UPoly::constant(q(781, 50000))
-        .sub(&rho.scale(&q(37, 150)))
-        .add(&rho.mul(&rho));
+    let ep2 = UPoly::constant(q(781, 50000)).sub(&rho.scale(&q(37, 150))).add(&rho.mul(&rho));
     let g1 = ep.mul(&ep).sub(&ep2.scale(&q(9, 10)));
     let g2 = ep.neg();
-    (
-        g1.map(Interval::enclose_rational),
-        g2.map(Interval::enclose_rational),
-    )
+    (g1.map(Interval::enclose_rational), g2.map(Interval::enclose_rational))
 }
 
 fn bench(c: &mut Criterion) {
@@ -55,19 +47,10 @@ fn bench(c: &mut Criterion) {
         g.bench_function(name, |b| b.iter(|| certify(black_box(p), &settings)));
     }
     // opt-in solver reuse (skips Clarabel's setup; see SosSettings::reuse_solver)
-    let reuse = SosSettings {
-        reuse_solver: true,
-        ..SosSettings::default()
-    };
-    g.bench_function("deg4_reuse", |b| {
-        b.iter(|| certify(black_box(&g1_seg), &reuse))
-    });
-    let cert = certify(&g1_seg, &settings)
-        .certificate
-        .expect("certificate");
-    g.bench_function("recheck_deg4", |b| {
-        b.iter(|| recheck(black_box(&g1_seg), black_box(&cert)))
-    });
+    let reuse = SosSettings { reuse_solver: true, ..SosSettings::default() };
+    g.bench_function("deg4_reuse", |b| b.iter(|| certify(black_box(&g1_seg), &reuse)));
+    let cert = certify(&g1_seg, &settings).certificate.expect("certificate");
+    g.bench_function("recheck_deg4", |b| b.iter(|| recheck(black_box(&g1_seg), black_box(&cert))));
     g.finish();
 }
 

@@ -8,9 +8,7 @@
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use riskplan::certify::testgen::{Generator, IntPoly, Truth};
-use riskplan::certify::{
-    bernstein, check, check_exact, check_interval, sturm, Verdict, DEFAULT_MAX_DEPTH,
-};
+use riskplan::certify::{bernstein, check, check_exact, check_interval, sturm, Verdict, DEFAULT_MAX_DEPTH};
 use riskplan::poly::{parse_decimal, Interval, UPoly};
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -73,30 +71,15 @@ impl Tally {
 }
 
 /// Every property of one case; panics with the recipe on a violation.
-fn check_case(
-    p: &UPoly<BigRational>,
-    pi: &UPoly<Interval>,
-    truth: Truth,
-    recipe: &str,
-    tally: &mut Tally,
-) {
+fn check_case(p: &UPoly<BigRational>, pi: &UPoly<Interval>, truth: Truth, recipe: &str, tally: &mut Tally) {
     let fast = IntPoly::from_upoly(p);
     let positive = positive_by_root_count(p, &fast);
     match truth {
-        Truth::Positive => assert!(
-            positive,
-            "construction says positive, root count disagrees: {recipe}"
-        ),
-        Truth::NotPositive => assert!(
-            !positive,
-            "construction says not positive, root count disagrees: {recipe}"
-        ),
+        Truth::Positive => assert!(positive, "construction says positive, root count disagrees: {recipe}"),
+        Truth::NotPositive => assert!(!positive, "construction says not positive, root count disagrees: {recipe}"),
         Truth::Unknown => {}
     }
-    *tally
-        .truth
-        .entry(if positive { "positive" } else { "not positive" })
-        .or_default() += 1;
+    *tally.truth.entry(if positive { "positive" } else { "not positive" }).or_default() += 1;
 
     let mut timed = |name: &'static str, f: &dyn Fn() -> Verdict| {
         let t0 = Instant::now();
@@ -108,12 +91,7 @@ fn check_case(
     let ve = timed("exact", &|| check_exact(p, DEFAULT_MAX_DEPTH));
     let vs = timed("sturm", &|| sturm::decide(p));
     let vc = timed("check", &|| check(pi, || p.clone()));
-    let all = [
-        ("interval", &vi),
-        ("exact", &ve),
-        ("sturm", &vs),
-        ("check", &vc),
-    ];
+    let all = [("interval", &vi), ("exact", &ve), ("sturm", &vs), ("check", &vc)];
     let mut grid: Option<Vec<BigRational>> = None;
     let sturm_margin = match &vs {
         Verdict::Safe { margin } => Some(*margin),
@@ -124,25 +102,14 @@ fn check_case(
         match v {
             Verdict::Safe { margin } => {
                 // THE invariant: nobody certifies a polynomial that is ≤ 0 somewhere
-                assert!(
-                    positive,
-                    "{name} says Safe but p ≤ 0 somewhere on [0,1]: {recipe}"
-                );
-                assert!(
-                    *margin > 0.0,
-                    "{name}: non-positive margin {margin}: {recipe}"
-                );
+                assert!(positive, "{name} says Safe but p ≤ 0 somewhere on [0,1]: {recipe}");
+                assert!(*margin > 0.0, "{name}: non-positive margin {margin}: {recipe}");
                 let m = exact_of(*margin);
                 let values = grid.get_or_insert_with(|| {
-                    (0..=GRID)
-                        .map(|k| fast.at(&BigRational::new(k.into(), GRID.into())))
-                        .collect()
+                    (0..=GRID).map(|k| fast.at(&BigRational::new(k.into(), GRID.into()))).collect()
                 });
                 for (k, v) in values.iter().enumerate() {
-                    assert!(
-                        m <= *v,
-                        "{name}: margin {margin} above p({k}/{GRID}) = {v}: {recipe}"
-                    );
+                    assert!(m <= *v, "{name}: margin {margin} above p({k}/{GRID}) = {v}: {recipe}");
                 }
                 // Sturm's margin is within MARGIN_REL_TOL of min p, so min p ≤ it/(1 − tol)
                 if let Some(sm) = sturm_margin {
@@ -153,21 +120,10 @@ fn check_case(
                 }
             }
             Verdict::Unsafe(w) => {
-                assert!(
-                    (0.0..=1.0).contains(&w.tau),
-                    "{name}: witness τ = {} outside [0,1]: {recipe}",
-                    w.tau
-                );
+                assert!((0.0..=1.0).contains(&w.tau), "{name}: witness τ = {} outside [0,1]: {recipe}", w.tau);
                 let val = fast.at(&exact_of(w.tau));
-                assert!(
-                    !val.is_positive(),
-                    "{name}: witness {w:?} has p(τ) = {val} > 0: {recipe}"
-                );
-                assert!(
-                    w.value <= 0.0,
-                    "{name}: witness value {} > 0: {recipe}",
-                    w.value
-                );
+                assert!(!val.is_positive(), "{name}: witness {w:?} has p(τ) = {val} > 0: {recipe}");
+                assert!(w.value <= 0.0, "{name}: witness value {} > 0: {recipe}", w.value);
             }
             Verdict::Undecided(_) => {}
         }
@@ -175,37 +131,21 @@ fn check_case(
     // pairwise: never one Safe and another Unsafe (implied by the above, asserted directly)
     for (a, va) in all {
         for (b, vb) in all {
-            assert!(
-                !(va.is_safe() && vb.is_unsafe()),
-                "{a} Safe vs {b} Unsafe: {recipe}"
-            );
+            assert!(!(va.is_safe() && vb.is_unsafe()), "{a} Safe vs {b} Unsafe: {recipe}");
         }
     }
     // completeness of the oracle: Sturm decides every positive case
     if positive {
-        assert!(
-            vs.is_safe(),
-            "sturm failed to certify a positive polynomial: {vs:?} {recipe}"
-        );
+        assert!(vs.is_safe(), "sturm failed to certify a positive polynomial: {vs:?} {recipe}");
     }
     // `check` is the interval verdict when decided, else the exact one
-    let expected = if matches!(vi, Verdict::Undecided(_)) {
-        &ve
-    } else {
-        &vi
-    };
-    assert_eq!(
-        &vc, expected,
-        "check does not compose as documented: {recipe}"
-    );
+    let expected = if matches!(vi, Verdict::Undecided(_)) { &ve } else { &vi };
+    assert_eq!(&vc, expected, "check does not compose as documented: {recipe}");
 }
 
 #[test]
 fn differential_random_polynomials() {
-    let total: usize = std::env::var("RISKPLAN_DIFF_CASES")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(DEFAULT_CASES);
+    let total: usize = std::env::var("RISKPLAN_DIFF_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(DEFAULT_CASES);
     let start = Instant::now();
     let tally = std::thread::scope(|s| {
         let handles: Vec<_> = SEEDS
@@ -239,17 +179,11 @@ fn differential_random_polynomials() {
         }
         all
     });
-    println!(
-        "differential test: {total} random polynomials of degree 1..=10 in {:.1?}",
-        start.elapsed()
-    );
+    println!("differential test: {total} random polynomials of degree 1..=10 in {:.1?}", start.elapsed());
     for (k, v) in &tally.truth {
         println!("  {k:<28} {v:>7}");
     }
-    println!(
-        "  {:<10} {:>8} {:>8} {:>10} {:>14}",
-        "method", "safe", "unsafe", "undecided", "mean time"
-    );
+    println!("  {:<10} {:>8} {:>8} {:>10} {:>14}", "method", "safe", "unsafe", "undecided", "mean time");
     for m in ["interval", "exact", "sturm", "check"] {
         let mean = tally.time.get(m).copied().unwrap_or_default() / total.max(1) as u32;
         println!(
@@ -262,10 +196,7 @@ fn differential_random_polynomials() {
         );
     }
     let decided = tally.get("check", "safe") + tally.get("check", "unsafe");
-    assert!(
-        decided * 10 >= total * 9,
-        "check decided only {decided} of {total}"
-    );
+    assert!(decided * 10 >= total * 9, "check decided only {decided} of {total}");
 }
 
 fn both(p: &UPoly<BigRational>) -> (UPoly<BigRational>, UPoly<Interval>) {
@@ -289,9 +220,7 @@ fn verdicts(p: &UPoly<BigRational>) -> [(&'static str, Verdict); 4] {
 }
 
 fn assert_refutes(p: &UPoly<BigRational>, name: &str, v: &Verdict) {
-    let Verdict::Unsafe(w) = v else {
-        panic!("{name}: expected Unsafe, got {v:?}")
-    };
+    let Verdict::Unsafe(w) = v else { panic!("{name}: expected Unsafe, got {v:?}") };
     assert!(!p.eval(&exact_of(w.tau)).is_positive(), "{name}: {w:?}");
 }
 
@@ -310,9 +239,7 @@ fn fixture_touch_is_never_safe() {
 fn fixture_barely_positive_is_safe() {
     let p = tangent(q("1e-9"));
     for (name, v) in verdicts(&p) {
-        let Verdict::Safe { margin } = v else {
-            panic!("{name}: {v:?}")
-        };
+        let Verdict::Safe { margin } = v else { panic!("{name}: {v:?}") };
         assert!(margin > 0.0 && margin <= 1e-9, "{name}: {margin}");
     }
 }
@@ -328,11 +255,7 @@ fn fixture_barely_negative_is_unsafe() {
 #[test]
 fn fixture_zero_at_both_ends_is_unsafe() {
     // −τ(1 − τ) = −τ + τ²
-    let p = UPoly::new(vec![
-        BigRational::zero(),
-        -BigRational::one(),
-        BigRational::one(),
-    ]);
+    let p = UPoly::new(vec![BigRational::zero(), -BigRational::one(), BigRational::one()]);
     for (name, v) in verdicts(&p) {
         assert_refutes(&p, name, &v);
     }
@@ -340,18 +263,11 @@ fn fixture_zero_at_both_ends_is_unsafe() {
 
 #[test]
 fn fixture_constants() {
-    for (text, safe) in [
-        ("2.5", true),
-        ("1e-300", true),
-        ("-0.1", false),
-        ("0", false),
-    ] {
+    for (text, safe) in [("2.5", true), ("1e-300", true), ("-0.1", false), ("0", false)] {
         let p = UPoly::constant(q(text));
         for (name, v) in verdicts(&p) {
             if safe {
-                let Verdict::Safe { margin } = v else {
-                    panic!("{name} on {text}: {v:?}")
-                };
+                let Verdict::Safe { margin } = v else { panic!("{name} on {text}: {v:?}") };
                 assert!(exact_of(margin) <= q(text) && margin > 0.0);
             } else {
                 assert_refutes(&p, name, &v);
@@ -367,10 +283,7 @@ fn bernstein_coefficients_bound_the_polynomial() {
     for _ in 0..200 {
         let c = g.case();
         let b = bernstein::bernstein_coefficients(&c.exact);
-        let s = b
-            .iter()
-            .map(|x| x.abs())
-            .fold(BigRational::zero(), |m, x| if x > m { x } else { m });
+        let s = b.iter().map(|x| x.abs()).fold(BigRational::zero(), |m, x| if x > m { x } else { m });
         for k in 0..=20 {
             assert!(c.exact.eval(&BigRational::new(k.into(), 20.into())).abs() <= s);
         }

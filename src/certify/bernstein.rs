@@ -70,10 +70,7 @@ pub const MAX_INTERVAL_NODES: usize = 1 << 16;
 pub const MAX_EXACT_NODES: usize = 1 << 18;
 
 /// The zero polynomial vanishes everywhere: unsafe, witness at τ = 0.
-const ZERO_WITNESS: Witness = Witness {
-    tau: 0.0,
-    value: 0.0,
-};
+const ZERO_WITNESS: Witness = Witness { tau: 0.0, value: 0.0 };
 
 /// Decides `p > 0` on [0, 1] in outward-rounded interval arithmetic.
 ///
@@ -90,9 +87,7 @@ const ZERO_WITNESS: Witness = Witness {
 /// per level.
 pub fn check_interval(p: &UPoly<Interval>, max_depth: u32) -> Verdict {
     let a = p.coeffs();
-    if a.iter()
-        .any(|x| !(x.lo.is_finite() && x.hi.is_finite() && x.lo <= x.hi))
-    {
+    if a.iter().any(|x| !(x.lo.is_finite() && x.hi.is_finite() && x.lo <= x.hi)) {
         return Verdict::Undecided(Undecided::NonFinite);
     }
     if a.is_empty() {
@@ -118,11 +113,7 @@ pub fn check_interval(p: &UPoly<Interval>, max_depth: u32) -> Verdict {
         }
         let (mut cur, mut tmp) = (b.clone(), b.clone());
         let mut stack = vec![b[0]; m * max_depth as usize];
-        let mut work = Slices {
-            cur: &mut cur,
-            tmp: &mut tmp,
-            stack: &mut stack,
-        };
+        let mut work = Slices { cur: &mut cur, tmp: &mut tmp, stack: &mut stack };
         return subdivide_interval(a, &b, max_depth, &mut work);
     }
     let mut b = [Interval::point(0.0); MAX_DEGREE + 1];
@@ -157,12 +148,7 @@ pub fn check_exact(p: &UPoly<BigRational>, max_depth: u32) -> Verdict {
     let max_depth = max_depth.min(MAX_DEPTH_LIMIT);
     let (b, den) = bernstein_integer(p.coeffs());
     let n = b.len() - 1;
-    let mut stack = vec![ExactNode {
-        c: b,
-        shift: 0,
-        depth: 0,
-        index: 0,
-    }];
+    let mut stack = vec![ExactNode { c: b, shift: 0, depth: 0, index: 0 }];
     let mut margin: Option<BigRational> = None;
     let mut undecided = false;
     let mut budget = MAX_EXACT_NODES;
@@ -173,10 +159,7 @@ pub fn check_exact(p: &UPoly<BigRational>, max_depth: u32) -> Verdict {
         budget -= 1;
         let value = |k: usize| BigRational::new(node.c[k].clone(), &den << node.shift);
         if !node.c[0].is_positive() {
-            return Verdict::Unsafe(Witness {
-                tau: dyadic(node.index, node.depth),
-                value: rational_to_f64(&value(0)),
-            });
+            return Verdict::Unsafe(Witness { tau: dyadic(node.index, node.depth), value: rational_to_f64(&value(0)) });
         }
         if !node.c[n].is_positive() {
             return Verdict::Unsafe(Witness {
@@ -185,9 +168,7 @@ pub fn check_exact(p: &UPoly<BigRational>, max_depth: u32) -> Verdict {
             });
         }
         if node.c.iter().all(Signed::is_positive) {
-            let k = (0..=n)
-                .min_by(|&i, &j| node.c[i].cmp(&node.c[j]))
-                .unwrap_or(0);
+            let k = (0..=n).min_by(|&i, &j| node.c[i].cmp(&node.c[j])).unwrap_or(0);
             let v = value(k);
             if margin.as_ref().is_none_or(|m| v < *m) {
                 margin = Some(v);
@@ -202,9 +183,7 @@ pub fn check_exact(p: &UPoly<BigRational>, max_depth: u32) -> Verdict {
     }
     match margin {
         _ if undecided => Verdict::Undecided(Undecided::DepthLimit),
-        Some(m) => Verdict::Safe {
-            margin: f64_below(&m),
-        },
+        Some(m) => Verdict::Safe { margin: f64_below(&m) },
         // unreachable: a finished search without undecided leaves certified at least one
         None => Verdict::Undecided(Undecided::DepthLimit),
     }
@@ -228,9 +207,7 @@ pub fn bernstein_coefficients(p: &UPoly<BigRational>) -> Vec<BigRational> {
         return Vec::new();
     }
     let (b, den) = bernstein_integer(p.coeffs());
-    b.into_iter()
-        .map(|c| BigRational::new(c, den.clone()))
-        .collect()
+    b.into_iter().map(|c| BigRational::new(c, den.clone())).collect()
 }
 
 /// The largest `f64` that is `≤ r` (a sound lower bound; `-∞` below the range): the
@@ -254,11 +231,7 @@ fn dyadic(j: u64, d: u32) -> f64 {
 fn bernstein_interval_into(a: &[Interval], out: &mut [Interval]) {
     let n = a.len() - 1;
     for (i, (o, &ai)) in out.iter_mut().zip(a).enumerate() {
-        *o = if i == 0 || i == n {
-            ai
-        } else {
-            ai * reciprocal_binomial(n, i)
-        };
+        *o = if i == 0 || i == n { ai } else { ai * reciprocal_binomial(n, i) };
     }
     for s in 0..n {
         for i in (s + 1..=n).rev() {
@@ -271,17 +244,12 @@ fn bernstein_interval_into(a: &[Interval], out: &mut [Interval]) {
 /// exact integers above (the heap path).
 fn reciprocal_binomial(n: usize, i: usize) -> Interval {
     static TABLE: OnceLock<Vec<Interval>> = OnceLock::new();
-    let enclose = |n: usize, i: usize| {
-        Interval::enclose_rational(&BigRational::new(BigInt::one(), binomial_big(n, i)))
-    };
+    let enclose = |n: usize, i: usize| Interval::enclose_rational(&BigRational::new(BigInt::one(), binomial_big(n, i)));
     if n > MAX_DEGREE {
         return enclose(n, i);
     }
     let table = TABLE.get_or_init(|| {
-        (0..=MAX_DEGREE)
-            .flat_map(|n| (0..=n).map(move |i| (n, i)))
-            .map(|(n, i)| enclose(n, i))
-            .collect()
+        (0..=MAX_DEGREE).flat_map(|n| (0..=n).map(move |i| (n, i))).map(|(n, i)| enclose(n, i)).collect()
     });
     table[n * (n + 1) / 2 + i]
 }
@@ -311,9 +279,7 @@ fn split_interval(c: &mut [Interval], left: &mut [Interval]) {
 /// Interval Horner evaluation of the power-basis coefficients `a` at the float `t`.
 fn horner(a: &[Interval], t: f64) -> Interval {
     let t = Interval::point(t);
-    a.iter()
-        .rev()
-        .fold(Interval::point(0.0), |acc, &c| acc * t + c)
+    a.iter().rev().fold(Interval::point(0.0), |acc, &c| acc * t + c)
 }
 
 /// Working memory of one subdivision: the current node, the left half being built,
@@ -330,25 +296,11 @@ fn run_in_stack_buffer<const K: usize>(a: &[Interval], b: &[Interval], max_depth
     let mut cur = [zero; MAX_DEGREE + 1];
     let mut tmp = [zero; MAX_DEGREE + 1];
     let mut stack = [zero; K];
-    subdivide_interval(
-        a,
-        b,
-        max_depth,
-        &mut Slices {
-            cur: &mut cur,
-            tmp: &mut tmp,
-            stack: &mut stack,
-        },
-    )
+    subdivide_interval(a, b, max_depth, &mut Slices { cur: &mut cur, tmp: &mut tmp, stack: &mut stack })
 }
 
 /// The depth-first work-list of §3.5 on interval Bernstein coefficients `b` of `a`.
-fn subdivide_interval(
-    a: &[Interval],
-    b: &[Interval],
-    max_depth: u32,
-    w: &mut Slices<'_>,
-) -> Verdict {
+fn subdivide_interval(a: &[Interval], b: &[Interval], max_depth: u32, w: &mut Slices<'_>) -> Verdict {
     let m = b.len();
     let cur = &mut w.cur[..m];
     let tmp = &mut w.tmp[..m];
@@ -398,16 +350,10 @@ enum Node {
 fn visit(a: &[Interval], c: &[Interval], index: u64, depth: u32, max_depth: u32) -> Node {
     let n = c.len() - 1;
     if c[0].hi <= 0.0 {
-        return Node::Decided(Verdict::Unsafe(interval_witness(
-            dyadic(index, depth),
-            c[0],
-        )));
+        return Node::Decided(Verdict::Unsafe(interval_witness(dyadic(index, depth), c[0])));
     }
     if c[n].hi <= 0.0 {
-        return Node::Decided(Verdict::Unsafe(interval_witness(
-            dyadic(index + 1, depth),
-            c[n],
-        )));
+        return Node::Decided(Verdict::Unsafe(interval_witness(dyadic(index + 1, depth), c[n])));
     }
     let mut lo_min = f64::INFINITY;
     let positive = c.iter().all(|x| {
@@ -428,11 +374,7 @@ fn visit(a: &[Interval], c: &[Interval], index: u64, depth: u32, max_depth: u32)
         return Node::Decided(Verdict::Unsafe(interval_witness(mid, at_mid)));
     }
     let finite = c.iter().all(|x| x.lo.is_finite() && x.hi.is_finite());
-    Node::Decided(Verdict::Undecided(if finite {
-        Undecided::DepthLimit
-    } else {
-        Undecided::NonFinite
-    }))
+    Node::Decided(Verdict::Undecided(if finite { Undecided::DepthLimit } else { Undecided::NonFinite }))
 }
 
 /// The root node alone: `Some` verdict when it settles the question, `None` when the
@@ -451,11 +393,7 @@ fn decide_root(a: &[Interval], b: &[Interval], max_depth: u32) -> Option<Verdict
 /// A witness from an enclosure `e` of `p(tau)` with `e.hi ≤ 0`; the reported value is
 /// the enclosure's midpoint (≤ `hi` ≤ 0).
 fn interval_witness(tau: f64, e: Interval) -> Witness {
-    let value = if e.lo.is_finite() {
-        e.mid().min(e.hi)
-    } else {
-        e.hi
-    };
+    let value = if e.lo.is_finite() { e.mid().min(e.hi) } else { e.hi };
     Witness { tau, value }
 }
 
@@ -475,10 +413,7 @@ fn bernstein_integer(a: &[BigRational]) -> (Vec<BigInt>, BigInt) {
         scaled.push(ai / BigRational::from_integer(binom.clone()));
     }
     let den = scaled.iter().fold(BigInt::one(), |l, x| l.lcm(x.denom()));
-    let mut z: Vec<BigInt> = scaled
-        .iter()
-        .map(|x| x.numer() * (&den / x.denom()))
-        .collect();
+    let mut z: Vec<BigInt> = scaled.iter().map(|x| x.numer() * (&den / x.denom())).collect();
     for s in 0..n {
         for i in (s + 1..=n).rev() {
             let (lo, hi) = z.split_at_mut(i);
@@ -516,31 +451,18 @@ impl ExactNode {
         let right: Vec<BigInt> = g.into_iter().enumerate().map(|(k, x)| x << k).collect();
         let shift = self.shift + n as u64;
         let (depth, index) = (self.depth + 1, 2 * self.index);
-        (
-            ExactNode::reduced(left, shift, depth, index),
-            ExactNode::reduced(right, shift, depth, index + 1),
-        )
+        (ExactNode::reduced(left, shift, depth, index), ExactNode::reduced(right, shift, depth, index + 1))
     }
 
     /// Divides out the common power of two (at most `shift`).
     fn reduced(mut c: Vec<BigInt>, shift: u64, depth: u32, index: u64) -> ExactNode {
-        let tz = c
-            .iter()
-            .filter_map(BigInt::trailing_zeros)
-            .min()
-            .unwrap_or(0)
-            .min(shift);
+        let tz = c.iter().filter_map(BigInt::trailing_zeros).min().unwrap_or(0).min(shift);
         if tz > 0 {
             for x in &mut c {
                 *x >>= tz;
             }
         }
-        ExactNode {
-            c,
-            shift: shift - tz,
-            depth,
-            index,
-        }
+        ExactNode { c, shift: shift - tz, depth, index }
     }
 }
 
@@ -570,25 +492,15 @@ mod tests {
     fn bernstein_eval(b: &[BigRational], t: &BigRational) -> BigRational {
         let n = b.len() - 1;
         let one = BigRational::one();
-        b.iter()
-            .enumerate()
-            .fold(BigRational::zero(), |acc, (k, bk)| {
-                acc + bk
-                    * binom(n, k)
-                    * num_traits::pow(t.clone(), k)
-                    * num_traits::pow(&one - t, n - k)
-            })
+        b.iter().enumerate().fold(BigRational::zero(), |acc, (k, bk)| {
+            acc + bk * binom(n, k) * num_traits::pow(t.clone(), k) * num_traits::pow(&one - t, n - k)
+        })
     }
 
     fn assert_witness(p: &UPoly<BigRational>, v: &Verdict) {
-        let Verdict::Unsafe(w) = v else {
-            panic!("expected unsafe, got {v:?}")
-        };
+        let Verdict::Unsafe(w) = v else { panic!("expected unsafe, got {v:?}") };
         let t = BigRational::from_float(w.tau).unwrap();
-        assert!(
-            p.eval(&t) <= BigRational::zero(),
-            "witness {w:?} does not refute"
-        );
+        assert!(p.eval(&t) <= BigRational::zero(), "witness {w:?} does not refute");
         assert!((0.0..=1.0).contains(&w.tau));
     }
 
@@ -605,22 +517,11 @@ mod tests {
         }
         // (τ − 1/2)² touches at a dyadic point: the exact path proves it
         let half = qp(&[(1, 4), (-1, 1), (1, 1)]);
-        assert_eq!(
-            check_exact(&half, DEFAULT_MAX_DEPTH),
-            Verdict::Unsafe(Witness {
-                tau: 0.5,
-                value: 0.0
-            })
-        );
+        assert_eq!(check_exact(&half, DEFAULT_MAX_DEPTH), Verdict::Unsafe(Witness { tau: 0.5, value: 0.0 }));
         // + 1e-9: safe, margin a lower bound on the true minimum 1e-9
         let plus = sq.add(&UPoly::constant(q(1, 1_000_000_000)));
-        for v in [
-            check_interval(&ip(&plus), DEFAULT_MAX_DEPTH),
-            check_exact(&plus, DEFAULT_MAX_DEPTH),
-        ] {
-            let Verdict::Safe { margin } = v else {
-                panic!("{v:?}")
-            };
+        for v in [check_interval(&ip(&plus), DEFAULT_MAX_DEPTH), check_exact(&plus, DEFAULT_MAX_DEPTH)] {
+            let Verdict::Safe { margin } = v else { panic!("{v:?}") };
             assert!(margin > 0.0 && margin <= 1e-9, "{margin}");
         }
         // − 1e-12: unsafe with an exact witness
@@ -636,57 +537,35 @@ mod tests {
     #[test]
     fn constants_and_zero() {
         let zero = UPoly::<BigRational>::zero();
-        let z = Verdict::Unsafe(Witness {
-            tau: 0.0,
-            value: 0.0,
-        });
+        let z = Verdict::Unsafe(Witness { tau: 0.0, value: 0.0 });
         assert_eq!(check_exact(&zero, 40), z);
         assert_eq!(check_interval(&ip(&zero), 40), z);
         let c = UPoly::constant(q(3, 10));
-        let Verdict::Safe { margin } = check_interval(&ip(&c), 40) else {
-            panic!()
-        };
+        let Verdict::Safe { margin } = check_interval(&ip(&c), 40) else { panic!() };
         assert!(margin > 0.29 && margin <= 0.3);
-        assert_eq!(
-            check_exact(&c, 0),
-            Verdict::Safe {
-                margin: f64_below(&q(3, 10))
-            }
-        );
+        assert_eq!(check_exact(&c, 0), Verdict::Safe { margin: f64_below(&q(3, 10)) });
         let neg = UPoly::constant(q(-1, 3));
         assert!(check_interval(&ip(&neg), 40).is_unsafe());
         assert!(check_exact(&neg, 40).is_unsafe());
         // an enclosure straddling 0 cannot be decided
         let straddle = UPoly::constant(Interval::new(-1e-300, 1e-300));
-        assert_eq!(
-            check_interval(&straddle, 40),
-            Verdict::Undecided(Undecided::DepthLimit)
-        );
+        assert_eq!(check_interval(&straddle, 40), Verdict::Undecided(Undecided::DepthLimit));
     }
 
     #[test]
     fn non_finite_is_undecided() {
         for bad in [
-            Interval {
-                lo: f64::NAN,
-                hi: 1.0,
-            },
+            Interval { lo: f64::NAN, hi: 1.0 },
             Interval::new(0.0, f64::INFINITY),
             Interval::ENTIRE,
             Interval { lo: 2.0, hi: 1.0 },
         ] {
             let p = UPoly::new(vec![Interval::point(1.0), bad]);
-            assert_eq!(
-                check_interval(&p, 40),
-                Verdict::Undecided(Undecided::NonFinite)
-            );
+            assert_eq!(check_interval(&p, 40), Verdict::Undecided(Undecided::NonFinite));
         }
         // overflow in the Bernstein sums
         let p = UPoly::new(vec![Interval::point(f64::MAX); 3]);
-        assert_eq!(
-            check_interval(&p, 40),
-            Verdict::Undecided(Undecided::NonFinite)
-        );
+        assert_eq!(check_interval(&p, 40), Verdict::Undecided(Undecided::NonFinite));
     }
 
     #[test]
@@ -721,9 +600,8 @@ mod tests {
         // 1e-300·(τ − 1/2)² + 1e-320: the interval path underflows into undecided; the
         // exact one certifies
         let tiny = BigRational::from_float(1e-300).unwrap();
-        let p = qp(&[(1, 4), (-1, 1), (1, 1)])
-            .scale(&tiny)
-            .add(&UPoly::constant(BigRational::from_float(1e-320).unwrap()));
+        let p =
+            qp(&[(1, 4), (-1, 1), (1, 1)]).scale(&tiny).add(&UPoly::constant(BigRational::from_float(1e-320).unwrap()));
         assert!(!check_interval(&ip(&p), 40).is_safe());
         let mut called = false;
         let v = check(&ip(&p), || {

@@ -58,9 +58,7 @@
 
 use super::verdict::{Undecided, Verdict, Witness};
 use crate::poly::{Interval, UPoly};
-use crate::sdp::{
-    GramBlock, Model, Prepared, Rows, SdpError, SdpSettings, SdpSolution, SdpStatus, Var,
-};
+use crate::sdp::{GramBlock, Model, Prepared, Rows, SdpError, SdpSettings, SdpSolution, SdpStatus, Var};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
@@ -165,10 +163,7 @@ pub struct SosOutcome {
 
 impl SosOutcome {
     fn bare(verdict: Verdict) -> Self {
-        SosOutcome {
-            verdict,
-            certificate: None,
-        }
+        SosOutcome { verdict, certificate: None }
     }
 }
 
@@ -205,22 +200,13 @@ pub fn certify(p: &UPoly<Interval>, settings: &SosSettings) -> SosOutcome {
         Ok(r) => r,
         Err(e) => return SosOutcome::bare(Verdict::Undecided(Undecided::Solver(e.to_string()))),
     };
-    let Layout {
-        gamma,
-        eq_rows,
-        g0,
-        g1,
-    } = layout;
+    let Layout { gamma, eq_rows, g0, g1 } = layout;
     if !sol.status.has_solution() {
-        return SosOutcome::bare(Verdict::Undecided(Undecided::Solver(
-            sol.status.to_string(),
-        )));
+        return SosOutcome::bare(Verdict::Undecided(Undecided::Solver(sol.status.to_string())));
     }
     let gamma_hat = sol.value(gamma);
     let (Some(q0), Some(q1)) = (g0.matrix(&sol.x), g1.matrix(&sol.x)) else {
-        return SosOutcome::bare(Verdict::Undecided(Undecided::Solver(
-            "solution has the wrong size".into(),
-        )));
+        return SosOutcome::bare(Verdict::Undecided(Undecided::Solver("solution has the wrong size".into())));
     };
     if !gamma_hat.is_finite() || q0.iter().chain(&q1).flatten().any(|v| !v.is_finite()) {
         return SosOutcome::bare(Verdict::Undecided(Undecided::Solver(format!(
@@ -228,14 +214,7 @@ pub fn certify(p: &UPoly<Interval>, settings: &SosSettings) -> SosOutcome {
             sol.status
         ))));
     }
-    let cert = Certificate {
-        scale,
-        gamma: gamma_hat,
-        q0,
-        q1,
-        solver_status: sol.status,
-        iterations: sol.iterations,
-    };
+    let cert = Certificate { scale, gamma: gamma_hat, q0, q1, solver_status: sol.status, iterations: sol.iterations };
 
     let verdict = if gamma_hat > settings.eps_acc {
         match lower_bound(&pn, &cert) {
@@ -255,10 +234,7 @@ pub fn certify(p: &UPoly<Interval>, settings: &SosSettings) -> SosOutcome {
         }
         witness_or(p, &cands, settings.witness_grid, gamma_hat * scale)
     };
-    SosOutcome {
-        verdict,
-        certificate: Some(cert),
-    }
+    SosOutcome { verdict, certificate: Some(cert) }
 }
 
 /// Re-verifies a certificate for `p` independently of the solver: `Safe { margin }`
@@ -271,10 +247,7 @@ pub fn recheck(p: &UPoly<Interval>, cert: &Certificate) -> Verdict {
         return Verdict::Undecided(Undecided::NonFinite);
     }
     let Some(inv) = inverse_enclosure(cert.scale) else {
-        return Verdict::Undecided(Undecided::CertificateRejected(format!(
-            "bad scale {}",
-            cert.scale
-        )));
+        return Verdict::Undecided(Undecided::CertificateRejected(format!("bad scale {}", cert.scale)));
     };
     let pn: Vec<Interval> = c.iter().map(|&ci| ci * inv).collect();
     match lower_bound(&pn, cert) {
@@ -290,13 +263,9 @@ fn safe_if_positive(lb: f64, scale: f64) -> Verdict {
         if margin > 0.0 {
             return Verdict::Safe { margin };
         }
-        return Verdict::Undecided(Undecided::CertificateRejected(format!(
-            "margin {lb:e} underflows"
-        )));
+        return Verdict::Undecided(Undecided::CertificateRejected(format!("margin {lb:e} underflows")));
     }
-    Verdict::Undecided(Undecided::CertificateRejected(format!(
-        "lower bound {lb:e} ≤ 0"
-    )))
+    Verdict::Undecided(Undecided::CertificateRejected(format!("lower bound {lb:e} ≤ 0")))
 }
 
 /// An enclosure of `1/s`, if `s` is a finite positive float with a finite,
@@ -334,33 +303,18 @@ pub fn bernstein_scale(a: &[f64]) -> f64 {
 /// Degree ≤ 1 directly: `p(τ) = (1−τ)p(0) + τp(1)`, so `min p = min(p(0), p(1))`.
 fn decide_linear(p: &UPoly<Interval>) -> Verdict {
     if p.is_zero() {
-        return Verdict::Unsafe(Witness {
-            tau: 0.0,
-            value: 0.0,
-        });
+        return Verdict::Unsafe(Witness { tau: 0.0, value: 0.0 });
     }
     let at0 = p.coeff(0);
-    let at1 = if p.degree() == 0 {
-        at0
-    } else {
-        at0 + p.coeff(1)
-    };
+    let at1 = if p.degree() == 0 { at0 } else { at0 + p.coeff(1) };
     if at0.lo > 0.0 && at1.lo > 0.0 {
-        return Verdict::Safe {
-            margin: at0.lo.min(at1.lo),
-        };
+        return Verdict::Safe { margin: at0.lo.min(at1.lo) };
     }
     if at0.hi <= 0.0 {
-        return Verdict::Unsafe(Witness {
-            tau: 0.0,
-            value: at0.mid(),
-        });
+        return Verdict::Unsafe(Witness { tau: 0.0, value: at0.mid() });
     }
     if at1.hi <= 0.0 {
-        return Verdict::Unsafe(Witness {
-            tau: 1.0,
-            value: at1.mid(),
-        });
+        return Verdict::Unsafe(Witness { tau: 1.0, value: at1.mid() });
     }
     Verdict::Undecided(Undecided::MarginTooSmall(at0.mid().min(at1.mid())))
 }
@@ -395,11 +349,7 @@ thread_local! {
 /// solver of the same `e0` when [`SosSettings::reuse_solver`] is set (Clarabel
 /// restarts from its default point on every solve, so reuse skips only the setup).
 /// A failed solve drops its cache entry.
-fn solve_margin_sdp(
-    rhs: &[f64],
-    e0: usize,
-    settings: &SosSettings,
-) -> Result<(SdpSolution, Layout), SdpError> {
+fn solve_margin_sdp(rhs: &[f64], e0: usize, settings: &SosSettings) -> Result<(SdpSolution, Layout), SdpError> {
     if !settings.reuse_solver {
         let (model, layout) = build_model(rhs, e0)?;
         return Ok((model.solve(&settings.sdp)?, layout));
@@ -410,9 +360,7 @@ fn solve_margin_sdp(
             let (model, layout) = build_model(rhs, e0)?;
             return Ok((model.solve(&settings.sdp)?, layout));
         };
-        let hit = cache
-            .iter()
-            .position(|c| c.e0 == e0 && c.settings == settings.sdp);
+        let hit = cache.iter().position(|c| c.e0 == e0 && c.settings == settings.sdp);
         let idx = match hit {
             Some(i) => {
                 let c = &mut cache[i];
@@ -433,13 +381,7 @@ fn solve_margin_sdp(
                 if cache.len() >= SOLVER_CACHE_LEN {
                     cache.remove(0);
                 }
-                cache.push(CachedSdp {
-                    e0,
-                    settings: settings.sdp.clone(),
-                    prepared,
-                    layout,
-                    b: model.rhs().to_vec(),
-                });
+                cache.push(CachedSdp { e0, settings: settings.sdp.clone(), prepared, layout, b: model.rhs().to_vec() });
                 cache.len() - 1
             }
         };
@@ -484,19 +426,8 @@ fn build_model(p: &[f64], e0: usize) -> Result<(Model, Layout), SdpError> {
         first_row.get_or_insert(r.start);
     }
     m.set_objective(&[(gamma, -1.0)])?;
-    let eq_rows = Rows {
-        start: first_row.unwrap_or(0),
-        len: n_rows,
-    };
-    Ok((
-        m,
-        Layout {
-            gamma,
-            eq_rows,
-            g0,
-            g1,
-        },
-    ))
+    let eq_rows = Rows { start: first_row.unwrap_or(0), len: n_rows };
+    Ok((m, Layout { gamma, eq_rows, g0, g1 }))
 }
 
 /// Adds `sign·Σ_{i+j=k} Q_ij` (full symmetric sum) as raw-entry terms.
@@ -523,18 +454,8 @@ fn witness_or(p: &UPoly<Interval>, cands: &[f64], grid: usize, margin: f64) -> V
 /// grid minimum. Candidates only propose; the interval evaluation decides.
 pub fn find_witness(p: &UPoly<Interval>, cands: &[f64], grid: usize) -> Option<Witness> {
     let f: Vec<f64> = p.coeffs().iter().map(Interval::mid).collect();
-    let d1: Vec<f64> = f
-        .iter()
-        .enumerate()
-        .skip(1)
-        .map(|(k, c)| k as f64 * c)
-        .collect();
-    let d2: Vec<f64> = d1
-        .iter()
-        .enumerate()
-        .skip(1)
-        .map(|(k, c)| k as f64 * c)
-        .collect();
+    let d1: Vec<f64> = f.iter().enumerate().skip(1).map(|(k, c)| k as f64 * c).collect();
+    let d2: Vec<f64> = d1.iter().enumerate().skip(1).map(|(k, c)| k as f64 * c).collect();
     let mut pts: Vec<f64> = Vec::with_capacity(2 * cands.len() + grid + 4);
     for &t in cands {
         pts.push(t);
@@ -542,11 +463,7 @@ pub fn find_witness(p: &UPoly<Interval>, cands: &[f64], grid: usize) -> Option<W
     }
     let mut best = (f64::INFINITY, 0.0);
     for j in 0..=grid {
-        let t = if grid == 0 {
-            0.0
-        } else {
-            j as f64 / grid as f64
-        };
+        let t = if grid == 0 { 0.0 } else { j as f64 / grid as f64 };
         pts.push(t);
         let v = horner(&f, t);
         if v < best.0 {
@@ -564,10 +481,7 @@ pub fn find_witness(p: &UPoly<Interval>, cands: &[f64], grid: usize) -> Option<W
         }
         let v = p.eval(&Interval::point(t));
         if v.hi <= 0.0 && found.is_none_or(|w| v.mid() < w.value) {
-            found = Some(Witness {
-                tau: t,
-                value: v.mid().min(v.hi),
-            });
+            found = Some(Witness { tau: t, value: v.mid().min(v.hi) });
         }
     }
     found
@@ -603,11 +517,7 @@ fn lower_bound(pn: &[Interval], cert: &Certificate) -> Result<f64, String> {
     let s0 = check_symmetric(&cert.q0, "q0")?;
     let s1 = check_symmetric(&cert.q1, "q1")?;
     // highest power in the identity: p (n), σ0 (2(s0−1)), τ(1−τ)σ1 (2 s1)
-    let kmax = pn
-        .len()
-        .saturating_sub(1)
-        .max(2 * s0.saturating_sub(1))
-        .max(2 * s1);
+    let kmax = pn.len().saturating_sub(1).max(2 * s0.saturating_sub(1)).max(2 * s1);
     let mut rsum = Interval::point(0.0);
     for k in 0..=kmax {
         let mut r = pn.get(k).copied().unwrap_or(Interval::point(0.0));
@@ -705,11 +615,8 @@ fn ldl_positive_definite(q: &[Vec<f64>], lam: f64) -> bool {
     let mut w = vec![Interval::point(0.0); n * n];
     for i in 0..n {
         for j in i..n {
-            w[i * n + j] = if i == j {
-                Interval::point(q[i][i]) - Interval::point(lam)
-            } else {
-                Interval::point(q[i][j])
-            };
+            w[i * n + j] =
+                if i == j { Interval::point(q[i][i]) - Interval::point(lam) } else { Interval::point(q[i][j]) };
         }
     }
     for k in 0..n {
@@ -736,10 +643,7 @@ fn div_pos(a: Interval, b: Interval) -> Interval {
     }
     let lo = c.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = c.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    Interval {
-        lo: lo.next_down(),
-        hi: hi.next_up(),
-    }
+    Interval { lo: lo.next_down(), hi: hi.next_up() }
 }
 
 /// Gershgorin: `λmin ≥ min_i (Q_ii − Σ_{j≠i} |Q_ij|)`, rounded down.

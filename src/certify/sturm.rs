@@ -53,10 +53,7 @@ const MAX_BISECTIONS_PER_BOUND: u32 = 32;
 ///   a negative gap between roots holds no float, or at [`MAX_ISOLATION_BITS`].
 pub fn decide(p: &UPoly<BigRational>) -> Verdict {
     if p.is_zero() {
-        return Verdict::Unsafe(Witness {
-            tau: 0.0,
-            value: 0.0,
-        });
+        return Verdict::Unsafe(Witness { tau: 0.0, value: 0.0 });
     }
     let (z, scale) = to_integer(p.coeffs());
     // z(0) = z_0 and z(1) = Σ z_i, with the signs of p(0), p(1) (scale > 0)
@@ -68,18 +65,14 @@ pub fn decide(p: &UPoly<BigRational>) -> Verdict {
         }
     }
     if p.degree() == 0 {
-        return Verdict::Safe {
-            margin: f64_below(&p.coeff(0)),
-        };
+        return Verdict::Safe { margin: f64_below(&p.coeff(0)) };
     }
     let sqf = square_free(&z);
     let seq = SturmSeq::new(&sqf);
     if seq.count_unit() == 0 {
         let rel = BigRational::new(BigInt::one(), BigInt::one() << MARGIN_REL_TOL_BITS as usize);
         let min = min_enclosure(p, &Tol::Relative(rel));
-        return Verdict::Safe {
-            margin: f64_below(&min.lower),
-        };
+        return Verdict::Safe { margin: f64_below(&min.lower) };
     }
     let Some(roots) = seq.isolate_unit() else {
         return Verdict::Undecided(Undecided::DepthLimit);
@@ -118,8 +111,7 @@ pub fn count_roots_in(p: &UPoly<BigRational>, a: &BigRational, b: &BigRational) 
         return 0;
     }
     let seq = SturmSeq::new(&square_free(&to_integer(p.coeffs()).0));
-    seq.variations(&|v| eval_sign_rational(v, a))
-        .saturating_sub(seq.variations(&|v| eval_sign_rational(v, b)))
+    seq.variations(&|v| eval_sign_rational(v, a)).saturating_sub(seq.variations(&|v| eval_sign_rational(v, b)))
 }
 
 /// An enclosure of `min_{[0,1]} p`: `lower ≤ min p ≤ upper = p(argmin)`.
@@ -167,41 +159,20 @@ pub fn min_on_unit(p: &UPoly<BigRational>, tol: &BigRational) -> MinEnclosure {
 fn min_enclosure(p: &UPoly<BigRational>, tol: &Tol) -> MinEnclosure {
     let (z, scale) = to_integer(p.coeffs());
     let at = |v: BigInt| BigRational::from_integer(v) * &scale;
-    let (p0, p1) = (
-        at(z.first().cloned().unwrap_or_default()),
-        at(z.iter().sum()),
-    );
+    let (p0, p1) = (at(z.first().cloned().unwrap_or_default()), at(z.iter().sum()));
     let mut lower = if p1 < p0 { p1.clone() } else { p0.clone() };
-    let mut best = Best {
-        upper: p0,
-        argmin: BigRational::zero(),
-    };
+    let mut best = Best { upper: p0, argmin: BigRational::zero() };
     best.offer(p1, BigRational::one);
     if p.degree() == 0 {
-        return MinEnclosure {
-            lower,
-            upper: best.upper,
-            argmin: best.argmin,
-            converged: true,
-        };
+        return MinEnclosure { lower, upper: best.upper, argmin: best.argmin, converged: true };
     }
     let dz = square_free(&derivative(&z));
     let Some(crit) = SturmSeq::new(&dz).isolate_unit() else {
         // |p| ≤ Σ|a_i| on [0, 1]: crude but sound
         let bound: BigRational = p.coeffs().iter().map(Signed::abs).sum();
-        return MinEnclosure {
-            lower: -bound,
-            upper: best.upper,
-            argmin: best.argmin,
-            converged: false,
-        };
+        return MinEnclosure { lower: -bound, upper: best.upper, argmin: best.argmin, converged: false };
     };
-    let search = MinSearch {
-        z: &z,
-        scale: &scale,
-        dz: &dz,
-        tol,
-    };
+    let search = MinSearch { z: &z, scale: &scale, dz: &dz, tol };
     // first pass: the value at each critical cell's midpoint lowers `upper` early, so
     // that fewer cells need refining
     for cell in &crit {
@@ -219,12 +190,7 @@ fn min_enclosure(p: &UPoly<BigRational>, tol: &Tol) -> MinEnclosure {
         lower = best.upper.clone();
     }
     converged &= lower >= tol.floor(&best.upper);
-    MinEnclosure {
-        lower,
-        upper: best.upper,
-        argmin: best.argmin,
-        converged,
-    }
+    MinEnclosure { lower, upper: best.upper, argmin: best.argmin, converged }
 }
 
 /// The smallest value of `p` found so far and where.
@@ -285,16 +251,9 @@ impl MinSearch<'_> {
             }
             // the gap shrinks about 4× per halving near a critical point
             let room = &at_m - &floor;
-            let ratio = if room.is_positive() {
-                rational_to_f64(&((&at_m - &lb) / room))
-            } else {
-                f64::INFINITY
-            };
-            let steps = if ratio.is_finite() {
-                (ratio.log2() / 2.0).ceil() as u32 + 1
-            } else {
-                MAX_BISECTIONS_PER_BOUND
-            };
+            let ratio = if room.is_positive() { rational_to_f64(&((&at_m - &lb) / room)) } else { f64::INFINITY };
+            let steps =
+                if ratio.is_finite() { (ratio.log2() / 2.0).ceil() as u32 + 1 } else { MAX_BISECTIONS_PER_BOUND };
             for _ in 0..steps.clamp(1, MAX_BISECTIONS_PER_BOUND) {
                 let m = cell.mid();
                 match eval_sign(self.dz, &m) {
@@ -310,16 +269,11 @@ impl MinSearch<'_> {
 /// A witness at the dyadic `x` where `p(x) ≤ 0`: `x` itself when it is a float, else
 /// the nearest float if `p` is still `≤ 0` there.
 fn witness_near(p: &UPoly<BigRational>, x: &Dyadic) -> Verdict {
-    let t = x
-        .to_f64_exact()
-        .unwrap_or_else(|| rational_to_f64(&x.to_rational()));
+    let t = x.to_f64_exact().unwrap_or_else(|| rational_to_f64(&x.to_rational()));
     if let Some(exact) = BigRational::from_float(t) {
         let v = p.eval(&exact);
         if !v.is_positive() {
-            return Verdict::Unsafe(Witness {
-                tau: t,
-                value: rational_to_f64(&v),
-            });
+            return Verdict::Unsafe(Witness { tau: t, value: rational_to_f64(&v) });
         }
     }
     Verdict::Undecided(Undecided::DepthLimit)
@@ -369,40 +323,22 @@ struct Cell {
 
 impl Cell {
     fn unit() -> Self {
-        Cell {
-            j: BigInt::zero(),
-            e: 0,
-        }
+        Cell { j: BigInt::zero(), e: 0 }
     }
     fn left(&self) -> Dyadic {
-        Dyadic {
-            n: self.j.clone(),
-            e: self.e,
-        }
+        Dyadic { n: self.j.clone(), e: self.e }
     }
     fn right(&self) -> Dyadic {
-        Dyadic {
-            n: &self.j + 1,
-            e: self.e,
-        }
+        Dyadic { n: &self.j + 1, e: self.e }
     }
     fn mid(&self) -> Dyadic {
-        Dyadic {
-            n: (&self.j << 1usize) + 1,
-            e: self.e + 1,
-        }
+        Dyadic { n: (&self.j << 1usize) + 1, e: self.e + 1 }
     }
     fn left_half(&self) -> Cell {
-        Cell {
-            j: &self.j << 1usize,
-            e: self.e + 1,
-        }
+        Cell { j: &self.j << 1usize, e: self.e + 1 }
     }
     fn right_half(&self) -> Cell {
-        Cell {
-            j: (&self.j << 1usize) + 1,
-            e: self.e + 1,
-        }
+        Cell { j: (&self.j << 1usize) + 1, e: self.e + 1 }
     }
 
     /// Bisects (by sign: `s` has one simple root in the cell) down to resolution
@@ -510,13 +446,7 @@ fn primitive(v: Vec<BigInt>) -> Vec<BigInt> {
 }
 
 fn derivative(v: &[BigInt]) -> Vec<BigInt> {
-    trim(
-        v.iter()
-            .enumerate()
-            .skip(1)
-            .map(|(i, c)| c * BigInt::from(i))
-            .collect(),
-    )
+    trim(v.iter().enumerate().skip(1).map(|(i, c)| c * BigInt::from(i)).collect())
 }
 
 /// Pseudo-division: `lc(b)^δ · a = q·b + r` with `δ = deg a − deg b + 1` and
@@ -619,11 +549,7 @@ impl SturmSeq {
                 break;
             }
             // a positive multiple of −rem(a, b)
-            let next = if positive {
-                r.into_iter().map(|c| -c).collect()
-            } else {
-                r
-            };
+            let next = if positive { r.into_iter().map(|c| -c).collect() } else { r };
             seq.push(primitive(next));
         }
         SturmSeq { seq }
@@ -652,18 +578,14 @@ impl SturmSeq {
     /// Distinct roots in (0, 1].
     fn count_unit(&self) -> usize {
         let c = Cell::unit();
-        self.variations_at(&c.left())
-            .saturating_sub(self.variations_at(&c.right()))
+        self.variations_at(&c.left()).saturating_sub(self.variations_at(&c.right()))
     }
 
     /// Cells `(j/2^e, (j+1)/2^e]`, increasing, each holding exactly one root in (0, 1].
     /// `None` if [`MAX_ISOLATION_BITS`] ran out.
     fn isolate_unit(&self) -> Option<Vec<Cell>> {
         let unit = Cell::unit();
-        let (v0, v1) = (
-            self.variations_at(&unit.left()),
-            self.variations_at(&unit.right()),
-        );
+        let (v0, v1) = (self.variations_at(&unit.left()), self.variations_at(&unit.right()));
         let mut out = Vec::new();
         // (cell, V(left end), V(right end))
         let mut work = vec![(unit, v0, v1)];
@@ -705,24 +627,15 @@ mod tests {
 
     #[test]
     fn counts_distinct_roots() {
-        let p = from_roots(
-            q(3, 1),
-            &[(q(1, 3), 2), (q(1, 2), 1), (q(2, 1), 3), (q(-1, 5), 1)],
-        );
+        let p = from_roots(q(3, 1), &[(q(1, 3), 2), (q(1, 2), 1), (q(2, 1), 3), (q(-1, 5), 1)]);
         assert_eq!(count_roots_in(&p, &q(0, 1), &q(1, 1)), 2);
         assert_eq!(count_roots_in(&p, &q(-1, 1), &q(3, 1)), 4);
         // half-open: (1/3, 1/2] holds 1/2 only
         assert_eq!(count_roots_in(&p, &q(1, 3), &q(1, 2)), 1);
         assert_eq!(count_roots_in(&p, &q(1, 2), &q(1, 1)), 0);
         assert_eq!(count_roots_in(&p, &q(1, 1), &q(0, 1)), 0);
-        assert_eq!(
-            count_roots_in(&UPoly::zero(), &q(0, 1), &q(1, 1)),
-            usize::MAX
-        );
-        assert_eq!(
-            count_roots_in(&UPoly::constant(q(2, 1)), &q(0, 1), &q(1, 1)),
-            0
-        );
+        assert_eq!(count_roots_in(&UPoly::zero(), &q(0, 1), &q(1, 1)), usize::MAX);
+        assert_eq!(count_roots_in(&UPoly::constant(q(2, 1)), &q(0, 1), &q(1, 1)), 0);
     }
 
     #[test]
@@ -732,39 +645,17 @@ mod tests {
         assert_eq!(decide(&sq), Verdict::Undecided(Undecided::DepthLimit));
         // a touch at a float: witnessed
         let half = from_roots(q(1, 1), &[(q(1, 2), 2)]);
-        assert_eq!(
-            decide(&half),
-            Verdict::Unsafe(Witness {
-                tau: 0.5,
-                value: 0.0
-            })
-        );
+        assert_eq!(decide(&half), Verdict::Unsafe(Witness { tau: 0.5, value: 0.0 }));
         let plus = sq.add(&UPoly::constant(q(1, 1_000_000_000)));
-        let Verdict::Safe { margin } = decide(&plus) else {
-            panic!()
-        };
-        assert!(
-            (1e-9 * (1.0 - MARGIN_REL_TOL)..=1e-9).contains(&margin),
-            "{margin}"
-        );
+        let Verdict::Safe { margin } = decide(&plus) else { panic!() };
+        assert!((1e-9 * (1.0 - MARGIN_REL_TOL)..=1e-9).contains(&margin), "{margin}");
         let minus = sq.sub(&UPoly::constant(q(1, 1_000_000_000_000)));
-        let Verdict::Unsafe(w) = decide(&minus) else {
-            panic!()
-        };
+        let Verdict::Unsafe(w) = decide(&minus) else { panic!() };
         assert!(minus.eval(&BigRational::from_float(w.tau).unwrap()) < BigRational::zero());
         let ends = UPoly::new(vec![q(0, 1), q(-1, 1), q(1, 1)]);
         assert!(decide(&ends).is_unsafe());
-        assert_eq!(
-            decide(&UPoly::zero()),
-            Verdict::Unsafe(Witness {
-                tau: 0.0,
-                value: 0.0
-            })
-        );
-        assert_eq!(
-            decide(&UPoly::constant(q(1, 4))),
-            Verdict::Safe { margin: 0.25 }
-        );
+        assert_eq!(decide(&UPoly::zero()), Verdict::Unsafe(Witness { tau: 0.0, value: 0.0 }));
+        assert_eq!(decide(&UPoly::constant(q(1, 4))), Verdict::Safe { margin: 0.25 });
         assert!(decide(&UPoly::constant(q(-1, 4))).is_unsafe());
     }
 
@@ -774,9 +665,7 @@ mod tests {
         let p = from_roots(q(1, 1), &[(q(1, 3), 2)]).add(&UPoly::constant(q(1, 7)));
         let tol = q(1, 1_000_000_000_000);
         let m = min_on_unit(&p, &tol);
-        assert!(
-            m.converged && m.lower <= q(1, 7) && q(1, 7) <= m.upper && &m.upper - &m.lower <= tol
-        );
+        assert!(m.converged && m.lower <= q(1, 7) && q(1, 7) <= m.upper && &m.upper - &m.lower <= tol);
         assert_eq!(p.eval(&m.argmin), m.upper);
         // monotone: min at an end, exact
         let lin = UPoly::linear(q(2, 1), q(-1, 1));

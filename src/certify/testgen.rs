@@ -82,15 +82,8 @@ pub struct IntPoly {
 impl IntPoly {
     /// The same polynomial over the common denominator of its coefficients.
     pub fn from_upoly(p: &UPoly<BigRational>) -> Self {
-        let den = p
-            .coeffs()
-            .iter()
-            .fold(BigInt::one(), |l, x| l.lcm(x.denom()));
-        let c = p
-            .coeffs()
-            .iter()
-            .map(|x| x.numer() * (&den / x.denom()))
-            .collect();
+        let den = p.coeffs().iter().fold(BigInt::one(), |l, x| l.lcm(x.denom()));
+        let c = p.coeffs().iter().map(|x| x.numer() * (&den / x.denom())).collect();
         IntPoly { c, den }
     }
 
@@ -119,10 +112,7 @@ impl IntPoly {
     }
 
     fn constant(r: &BigRational) -> Self {
-        IntPoly {
-            c: vec![r.numer().clone()],
-            den: r.denom().clone(),
-        }
+        IntPoly { c: vec![r.numer().clone()], den: r.denom().clone() }
     }
 
     /// `self · (Σ f_i t^i) / f_den`.
@@ -133,10 +123,7 @@ impl IntPoly {
                 c[i + j] += a * b;
             }
         }
-        IntPoly {
-            c,
-            den: &self.den * f_den,
-        }
+        IntPoly { c, den: &self.den * f_den }
     }
 
     /// `(t − r)^m`, times `den(r)^m` to stay integral.
@@ -150,19 +137,12 @@ impl IntPoly {
         let bd = u.denom() * v.denom();
         let ad = u.numer() * v.denom();
         let cb = v.numer() * u.denom();
-        let f = [
-            &ad * &ad + &cb * &cb,
-            BigInt::from(-2) * &ad * &bd,
-            &bd * &bd,
-        ];
+        let f = [&ad * &ad + &cb * &cb, BigInt::from(-2) * &ad * &bd, &bd * &bd];
         self.mul(&f, &(&bd * &bd))
     }
 
     fn neg(&self) -> Self {
-        IntPoly {
-            c: self.c.iter().map(|x| -x).collect(),
-            den: self.den.clone(),
-        }
+        IntPoly { c: self.c.iter().map(|x| -x).collect(), den: self.den.clone() }
     }
 
     /// `self + e` for a rational constant `e`.
@@ -170,10 +150,7 @@ impl IntPoly {
         let (en, ed) = (e.numer(), e.denom());
         let mut c: Vec<BigInt> = self.c.iter().map(|x| x * ed).collect();
         c[0] += en * &self.den;
-        IntPoly {
-            c,
-            den: &self.den * ed,
-        }
+        IntPoly { c, den: &self.den * ed }
     }
 
     /// `self(t1 + w·τ)`: with `t1 = A/L`, `w = C/L`, `L^deg · self((A + Cτ)/L)` is the
@@ -195,19 +172,11 @@ impl IntPoly {
             next[0] += ci * &lpow;
             acc = next;
         }
-        IntPoly {
-            c: acc,
-            den: &self.den * lpow,
-        }
+        IntPoly { c: acc, den: &self.den * lpow }
     }
 
     fn to_upoly(&self) -> UPoly<BigRational> {
-        UPoly::new(
-            self.c
-                .iter()
-                .map(|x| BigRational::new(x.clone(), self.den.clone()))
-                .collect(),
-        )
+        UPoly::new(self.c.iter().map(|x| BigRational::new(x.clone(), self.den.clone())).collect())
     }
 
     /// `max |c_i| / den` as an f64.
@@ -220,9 +189,7 @@ impl IntPoly {
 impl Generator {
     /// A generator for `seed`.
     pub fn new(seed: u64) -> Self {
-        Generator {
-            rng: ChaCha8Rng::seed_from_u64(seed),
-        }
+        Generator { rng: ChaCha8Rng::seed_from_u64(seed) }
     }
 
     /// A case of random degree in [`DEGREES`].
@@ -236,10 +203,7 @@ impl Generator {
         let deg = deg.max(1);
         let (t1, t2) = self.domain();
         let tangent = self.rng.random_bool(0.35);
-        let mut recipe = format!(
-            "deg {deg} on [{t1}, {t2}]{}",
-            if tangent { " tangent" } else { "" }
-        );
+        let mut recipe = format!("deg {deg} on [{t1}, {t2}]{}", if tangent { " tangent" } else { "" });
         let c = self.rational(1, 50).abs() + BigRational::new(1.into(), 10.into());
         recipe += &format!(": {c}");
         let mut p0 = IntPoly::constant(&c);
@@ -279,11 +243,7 @@ impl Generator {
         let probe = probe_point(&p0, &t1, &t2);
         // sign: tangent cases are made p0 ≥ 0 on the domain, others are random
         let negative_at_probe = p0.sign_at(&probe).is_lt();
-        let flip = if tangent && nonneg {
-            negative_at_probe
-        } else {
-            self.rng.random_bool(0.4)
-        };
+        let flip = if tangent && nonneg { negative_at_probe } else { self.rng.random_bool(0.4) };
         if flip {
             p0 = p0.neg();
             recipe = format!("−[{recipe}]");
@@ -297,14 +257,7 @@ impl Generator {
         let p = p0.add_constant(&eps);
         let exact = p.compose_affine(&t1, &(&t2 - &t1)).to_upoly();
         let interval = exact.map(Interval::enclose_rational);
-        Case {
-            exact,
-            interval,
-            truth,
-            original: p.to_upoly(),
-            domain: (t1, t2),
-            recipe,
-        }
+        Case { exact, interval, truth, original: p.to_upoly(), domain: (t1, t2), recipe }
     }
 
     /// `[0, 1]` half the time, else a random `[t1, t2]` in [−2, 2].
@@ -368,11 +321,7 @@ impl Generator {
         let k = self.rng.random_range(PERTURBATION_EXPONENTS) as i32;
         let e = size.max(1e-30).log10().round() as i32 - k;
         let ten_e = num_traits::pow(BigInt::from(10), e.unsigned_abs() as usize);
-        let eps = if e >= 0 {
-            BigRational::from_integer(ten_e)
-        } else {
-            BigRational::new(BigInt::one(), ten_e)
-        };
+        let eps = if e >= 0 { BigRational::from_integer(ten_e) } else { BigRational::new(BigInt::one(), ten_e) };
         if self.rng.random_bool(0.5) {
             eps
         } else {
@@ -445,12 +394,7 @@ mod tests {
                 }
                 // the integer construction is the composition UPoly::compose_affine computes
                 let (t1, t2) = &c.domain;
-                assert_eq!(
-                    c.original.compose_affine(t1, &(t2 - t1)),
-                    c.exact,
-                    "{}",
-                    c.recipe
-                );
+                assert_eq!(c.original.compose_affine(t1, &(t2 - t1)), c.exact, "{}", c.recipe);
             }
         }
     }
@@ -498,10 +442,7 @@ mod tests {
         let mut known = 0;
         for _ in 0..500 {
             let c = g.case();
-            let min_sample = (0..=64)
-                .map(|k| c.exact.eval(&q(k, 64)))
-                .min()
-                .unwrap_or_else(BigRational::zero);
+            let min_sample = (0..=64).map(|k| c.exact.eval(&q(k, 64))).min().unwrap_or_else(BigRational::zero);
             if c.truth == Truth::Positive {
                 assert!(min_sample.is_positive(), "{}", c.recipe);
             }

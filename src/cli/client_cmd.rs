@@ -120,10 +120,15 @@ fn show<T: serde::Serialize>(v: &T) -> Result<(), CliError> {
 }
 
 pub fn run(a: ClientArgs) -> Result<i32, CliError> {
-    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().map_err(|e| CliError(e.to_string()))?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .map_err(|e| CliError(e.to_string()))?;
     rt.block_on(async move {
         let codec = if a.json { Codec::Json } else { Codec::Bincode };
-        let client = Client::connect(&a.endpoint, Duration::from_secs_f64(a.timeout.max(0.1)), codec).await.map_err(err)?;
+        let client =
+            Client::connect(&a.endpoint, Duration::from_secs_f64(a.timeout.max(0.1)), codec).await.map_err(err)?;
         let code = exec(&client, a.command).await;
         client.close().await;
         code
@@ -145,7 +150,8 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             let req = match (file, changes) {
                 (Some(f), None) => ApplyRequest { scene: Some(EmbeddedJson(read_json(&f)?)), changes: None },
                 (None, Some(c)) => {
-                    let ch: Vec<Change> = serde_json::from_value(read_json(&c)?).map_err(|e| CliError(format!("{}: {e}", c.display())))?;
+                    let ch: Vec<Change> = serde_json::from_value(read_json(&c)?)
+                        .map_err(|e| CliError(format!("{}: {e}", c.display())))?;
                     ApplyRequest { scene: None, changes: Some(ch) }
                 }
                 _ => return Err(CliError("give --file or --changes".into())),
@@ -154,13 +160,29 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             Ok(0)
         }
         ClientCommand::Plan { scene, planner, time_limit, seed, pieces, improve, out } => {
-            let req = PlanRequest { planner: Some(planner), time_limit: Some(time_limit), seed: Some(seed), pieces, improve: Some(improve), ..Default::default() };
+            let req = PlanRequest {
+                planner: Some(planner),
+                time_limit: Some(time_limit),
+                seed: Some(seed),
+                pieces,
+                improve: Some(improve),
+                ..Default::default()
+            };
             match client.plan(&scene, &req).await {
                 Ok(r) => {
-                    eprintln!("{}: plan ({}) at revision {}, {} pieces, {:.3} s", r.planner, if r.certified { "certified" } else { "NOT certified" }, r.revision, r.pieces.len(), r.stats.planning_time_s);
+                    eprintln!(
+                        "{}: plan ({}) at revision {}, {} pieces, {:.3} s",
+                        r.planner,
+                        if r.certified { "certified" } else { "NOT certified" },
+                        r.revision,
+                        r.pieces.len(),
+                        r.stats.planning_time_s
+                    );
                     let text = serde_json::to_string_pretty(&r).map_err(|e| CliError(e.to_string()))?;
                     match out {
-                        Some(p) => std::fs::write(&p, text + "\n").map_err(|e| CliError(format!("{}: {e}", p.display())))?,
+                        Some(p) => {
+                            std::fs::write(&p, text + "\n").map_err(|e| CliError(format!("{}: {e}", p.display())))?
+                        }
                         None => print_out(&text)?,
                     }
                     Ok(0)
@@ -175,8 +197,15 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
         ClientCommand::Verify { scene, trajectory, from, to, method } => {
             let mut req = VerifyRequest { method, ..Default::default() };
             match trajectory {
-                Some(p) => req.trajectory = Some(riskplan::scene::Trajectory::from_json(&read_json(&p)?.to_string()).map_err(|e| CliError(format!("{}: {e}", p.display())))?),
-                None if !from.is_empty() && !to.is_empty() => req.segment = Some(Segment { from, to, t0: None, t1: None }),
+                Some(p) => {
+                    req.trajectory = Some(
+                        riskplan::scene::Trajectory::from_json(&read_json(&p)?.to_string())
+                            .map_err(|e| CliError(format!("{}: {e}", p.display())))?,
+                    )
+                }
+                None if !from.is_empty() && !to.is_empty() => {
+                    req.segment = Some(Segment { from, to, t0: None, t1: None })
+                }
                 None => return Err(CliError("give --trajectory or --from ... --to ...".into())),
             }
             let r = client.verify(&scene, &req).await.map_err(err)?;
@@ -184,7 +213,12 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             Ok(if r.safe { 0 } else { 1 })
         }
         ClientCommand::Risk { scene, point, time } => {
-            show(&client.risk(&scene, &RiskRequest { points: Some(vec![point]), grid: None, time }).await.map_err(err)?)?;
+            show(
+                &client
+                    .risk(&scene, &RiskRequest { points: Some(vec![point]), grid: None, time })
+                    .await
+                    .map_err(err)?,
+            )?;
             Ok(0)
         }
         ClientCommand::Get { scene } => {

@@ -1,6 +1,6 @@
 //! `riskplan plan`: RRT-SOS (static or time-layered) and the Monte Carlo baseline.
 
-use super::util::{print_out, delta_arg, load_scene, CliError};
+use super::util::{delta_arg, load_scene, print_out, CliError};
 use clap::Args;
 use riskplan::plan::{
     LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, PlanStatus, Planner, Problem, RrtParams,

@@ -1,6 +1,6 @@
 //! `riskplan risk`: the risk bound at a point, per obstacle, optionally with Monte Carlo.
 
-use super::util::{print_out, delta_arg, exact_arg, load_scene, CliError};
+use super::util::{delta_arg, exact_arg, load_scene, print_out, CliError};
 use clap::Args;
 use num_rational::BigRational;
 use riskplan::mc::DEFAULT_CONFIDENCE;

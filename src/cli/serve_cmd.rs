@@ -44,7 +44,8 @@ pub struct ServeArgs {
 }
 
 pub fn run(a: ServeArgs) -> Result<i32, CliError> {
-    let filter = tracing_subscriber::EnvFilter::try_from_env("RISKPLAN_LOG").unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn"));
+    let filter = tracing_subscriber::EnvFilter::try_from_env("RISKPLAN_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn"));
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
@@ -60,7 +61,11 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
             c
         }
     };
-    let listen = if a.listen.is_empty() && a.config.is_none() { vec!["tcp/127.0.0.1:7447".to_string()] } else { a.listen.clone() };
+    let listen = if a.listen.is_empty() && a.config.is_none() {
+        vec!["tcp/127.0.0.1:7447".to_string()]
+    } else {
+        a.listen.clone()
+    };
     if !listen.is_empty() {
         cfg.insert_json5("listen/endpoints", &serde_json::to_string(&listen).unwrap_or_default()).map_err(z)?;
     }
@@ -83,8 +88,20 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
         None => vec![],
     };
     let workers = a.workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(2));
-    let config = ServerConfig { zenoh: cfg, data: a.data, preload, workers, queue: a.queue, max_plan_seconds: a.max_plan_seconds, listen };
-    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().max_blocking_threads(workers.max(1) + 4).build().map_err(|e| CliError(e.to_string()))?;
+    let config = ServerConfig {
+        zenoh: cfg,
+        data: a.data,
+        preload,
+        workers,
+        queue: a.queue,
+        max_plan_seconds: a.max_plan_seconds,
+        listen,
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .max_blocking_threads(workers.max(1) + 4)
+        .build()
+        .map_err(|e| CliError(e.to_string()))?;
     rt.block_on(serve(config)).map_err(CliError)?;
     Ok(0)
 }

@@ -1,6 +1,6 @@
 //! `riskplan verify`: certify a trajectory against a scene.
 
-use super::util::{print_out, delta_arg, load_scene, CliError};
+use super::util::{delta_arg, load_scene, print_out, CliError};
 use clap::Args;
 use riskplan::scene::Trajectory;
 use riskplan::verify::{verify, Method};

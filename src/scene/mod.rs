@@ -270,7 +270,10 @@ impl ContourCache {
             .filter(|&v| layout.is_param(v))
             .map(|v| {
                 let n = vars.name(v);
-                format!("{n}={}", params.get(&n).map(|p| serde_json::to_string(p).unwrap_or_default()).unwrap_or_default())
+                format!(
+                    "{n}={}",
+                    params.get(&n).map(|p| serde_json::to_string(p).unwrap_or_default()).unwrap_or_default()
+                )
             })
             .collect();
         format!("{dim}|{text}|{}", used.join(";"))

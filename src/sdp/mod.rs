@@ -92,17 +92,11 @@ pub struct AffineExpr {
 impl AffineExpr {
     /// A constant expression.
     pub fn constant(c: f64) -> Self {
-        AffineExpr {
-            constant: c,
-            terms: Vec::new(),
-        }
+        AffineExpr { constant: c, terms: Vec::new() }
     }
     /// The expression `v`.
     pub fn var(v: Var) -> Self {
-        AffineExpr {
-            constant: 0.0,
-            terms: vec![(v, 1.0)],
-        }
+        AffineExpr { constant: 0.0, terms: vec![(v, 1.0)] }
     }
 }
 
@@ -149,11 +143,7 @@ pub fn pack_upper(m: &[Vec<f64>]) -> Vec<f64> {
     let n = m.len();
     let mut v = Vec::with_capacity(svec_len(n));
     for j in 0..n {
-        v.extend(
-            m.iter()
-                .take(j + 1)
-                .map(|row| row.get(j).copied().unwrap_or(f64::NAN)),
-        );
+        v.extend(m.iter().take(j + 1).map(|row| row.get(j).copied().unwrap_or(f64::NAN)));
     }
     v
 }
@@ -561,10 +551,7 @@ impl Model {
     fn check_terms(&self, terms: &[(Var, f64)], what: &'static str) -> Result<(), SdpError> {
         for &(v, c) in terms {
             if v.0 >= self.n {
-                return Err(SdpError::VarOutOfRange {
-                    var: v.0,
-                    n: self.n,
-                });
+                return Err(SdpError::VarOutOfRange { var: v.0, n: self.n });
             }
             if !c.is_finite() {
                 return Err(SdpError::NonFinite(what));
@@ -597,8 +584,7 @@ impl Model {
         let start = self.b.len() - len;
         match (self.blocks.last_mut(), kind) {
             // adjacent zero / nonnegative blocks merge into one Clarabel cone
-            (Some((ConeKind::Zero, m)), ConeKind::Zero)
-            | (Some((ConeKind::Nonneg, m)), ConeKind::Nonneg) => *m += len,
+            (Some((ConeKind::Zero, m)), ConeKind::Zero) | (Some((ConeKind::Nonneg, m)), ConeKind::Nonneg) => *m += len,
             _ => self.blocks.push((kind, len)),
         }
         Rows { start, len }
@@ -644,10 +630,7 @@ impl Model {
     /// The second-order cone `e_0 ≥ ‖(e_1, …, e_k)‖₂`; needs `k ≥ 1`.
     pub fn add_soc(&mut self, es: &[AffineExpr]) -> Result<Rows, SdpError> {
         if es.len() < 2 {
-            return Err(SdpError::BadConeSize(format!(
-                "second-order cone of dimension {} (need ≥ 2)",
-                es.len()
-            )));
+            return Err(SdpError::BadConeSize(format!("second-order cone of dimension {} (need ≥ 2)", es.len())));
         }
         for e in es {
             self.check_expr(e, "second-order cone row")?;
@@ -671,9 +654,7 @@ impl Model {
         for _ in 0..len {
             self.add_var();
         }
-        let entries: Vec<AffineExpr> = (first..first + len)
-            .map(|v| AffineExpr::var(Var(v)))
-            .collect();
+        let entries: Vec<AffineExpr> = (first..first + len).map(|v| AffineExpr::var(Var(v))).collect();
         let psd = self.push_psd(side, &entries);
         Ok(GramBlock { first, side, psd })
     }
@@ -684,11 +665,7 @@ impl Model {
     /// off-diagonal rows (`A = −c_ij (M_k)_ij`, `b = c_ij (M0)_ij`) is applied here.
     /// Side ≤ 2 uses the equivalent small form unless
     /// [`Model::set_force_psd_triangle`] is set.
-    pub fn add_psd_affine(
-        &mut self,
-        side: usize,
-        entries: &[AffineExpr],
-    ) -> Result<PsdBlock, SdpError> {
+    pub fn add_psd_affine(&mut self, side: usize, entries: &[AffineExpr]) -> Result<PsdBlock, SdpError> {
         if side == 0 || entries.len() != svec_len(side) {
             return Err(SdpError::BadConeSize(format!(
                 "affine PSD block of side {side} with {} entries (need {})",
@@ -745,14 +722,7 @@ impl Model {
                 self.push_block(ConeKind::Soc, 3);
             }
         }
-        PsdBlock {
-            rows: Rows {
-                start,
-                len: self.b.len() - start,
-            },
-            side,
-            form,
-        }
+        PsdBlock { rows: Rows { start, len: self.b.len() - start }, side, form }
     }
 
     /// Sets the objective `min Σ c·x` (repeated variables add up; replaces any
@@ -845,14 +815,9 @@ impl Model {
         let p = CscMatrix::zeros((self.n, self.n));
         let cones = self.cones();
         let (q, b) = (&self.q, &self.b);
-        let solver = guarded(|| {
-            DefaultSolver::new(&p, q, &a, b, &cones, cs).map_err(|e| SdpError::Setup(e.to_string()))
-        })?;
-        Ok(Prepared {
-            solver,
-            n: self.n,
-            m: self.b.len(),
-        })
+        let solver =
+            guarded(|| DefaultSolver::new(&p, q, &a, b, &cones, cs).map_err(|e| SdpError::Setup(e.to_string())))?;
+        Ok(Prepared { solver, n: self.n, m: self.b.len() })
     }
 }
 
@@ -884,10 +849,7 @@ pub struct Prepared {
 
 impl fmt::Debug for Prepared {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Prepared")
-            .field("n", &self.n)
-            .field("m", &self.m)
-            .finish()
+        f.debug_struct("Prepared").field("n", &self.n).field("m", &self.m).finish()
     }
 }
 
@@ -907,41 +869,25 @@ impl Prepared {
     /// stored it; see [`Model::rhs`]).
     pub fn update_b(&mut self, b: &[f64]) -> Result<(), SdpError> {
         if b.len() != self.m {
-            return Err(SdpError::BadConeSize(format!(
-                "b has {} entries, model has {} rows",
-                b.len(),
-                self.m
-            )));
+            return Err(SdpError::BadConeSize(format!("b has {} entries, model has {} rows", b.len(), self.m)));
         }
         if b.iter().any(|v| !v.is_finite()) {
             return Err(SdpError::NonFinite("right-hand side"));
         }
         let solver = &mut self.solver;
-        guarded(|| {
-            solver
-                .update_b(&b.to_vec())
-                .map_err(|e| SdpError::Setup(e.to_string()))
-        })
+        guarded(|| solver.update_b(&b.to_vec()).map_err(|e| SdpError::Setup(e.to_string())))
     }
 
     /// Replaces the objective vector `q` (one entry per variable).
     pub fn update_q(&mut self, q: &[f64]) -> Result<(), SdpError> {
         if q.len() != self.n {
-            return Err(SdpError::BadConeSize(format!(
-                "q has {} entries, model has {} variables",
-                q.len(),
-                self.n
-            )));
+            return Err(SdpError::BadConeSize(format!("q has {} entries, model has {} variables", q.len(), self.n)));
         }
         if q.iter().any(|v| !v.is_finite()) {
             return Err(SdpError::NonFinite("objective"));
         }
         let solver = &mut self.solver;
-        guarded(|| {
-            solver
-                .update_q(&q.to_vec())
-                .map_err(|e| SdpError::Setup(e.to_string()))
-        })
+        guarded(|| solver.update_q(&q.to_vec()).map_err(|e| SdpError::Setup(e.to_string())))
     }
 
     /// Solves (from Clarabel's default start).

@@ -71,17 +71,9 @@ fn gram_block_min_trace_fixed_offdiagonal() {
         let mut m = Model::new();
         m.set_force_psd_triangle(force);
         let q = m.add_gram(2).unwrap();
-        assert_eq!(
-            q.psd().form(),
-            if force {
-                PsdForm::Triangle
-            } else {
-                PsdForm::Soc
-            }
-        );
+        assert_eq!(q.psd().form(), if force { PsdForm::Triangle } else { PsdForm::Soc });
         m.add_eq(&[(q.var(0, 1), 1.0)], 1.0).unwrap();
-        m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0)])
-            .unwrap();
+        m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0)]).unwrap();
         let s = m.solve(&SdpSettings::default()).unwrap();
         assert_eq!(s.status, SdpStatus::Solved);
         assert!((s.obj_primal - 2.0).abs() < 1e-7, "{}", s.obj_primal);
@@ -102,27 +94,18 @@ fn gram_block_min_trace_fixed_offdiagonal() {
         let mut m = Model::new();
         m.set_force_psd_triangle(force);
         let q = m.add_gram(2).unwrap();
-        let eq = m
-            .add_eq(&[(q.var(1, 0), GramBlock::sym_factor(0, 1))], 2.0)
-            .unwrap();
-        m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0)])
-            .unwrap();
+        let eq = m.add_eq(&[(q.var(1, 0), GramBlock::sym_factor(0, 1))], 2.0).unwrap();
+        m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0)]).unwrap();
         let s = m.solve(&SdpSettings::default()).unwrap();
         assert!((s.obj_primal - 2.0).abs() < 1e-7);
         // dual matrix: stationarity gives Z = I − y·[[0,1],[1,0]] (C − Σ y A), Z ⪰ 0,
         // and complementarity ⟨Z, Q⟩ ≈ 0
         let z = q.dual_matrix(&s.z).unwrap();
         let y = -s.duals(eq)[0];
-        assert!(
-            (z[0][0] - 1.0).abs() < 1e-6 && (z[1][1] - 1.0).abs() < 1e-6,
-            "{z:?}"
-        );
+        assert!((z[0][0] - 1.0).abs() < 1e-6 && (z[1][1] - 1.0).abs() < 1e-6, "{z:?}");
         assert!((z[0][1] + y).abs() < 1e-6, "{z:?} y = {y}");
         let qm = q.matrix(&s.x).unwrap();
-        let inner: f64 = (0..2)
-            .flat_map(|i| (0..2).map(move |j| (i, j)))
-            .map(|(i, j)| z[i][j] * qm[i][j])
-            .sum();
+        let inner: f64 = (0..2).flat_map(|i| (0..2).map(move |j| (i, j))).map(|(i, j)| z[i][j] * qm[i][j]).sum();
         assert!(inner.abs() < 1e-6, "complementarity {inner}");
     }
 }
@@ -151,17 +134,12 @@ fn gram_block_3x3_known_optimum() {
     let q = m.add_gram(3).unwrap();
     m.add_eq(&[(q.var(0, 1), 1.0)], 1.0).unwrap();
     m.add_eq(&[(q.var(1, 2), 1.0)], 1.0).unwrap();
-    m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0), (q.var(2, 2), 1.0)])
-        .unwrap();
+    m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0), (q.var(2, 2), 1.0)]).unwrap();
     let s = m.solve(&SdpSettings::default()).unwrap();
     assert_eq!(s.status, SdpStatus::Solved);
     // rank one v vᵀ, v = (a, b, a), ab = 1: trace 2a² + b² = 2a² + 1/a², min at a⁴ = 1/2
     // giving 2/√2 + √2 = 2√2.
-    assert!(
-        (s.obj_primal - 2.0 * SQRT2).abs() < 1e-6,
-        "{}",
-        s.obj_primal
-    );
+    assert!((s.obj_primal - 2.0 * SQRT2).abs() < 1e-6, "{}", s.obj_primal);
 }
 
 /// max x s.t. [[1, x], [x, 4]] ⪰ 0: x = 2 (pattern 2; a forgotten √2 gives 2√2), and
@@ -172,33 +150,19 @@ fn affine_psd_pattern_two() {
         let mut m = Model::new();
         m.set_force_psd_triangle(force);
         let x = m.add_var();
-        let entries = vec![
-            AffineExpr::constant(1.0),
-            AffineExpr::var(x),
-            AffineExpr::constant(4.0),
-        ];
+        let entries = vec![AffineExpr::constant(1.0), AffineExpr::var(x), AffineExpr::constant(4.0)];
         let blk = m.add_psd_affine(2, &entries).unwrap();
         m.set_objective(&[(x, -1.0)]).unwrap();
         let s = m.solve(&SdpSettings::default()).unwrap();
         assert_eq!(s.status, SdpStatus::Solved);
         assert!((s.value(x) - 2.0).abs() < 1e-6, "{}", s.value(x));
         let sm = blk.slack_matrix(&s.s).unwrap();
-        assert!(
-            (sm[0][1] - 2.0).abs() < 1e-6 && (sm[1][1] - 4.0).abs() < 1e-9,
-            "{sm:?}"
-        );
+        assert!((sm[0][1] - 2.0).abs() < 1e-6 && (sm[1][1] - 4.0).abs() < 1e-9, "{sm:?}");
     }
     let mut m = Model::new();
     let x = m.add_var();
     let one = AffineExpr::constant(1.0);
-    let e = vec![
-        one.clone(),
-        AffineExpr::var(x),
-        one.clone(),
-        AffineExpr::constant(0.0),
-        AffineExpr::var(x),
-        one,
-    ];
+    let e = vec![one.clone(), AffineExpr::var(x), one.clone(), AffineExpr::constant(0.0), AffineExpr::var(x), one];
     m.add_psd_affine(3, &e).unwrap();
     m.set_objective(&[(x, -1.0)]).unwrap();
     let s = m.solve(&SdpSettings::default()).unwrap();
@@ -211,12 +175,7 @@ fn second_order_cone() {
     let mut m = Model::new();
     let x = m.add_var();
     let y = m.add_var();
-    m.add_soc(&[
-        AffineExpr::constant(1.0),
-        AffineExpr::var(x),
-        AffineExpr::var(y),
-    ])
-    .unwrap();
+    m.add_soc(&[AffineExpr::constant(1.0), AffineExpr::var(x), AffineExpr::var(y)]).unwrap();
     m.set_objective(&[(x, 1.0), (y, 1.0)]).unwrap();
     let s = m.solve(&SdpSettings::default()).unwrap();
     assert_eq!(s.status, SdpStatus::Solved);
@@ -233,27 +192,13 @@ fn mixed_problem() {
     let x = m.add_var();
     let y = m.add_var();
     let w = m.add_var();
-    m.add_psd_affine(
-        2,
-        &[
-            AffineExpr::var(x),
-            AffineExpr::constant(1.0),
-            AffineExpr::var(y),
-        ],
-    )
-    .unwrap();
+    m.add_psd_affine(2, &[AffineExpr::var(x), AffineExpr::constant(1.0), AffineExpr::var(y)]).unwrap();
     m.add_le(&[(x, 1.0)], 1.0).unwrap();
     let eq = m.add_eq(&[(w, 1.0), (x, -1.0), (y, -1.0)], 0.0).unwrap();
-    m.add_soc(&[
-        AffineExpr::constant(3.0),
-        AffineExpr::var(x),
-        AffineExpr::var(y),
-    ])
-    .unwrap();
+    m.add_soc(&[AffineExpr::constant(3.0), AffineExpr::var(x), AffineExpr::var(y)]).unwrap();
     let g = m.add_gram(2).unwrap();
     // tr G = w, G_01 = 0.5
-    m.add_eq(&[(g.var(0, 0), 1.0), (g.var(1, 1), 1.0), (w, -1.0)], 0.0)
-        .unwrap();
+    m.add_eq(&[(g.var(0, 0), 1.0), (g.var(1, 1), 1.0), (w, -1.0)], 0.0).unwrap();
     m.add_eq(&[(g.var(0, 1), 1.0)], 0.5).unwrap();
     m.add_nonneg(&AffineExpr::var(y)).unwrap();
     m.add_ge(&[(y, 1.0)], -5.0).unwrap();
@@ -283,36 +228,15 @@ fn dual_sign_convention() {
 fn errors_instead_of_panics() {
     let mut m = Model::new();
     let x = m.add_var();
-    assert!(matches!(
-        m.add_eq(&[(x, f64::NAN)], 1.0),
-        Err(SdpError::NonFinite(_))
-    ));
-    assert!(matches!(
-        m.add_eq(&[(x, 1.0)], f64::INFINITY),
-        Err(SdpError::NonFinite(_))
-    ));
-    assert!(matches!(
-        m.add_le(&[(Var(7), 1.0)], 1.0),
-        Err(SdpError::VarOutOfRange { var: 7, n: 1 })
-    ));
-    assert!(matches!(
-        m.add_soc(&[AffineExpr::var(x)]),
-        Err(SdpError::BadConeSize(_))
-    ));
+    assert!(matches!(m.add_eq(&[(x, f64::NAN)], 1.0), Err(SdpError::NonFinite(_))));
+    assert!(matches!(m.add_eq(&[(x, 1.0)], f64::INFINITY), Err(SdpError::NonFinite(_))));
+    assert!(matches!(m.add_le(&[(Var(7), 1.0)], 1.0), Err(SdpError::VarOutOfRange { var: 7, n: 1 })));
+    assert!(matches!(m.add_soc(&[AffineExpr::var(x)]), Err(SdpError::BadConeSize(_))));
     assert!(matches!(m.add_gram(0), Err(SdpError::BadConeSize(_))));
-    assert!(matches!(
-        m.add_psd_affine(2, &[AffineExpr::var(x)]),
-        Err(SdpError::BadConeSize(_))
-    ));
-    assert!(matches!(
-        m.set_objective(&[(x, f64::NEG_INFINITY)]),
-        Err(SdpError::NonFinite(_))
-    ));
+    assert!(matches!(m.add_psd_affine(2, &[AffineExpr::var(x)]), Err(SdpError::BadConeSize(_))));
+    assert!(matches!(m.set_objective(&[(x, f64::NEG_INFINITY)]), Err(SdpError::NonFinite(_))));
     assert_eq!(m.num_rows(), 0, "failed additions leave no rows behind");
-    let bad = SdpSettings {
-        tol_feas: -1.0,
-        ..SdpSettings::default()
-    };
+    let bad = SdpSettings { tol_feas: -1.0, ..SdpSettings::default() };
     assert!(matches!(m.solve(&bad), Err(SdpError::BadSettings(_))));
     // infeasible and unbounded problems report a status, not an error
     m.add_le(&[(x, 1.0)], 0.0).unwrap();
@@ -337,8 +261,7 @@ fn prepared_update_b_and_q() {
     let x = m.add_var();
     let r = m.add_eq(&[(g.var(0, 1), 1.0)], 1.0).unwrap();
     m.add_eq(&[(x, 1.0), (g.var(0, 0), -1.0)], 0.0).unwrap();
-    m.set_objective(&[(g.var(0, 0), 1.0), (g.var(1, 1), 1.0)])
-        .unwrap();
+    m.set_objective(&[(g.var(0, 0), 1.0), (g.var(1, 1), 1.0)]).unwrap();
     let mut prep = m.prepare(&SdpSettings::default()).unwrap();
     let s1 = prep.solve().unwrap();
     assert!((s1.obj_primal - 2.0).abs() < 1e-7);
@@ -356,12 +279,6 @@ fn prepared_update_b_and_q() {
     prep.update_q(&q).unwrap();
     let s3 = prep.solve().unwrap();
     assert!((s3.obj_primal - 12.0).abs() < 1e-6, "{}", s3.obj_primal);
-    assert!(matches!(
-        prep.update_b(&[1.0]),
-        Err(SdpError::BadConeSize(_))
-    ));
-    assert!(matches!(
-        prep.update_q(&vec![f64::NAN; prep.num_vars()]),
-        Err(SdpError::NonFinite(_))
-    ));
+    assert!(matches!(prep.update_b(&[1.0]), Err(SdpError::BadConeSize(_))));
+    assert!(matches!(prep.update_q(&vec![f64::NAN; prep.num_vars()]), Err(SdpError::NonFinite(_))));
 }

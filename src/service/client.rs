@@ -47,12 +47,22 @@ impl Client {
         Ok(Client { session, codec, timeout })
     }
 
-    async fn query<Req: Serialize, Rep: DeserializeOwned>(&self, key: &str, req: Option<&Req>, timeout: Duration) -> Result<Rep, ClientError> {
+    async fn query<Req: Serialize, Rep: DeserializeOwned>(
+        &self,
+        key: &str,
+        req: Option<&Req>,
+        timeout: Duration,
+    ) -> Result<Rep, ClientError> {
         let enc = match self.codec {
             Codec::Json => Encoding::APPLICATION_JSON,
             Codec::Bincode => Encoding::from(BINCODE),
         };
-        let mut get = self.session.get(key).consolidation(ConsolidationMode::None).target(QueryTarget::BestMatching).timeout(timeout);
+        let mut get = self
+            .session
+            .get(key)
+            .consolidation(ConsolidationMode::None)
+            .target(QueryTarget::BestMatching)
+            .timeout(timeout);
         if let Some(r) = req {
             get = get.payload(self.codec.encode(r)).encoding(enc);
         }
@@ -100,7 +110,10 @@ impl Client {
 
     /// Deletes one obstacle (fire and forget).
     pub async fn remove_obstacle(&self, name: &str, id: &str) -> Result<(), ClientError> {
-        self.session.delete(format!("riskplan/scenes/{name}/obstacles/{id}")).await.map_err(|e| ClientError::Zenoh(e.to_string()))
+        self.session
+            .delete(format!("riskplan/scenes/{name}/obstacles/{id}"))
+            .await
+            .map_err(|e| ClientError::Zenoh(e.to_string()))
     }
 
     /// Acknowledged update; returns the new revision once persisted.

@@ -2,11 +2,13 @@
 //! risk. Inputs are checked here and turned into typed [`ServiceError`]s.
 
 use super::error::{invalid, ServiceError};
-use super::proto::{PlanReply, PlanRequest, RiskReply, RiskRequest, VerifyReply, VerifyRequest, MAX_GRID_SIDE, MAX_RISK_POINTS};
+use super::proto::{
+    PlanReply, PlanRequest, RiskReply, RiskRequest, VerifyReply, VerifyRequest, MAX_GRID_SIDE, MAX_RISK_POINTS,
+};
 use super::registry::Entry;
 use crate::plan::{
-    LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, PlanStatus, Planner, Problem, RrtParams, StaticRrt,
-    Termination,
+    LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, PlanStatus, Planner, Problem, RrtParams,
+    StaticRrt, Termination,
 };
 use crate::scene::{Piece, Trajectory, TRAJECTORY_FORMAT};
 use crate::verify::{verify, Method, SceneCertifier};
@@ -22,7 +24,9 @@ pub const DEFAULT_PLAN_SECONDS: f64 = 10.0;
 fn delta_of(entry: &Entry, d: Option<f64>) -> Result<BigRational, ServiceError> {
     match d {
         None => Ok(entry.scene.risk.clone()),
-        Some(d) if d > 0.0 && d < 1.0 => crate::poly::f64_shortest_decimal(d).ok_or_else(|| invalid("delta", "must be finite")),
+        Some(d) if d > 0.0 && d < 1.0 => {
+            crate::poly::f64_shortest_decimal(d).ok_or_else(|| invalid("delta", "must be finite"))
+        }
         Some(d) => Err(invalid("delta", format!("the risk level Δ must be in (0, 1), got {d}"))),
     }
 }
@@ -50,7 +54,12 @@ pub fn plan(entry: &Entry, req: &PlanRequest, cap: f64, cancel: Arc<AtomicBool>)
             seed: 1,
         },
         (None, None) => Problem::from_scene(scene.clone(), 1).map_err(ServiceError::Plan)?,
-        _ => return Err(invalid(if req.start.is_none() { "start" } else { "goal" }, "give both start and goal, or neither")),
+        _ => {
+            return Err(invalid(
+                if req.start.is_none() { "start" } else { "goal" },
+                "give both start and goal, or neither",
+            ))
+        }
     };
     problem.seed = req.seed.unwrap_or(1);
     problem.delta = delta_of(entry, req.delta)?;
@@ -71,10 +80,20 @@ pub fn plan(entry: &Entry, req: &PlanRequest, cap: f64, cancel: Arc<AtomicBool>)
         Box::new(StaticRrt::new(p))
     };
     let checker: Box<dyn MotionChecker> = match planner_name.as_str() {
-        "rrt-sos" => Box::new(SceneCertifier::new(scene.clone(), problem.delta.clone(), method_of(req.certifier.as_deref(), "certifier")?)),
+        "rrt-sos" => Box::new(SceneCertifier::new(
+            scene.clone(),
+            problem.delta.clone(),
+            method_of(req.certifier.as_deref(), "certifier")?,
+        )),
         "mc-rrt" => {
-            let model = scene.mc_model().map_err(|e| invalid("planner", format!("mc-rrt needs sampleable parameters: {e}")))?;
-            Box::new(McChecker::new(model, crate::poly::rational_to_f64(&problem.delta), McCheckerParams::default(), problem.seed))
+            let model =
+                scene.mc_model().map_err(|e| invalid("planner", format!("mc-rrt needs sampleable parameters: {e}")))?;
+            Box::new(McChecker::new(
+                model,
+                crate::poly::rational_to_f64(&problem.delta),
+                McCheckerParams::default(),
+                problem.seed,
+            ))
         }
         other => return Err(invalid("planner", format!("unknown planner '{other}' (rrt-sos or mc-rrt)"))),
     };
@@ -89,7 +108,10 @@ pub fn plan(entry: &Entry, req: &PlanRequest, cap: f64, cancel: Arc<AtomicBool>)
             PlanStatus::Cancelled => "the plan was cancelled".into(),
             _ => "no plan within the planner's iteration limits".into(),
         };
-        return Err(ServiceError::NoPlan(format!("{why} ({} iterations, {} edges checked)", out.stats.iterations, out.stats.edges_checked)));
+        return Err(ServiceError::NoPlan(format!(
+            "{why} ({} iterations, {} edges checked)",
+            out.stats.iterations, out.stats.edges_checked
+        )));
     };
     Ok(PlanReply {
         format: TRAJECTORY_FORMAT.into(),
@@ -109,7 +131,10 @@ pub fn verify_request(entry: &Entry, req: &VerifyRequest) -> Result<VerifyReply,
     let traj = match (&req.trajectory, &req.segment) {
         (Some(t), None) => {
             if t.format != TRAJECTORY_FORMAT {
-                return Err(ServiceError::InvalidTrajectory { message: format!("format must be \"{TRAJECTORY_FORMAT}\""), field: Some("trajectory.format".into()) });
+                return Err(ServiceError::InvalidTrajectory {
+                    message: format!("format must be \"{TRAJECTORY_FORMAT}\""),
+                    field: Some("trajectory.format".into()),
+                });
             }
             t.clone()
         }
@@ -124,7 +149,10 @@ pub fn verify_request(entry: &Entry, req: &VerifyRequest) -> Result<VerifyReply,
         _ => return Err(invalid("trajectory", "give exactly one of trajectory and segment")),
     };
     let diag = crate::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
-    traj.validate(scene.dim, scene.horizon, diag).map_err(|e| ServiceError::InvalidTrajectory { message: e.message.clone(), field: Some(format!("trajectory.{}", e.path)) })?;
+    traj.validate(scene.dim, scene.horizon, diag).map_err(|e| ServiceError::InvalidTrajectory {
+        message: e.message.clone(),
+        field: Some(format!("trajectory.{}", e.path)),
+    })?;
     let delta = delta_of(entry, req.delta)?;
     let method = method_of(req.method.as_deref(), "method")?;
     let r = verify(scene, &traj, &delta, method, &Default::default());
@@ -141,9 +169,14 @@ pub fn risk(entry: &Entry, req: &RiskRequest) -> Result<RiskReply, ServiceError>
     let points: Vec<Vec<f64>> = match (&req.points, &req.grid) {
         (Some(p), None) => {
             if p.len() > MAX_RISK_POINTS {
-                return Err(ServiceError::LimitExceeded { message: format!("{} points exceed the limit of {MAX_RISK_POINTS}", p.len()), field: Some("points".into()) });
+                return Err(ServiceError::LimitExceeded {
+                    message: format!("{} points exceed the limit of {MAX_RISK_POINTS}", p.len()),
+                    field: Some("points".into()),
+                });
             }
-            if let Some((i, _)) = p.iter().enumerate().find(|(_, x)| x.len() != scene.dim || x.iter().any(|v| !v.is_finite())) {
+            if let Some((i, _)) =
+                p.iter().enumerate().find(|(_, x)| x.len() != scene.dim || x.iter().any(|v| !v.is_finite()))
+            {
                 return Err(invalid(&format!("points[{i}]"), format!("needs {} finite coordinates", scene.dim)));
             }
             p.clone()
@@ -151,10 +184,16 @@ pub fn risk(entry: &Entry, req: &RiskRequest) -> Result<RiskReply, ServiceError>
         (None, Some(g)) => {
             let n = g.n as usize;
             if n > MAX_GRID_SIDE {
-                return Err(ServiceError::LimitExceeded { message: format!("grid side {n} exceeds the limit of {MAX_GRID_SIDE}"), field: Some("grid.n".into()) });
+                return Err(ServiceError::LimitExceeded {
+                    message: format!("grid side {n} exceeds the limit of {MAX_GRID_SIDE}"),
+                    field: Some("grid.n".into()),
+                });
             }
             if n < 2 || g.lower.len() != scene.dim || g.upper.len() != scene.dim || scene.dim < 2 {
-                return Err(invalid("grid", format!("needs n ≥ 2 and lower/upper with {} coordinates (dim ≥ 2)", scene.dim)));
+                return Err(invalid(
+                    "grid",
+                    format!("needs n ≥ 2 and lower/upper with {} coordinates (dim ≥ 2)", scene.dim),
+                ));
             }
             let mut pts = Vec::with_capacity(n * n);
             for j in 0..n {

@@ -350,7 +350,9 @@ impl Codec {
     /// Serialises a message.
     pub fn encode<T: Serialize>(&self, v: &T) -> Vec<u8> {
         match self {
-            Codec::Json => serde_json::to_vec(v).unwrap_or_else(|e| format!("{{\"code\":\"internal\",\"message\":\"{e}\",\"field\":null}}").into_bytes()),
+            Codec::Json => serde_json::to_vec(v).unwrap_or_else(|e| {
+                format!("{{\"code\":\"internal\",\"message\":\"{e}\",\"field\":null}}").into_bytes()
+            }),
             Codec::Bincode => bincode::serde::encode_to_vec(v, bincode::config::standard()).unwrap_or_default(),
         }
     }

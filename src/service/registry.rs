@@ -53,7 +53,12 @@ fn internal(e: impl std::fmt::Display) -> ServiceError {
 impl Registry {
     /// Loads every stored scene; returns the problems met (unreadable or invalid files).
     pub fn open(store: Store) -> (Registry, Vec<String>) {
-        let reg = Registry { scenes: RwLock::new(BTreeMap::new()), write: Mutex::new(()), cache: ContourCache::default(), store };
+        let reg = Registry {
+            scenes: RwLock::new(BTreeMap::new()),
+            write: Mutex::new(()),
+            cache: ContourCache::default(),
+            store,
+        };
         let (stored, mut problems) = reg.store.load_all();
         for s in stored {
             match reg.build(&s.scene) {
@@ -84,17 +89,29 @@ impl Registry {
     /// The scene `name`.
     pub fn get(&self, name: &str) -> Result<Entry, ServiceError> {
         check_name(name)?;
-        self.scenes.read().map_err(internal)?.get(name).cloned().ok_or_else(|| ServiceError::UnknownScene(name.to_string()))
+        self.scenes
+            .read()
+            .map_err(internal)?
+            .get(name)
+            .cloned()
+            .ok_or_else(|| ServiceError::UnknownScene(name.to_string()))
     }
 
     /// (name, revision, obstacles) of every scene.
     pub fn list(&self) -> Vec<(String, u64, usize)> {
-        self.scenes.read().map(|m| m.iter().map(|(k, e)| (k.clone(), e.revision, e.scene.obstacles.len())).collect()).unwrap_or_default()
+        self.scenes
+            .read()
+            .map(|m| m.iter().map(|(k, e)| (k.clone(), e.revision, e.scene.obstacles.len())).collect())
+            .unwrap_or_default()
     }
 
     /// Validates, persists and publishes a new version of `name` produced by `edit`
     /// from the current JSON (`None` when the scene does not exist).
-    fn update(&self, name: &str, edit: impl FnOnce(Option<&serde_json::Value>) -> Result<serde_json::Value, ServiceError>) -> Result<u64, ServiceError> {
+    fn update(
+        &self,
+        name: &str,
+        edit: impl FnOnce(Option<&serde_json::Value>) -> Result<serde_json::Value, ServiceError>,
+    ) -> Result<u64, ServiceError> {
         check_name(name)?;
         let _w = self.write.lock().map_err(internal)?;
         let current = self.scenes.read().map_err(internal)?.get(name).cloned();
@@ -123,11 +140,19 @@ impl Registry {
             for (i, c) in changes.iter().enumerate() {
                 match c.op.as_str() {
                     "put" => {
-                        let poly = c.poly.clone().ok_or_else(|| invalid(&format!("changes[{i}].poly"), "a put needs 'poly'"))?;
+                        let poly = c
+                            .poly
+                            .clone()
+                            .ok_or_else(|| invalid(&format!("changes[{i}].poly"), "a put needs 'poly'"))?;
                         put_obstacle_json(&mut json, &c.id, &poly, c.params.as_ref(), &format!("changes[{i}]"))?;
                     }
                     "delete" => delete_obstacle_json(&mut json, &c.id, &format!("changes[{i}].id"))?,
-                    other => return Err(invalid(&format!("changes[{i}].op"), format!("'{other}' is not an operation (put or delete)"))),
+                    other => {
+                        return Err(invalid(
+                            &format!("changes[{i}].op"),
+                            format!("'{other}' is not an operation (put or delete)"),
+                        ))
+                    }
                 }
             }
             Ok(json)
@@ -167,20 +192,33 @@ impl Registry {
     }
 }
 
-fn put_obstacle_json(json: &mut serde_json::Value, id: &str, poly: &str, params: Option<&EmbeddedJson>, path: &str) -> Result<(), ServiceError> {
+fn put_obstacle_json(
+    json: &mut serde_json::Value,
+    id: &str,
+    poly: &str,
+    params: Option<&EmbeddedJson>,
+    path: &str,
+) -> Result<(), ServiceError> {
     if id.is_empty() {
         return Err(invalid(&format!("{path}.id"), "an obstacle id must not be empty"));
     }
     if let Some(EmbeddedJson(p)) = params {
-        let Some(new) = p.as_object() else { return Err(invalid(&format!("{path}.params"), "must be an object {name: distribution}")) };
+        let Some(new) = p.as_object() else {
+            return Err(invalid(&format!("{path}.params"), "must be an object {name: distribution}"));
+        };
         let obj = json.as_object_mut().ok_or_else(|| internal("scene is not an object"))?;
         let slot = obj.entry("params").or_insert_with(|| serde_json::json!({}));
-        let Some(existing) = slot.as_object_mut() else { return Err(invalid("params", "the scene's params is not an object")) };
+        let Some(existing) = slot.as_object_mut() else {
+            return Err(invalid("params", "the scene's params is not an object"));
+        };
         for (k, v) in new {
             existing.insert(k.clone(), v.clone());
         }
     }
-    let obstacles = json.get_mut("obstacles").and_then(|o| o.as_array_mut()).ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
+    let obstacles = json
+        .get_mut("obstacles")
+        .and_then(|o| o.as_array_mut())
+        .ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
     let entry = serde_json::json!({"id": id, "poly": poly});
     match obstacles.iter_mut().find(|o| o["id"] == id) {
         Some(o) => *o = entry,
@@ -190,7 +228,10 @@ fn put_obstacle_json(json: &mut serde_json::Value, id: &str, poly: &str, params:
 }
 
 fn delete_obstacle_json(json: &mut serde_json::Value, id: &str, path: &str) -> Result<(), ServiceError> {
-    let obstacles = json.get_mut("obstacles").and_then(|o| o.as_array_mut()).ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
+    let obstacles = json
+        .get_mut("obstacles")
+        .and_then(|o| o.as_array_mut())
+        .ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
     let before = obstacles.len();
     obstacles.retain(|o| o["id"] != id);
     if obstacles.len() == before {

@@ -50,12 +50,21 @@ pub struct Jobs {
 
 impl Jobs {
     fn new(workers: usize, capacity: usize) -> Jobs {
-        Jobs { sem: Arc::new(Semaphore::new(workers)), workers, capacity, admitted: AtomicUsize::new(0), running: AtomicUsize::new(0) }
+        Jobs {
+            sem: Arc::new(Semaphore::new(workers)),
+            workers,
+            capacity,
+            admitted: AtomicUsize::new(0),
+            running: AtomicUsize::new(0),
+        }
     }
 
     /// Runs `f` on a blocking thread, or answers `busy` at once when full. A panic
     /// in `f` becomes an `internal` error.
-    pub async fn run<T: Send + 'static>(&self, f: impl FnOnce() -> Result<T, ServiceError> + Send + 'static) -> Result<T, ServiceError> {
+    pub async fn run<T: Send + 'static>(
+        &self,
+        f: impl FnOnce() -> Result<T, ServiceError> + Send + 'static,
+    ) -> Result<T, ServiceError> {
         let limit = self.workers + self.capacity;
         let before = self.admitted.fetch_add(1, Ordering::SeqCst);
         if before >= limit {
@@ -78,12 +87,20 @@ impl Jobs {
     fn status(&self) -> QueueStatus {
         let admitted = self.admitted.load(Ordering::SeqCst) as u64;
         let running = self.running.load(Ordering::SeqCst) as u64;
-        QueueStatus { depth: admitted.saturating_sub(running), running, workers: self.workers as u64, capacity: self.capacity as u64 }
+        QueueStatus {
+            depth: admitted.saturating_sub(running),
+            running,
+            workers: self.workers as u64,
+            capacity: self.capacity as u64,
+        }
     }
 }
 
 fn panic_text(p: &Box<dyn std::any::Any + Send>) -> String {
-    p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown panic".into())
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
 }
 
 /// Shared server state.
@@ -114,7 +131,12 @@ impl State {
         let (entries, hits, misses) = self.registry.cache.stats();
         StatusReply {
             uptime_s: self.started.elapsed().as_secs_f64(),
-            scenes: self.registry.list().into_iter().map(|(name, revision, n)| SceneStatus { name, revision, obstacles: n as u64 }).collect(),
+            scenes: self
+                .registry
+                .list()
+                .into_iter()
+                .map(|(name, revision, n)| SceneStatus { name, revision, obstacles: n as u64 })
+                .collect(),
             cache: CacheStatus { entries: entries as u64, hits, misses },
             queue: self.jobs.status(),
             requests: self.counters.lock().map(|c| c.clone()).unwrap_or_default(),
@@ -145,7 +167,9 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         if registry.get(&name).is_ok() {
             continue;
         }
-        let loaded = std::fs::read_to_string(path).map_err(|e| e.to_string()).and_then(|t| serde_json::from_str::<serde_json::Value>(&t).map_err(|e| e.to_string()));
+        let loaded = std::fs::read_to_string(path)
+            .map_err(|e| e.to_string())
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).map_err(|e| e.to_string()));
         match loaded.map(|json| registry.put_scene(&name, json)) {
             Ok(Ok(rev)) => info!(scene = %name, revision = rev, "preloaded {}", path.display()),
             Ok(Err(e)) => warn!("--preload {}: {e}", path.display()),
@@ -160,9 +184,19 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         max_plan_seconds: cfg.max_plan_seconds,
     });
     let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
-    let queryable = session.declare_queryable("riskplan/**").await.map_err(|e| format!("cannot declare the queryable: {e}"))?;
-    let subscriber = session.declare_subscriber("riskplan/scenes/**").await.map_err(|e| format!("cannot declare the subscriber: {e}"))?;
-    eprintln!("riskplan: listening on {} ({} scenes, {} workers, queue {})", cfg.listen.join(", "), state.registry.list().len(), cfg.workers, cfg.queue);
+    let queryable =
+        session.declare_queryable("riskplan/**").await.map_err(|e| format!("cannot declare the queryable: {e}"))?;
+    let subscriber = session
+        .declare_subscriber("riskplan/scenes/**")
+        .await
+        .map_err(|e| format!("cannot declare the subscriber: {e}"))?;
+    eprintln!(
+        "riskplan: listening on {} ({} scenes, {} workers, queue {})",
+        cfg.listen.join(", "),
+        state.registry.list().len(),
+        cfg.workers,
+        cfg.queue
+    );
     info!(listen = %cfg.listen.join(","), "serving");
     let shutdown = shutdown_signal();
     tokio::pin!(shutdown);
@@ -218,7 +252,8 @@ fn handle_put(state: &State, key: &str, kind: SampleKind, bytes: &[u8]) {
     let _g = span.enter();
     let r: Result<Option<u64>, ServiceError> = (|| match (parts.as_slice(), kind) {
         (["riskplan", "scenes", name], SampleKind::Put) => {
-            let json: serde_json::Value = Codec::Json.decode(bytes).map_err(|(m, f)| ServiceError::Malformed { message: m, field: f })?;
+            let json: serde_json::Value =
+                Codec::Json.decode(bytes).map_err(|(m, f)| ServiceError::Malformed { message: m, field: f })?;
             state.registry.put_scene(name, json).map(Some)
         }
         (["riskplan", "scenes", name], SampleKind::Delete) => state.registry.delete_scene(name).map(|_| None),
@@ -226,10 +261,13 @@ fn handle_put(state: &State, key: &str, kind: SampleKind, bytes: &[u8]) {
             if bytes.len() > MAX_PAYLOAD_BYTES {
                 return Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES));
             }
-            let put: ObstaclePut = Codec::Json.decode(bytes).map_err(|(m, f)| ServiceError::Malformed { message: m, field: f })?;
+            let put: ObstaclePut =
+                Codec::Json.decode(bytes).map_err(|(m, f)| ServiceError::Malformed { message: m, field: f })?;
             state.registry.put_obstacle(name, id, &put).map(Some)
         }
-        (["riskplan", "scenes", name, "obstacles", id], SampleKind::Delete) => state.registry.delete_obstacle(name, id).map(Some),
+        (["riskplan", "scenes", name, "obstacles", id], SampleKind::Delete) => {
+            state.registry.delete_obstacle(name, id).map(Some)
+        }
         _ => Ok(None),
     })();
     match r {
@@ -262,7 +300,9 @@ async fn handle_query(state: Arc<State>, query: Query) {
         let bytes = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
         let (codec, result) = match Codec::from_encoding(&enc) {
             None => (Codec::Json, Err(ServiceError::UnsupportedEncoding(enc.clone()))),
-            Some(c) if bytes.len() > MAX_PAYLOAD_BYTES => (c, Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES))),
+            Some(c) if bytes.len() > MAX_PAYLOAD_BYTES => {
+                (c, Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES)))
+            }
             Some(c) => (c, dispatch(&state, &kind, &scene, c, bytes).await),
         };
         let ok = result.is_ok();
@@ -294,7 +334,13 @@ fn malformed((message, field): (String, Option<String>)) -> ServiceError {
     ServiceError::Malformed { message, field }
 }
 
-async fn dispatch(state: &Arc<State>, kind: &str, scene: &str, codec: Codec, bytes: Vec<u8>) -> Result<(Vec<u8>, Option<u64>), ServiceError> {
+async fn dispatch(
+    state: &Arc<State>,
+    kind: &str,
+    scene: &str,
+    codec: Codec,
+    bytes: Vec<u8>,
+) -> Result<(Vec<u8>, Option<u64>), ServiceError> {
     match kind {
         "status" => Ok((codec.encode(&state.status()), None)),
         "scene" => {

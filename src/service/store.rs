@@ -73,10 +73,15 @@ impl Store {
         let Ok(rd) = fs::read_dir(&self.dir) else { return (ok, bad) };
         for e in rd.flatten() {
             let p = e.path();
-            if p.extension().is_none_or(|x| x != "json") || p.file_name().is_some_and(|n| n.to_string_lossy().starts_with('.')) {
+            if p.extension().is_none_or(|x| x != "json")
+                || p.file_name().is_some_and(|n| n.to_string_lossy().starts_with('.'))
+            {
                 continue;
             }
-            match fs::read(&p).map_err(|e| e.to_string()).and_then(|b| serde_json::from_slice::<StoredScene>(&b).map_err(|e| e.to_string())) {
+            match fs::read(&p)
+                .map_err(|e| e.to_string())
+                .and_then(|b| serde_json::from_slice::<StoredScene>(&b).map_err(|e| e.to_string()))
+            {
                 Ok(s) => ok.push(s),
                 Err(e) => bad.push(format!("{}: {e}", p.display())),
             }

@@ -276,7 +276,12 @@ pub fn verify(
         let safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
         pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
     }
-    VerifyReport { safe: pieces.iter().all(|p| p.safe), method: method.as_str().to_string(), risk: rational_to_f64(delta), pieces }
+    VerifyReport {
+        safe: pieces.iter().all(|p| p.safe),
+        method: method.as_str().to_string(),
+        risk: rational_to_f64(delta),
+        pieces,
+    }
 }
 
 /// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,

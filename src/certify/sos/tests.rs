@@ -24,12 +24,7 @@ fn horner_f(c: &[f64], t: f64) -> f64 {
 /// Test oracle: min of `p` on [0, 1] from endpoints, a dense grid and the bisected
 /// roots of `p'` (f64; accurate to ~1e-12 for the well-scaled polynomials used).
 fn oracle_min(c: &[f64]) -> (f64, f64) {
-    let d: Vec<f64> = c
-        .iter()
-        .enumerate()
-        .skip(1)
-        .map(|(k, a)| k as f64 * a)
-        .collect();
+    let d: Vec<f64> = c.iter().enumerate().skip(1).map(|(k, a)| k as f64 * a).collect();
     let n = 4000;
     let mut best = (horner_f(c, 0.0), 0.0);
     let mut consider = |t: f64| {
@@ -88,11 +83,8 @@ fn double_root_is_never_safe() {
     let p3 = enclose(&[q(18, 100), q(-111, 100), q(14, 10), q(1, 1)]);
     assert!(!run(&p3).verdict.is_safe());
     // a coefficient interval that contains a tangent member: never Safe
-    let wide = UPoly::new(vec![
-        Interval::new(0.09, 0.0901),
-        Interval::enclose_rational(&q(-6, 10)),
-        Interval::point(1.0),
-    ]);
+    let wide =
+        UPoly::new(vec![Interval::new(0.09, 0.0901), Interval::enclose_rational(&q(-6, 10)), Interval::point(1.0)]);
     assert!(!run(&wide).verdict.is_safe());
 }
 
@@ -156,16 +148,8 @@ fn degree_zero_and_one() {
 #[test]
 fn non_finite_is_undecided() {
     for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-        let p = UPoly::new(vec![
-            Interval::point(1.0),
-            Interval::point(bad),
-            Interval::point(1.0),
-        ]);
-        assert_eq!(
-            run(&p).verdict,
-            Verdict::Undecided(Undecided::NonFinite),
-            "{bad}"
-        );
+        let p = UPoly::new(vec![Interval::point(1.0), Interval::point(bad), Interval::point(1.0)]);
+        assert_eq!(run(&p).verdict, Verdict::Undecided(Undecided::NonFinite), "{bad}");
         let cert = Certificate {
             scale: 1.0,
             gamma: 0.5,
@@ -179,24 +163,16 @@ fn non_finite_is_undecided() {
     // huge and tiny coefficients: no panic, and no false Safe
     let _ = run(&points(&[f64::MAX, -f64::MAX, f64::MAX]));
     let _ = run(&points(&[f64::MAX, f64::MAX, f64::MAX]));
-    assert!(!run(&points(&[-f64::MAX, f64::MAX, -f64::MAX]))
-        .verdict
-        .is_safe());
+    assert!(!run(&points(&[-f64::MAX, f64::MAX, -f64::MAX])).verdict.is_safe());
     let _ = run(&points(&[5e-324, -5e-324, 5e-324]));
     let _ = run(&points(&[1e-300, 0.0, 1e-300]));
 }
 
 #[test]
 fn degree_limit_and_odd_degrees() {
-    let s = SosSettings {
-        max_degree: 3,
-        ..SosSettings::default()
-    };
+    let s = SosSettings { max_degree: 3, ..SosSettings::default() };
     let p = points(&[1.0, 0.0, 0.0, 0.0, 1.0]);
-    assert!(matches!(
-        certify(&p, &s).verdict,
-        Verdict::Undecided(Undecided::Solver(_))
-    ));
+    assert!(matches!(certify(&p, &s).verdict, Verdict::Undecided(Undecided::Solver(_))));
     // odd degree 3 and 5, positive: τ³ + 0.2, (τ − 0.5)⁴·τ + 0.01
     let p = points(&[0.2, 0.0, 0.0, 1.0]);
     assert!(run(&p).verdict.is_safe(), "{:?}", run(&p).verdict);
@@ -224,10 +200,7 @@ fn recheck_rejects_bad_certificates() {
     assert!(!recheck(&p, &c).is_safe());
     let mut c = cert.clone();
     c.q0[0][1] += 1e-3; // not symmetric
-    assert!(matches!(
-        recheck(&p, &c),
-        Verdict::Undecided(Undecided::CertificateRejected(_))
-    ));
+    assert!(matches!(recheck(&p, &c), Verdict::Undecided(Undecided::CertificateRejected(_))));
     let mut c = cert.clone();
     c.q0.pop(); // not square
     assert!(!recheck(&p, &c).is_safe());
@@ -241,14 +214,8 @@ fn recheck_rejects_bad_certificates() {
     let other = enclose(&[q(9, 100), q(-6, 10), q(1, 1)]);
     assert!(!recheck(&other, &cert).is_safe());
     // empty Gram matrices: LB = γ − |p_0 − γ| ≤ p_0, so exactly the positive constants
-    let c = Certificate {
-        scale: 1.0,
-        gamma: 0.5,
-        q0: vec![],
-        q1: vec![],
-        solver_status: SdpStatus::Solved,
-        iterations: 0,
-    };
+    let c =
+        Certificate { scale: 1.0, gamma: 0.5, q0: vec![], q1: vec![], solver_status: SdpStatus::Solved, iterations: 0 };
     assert!(recheck(&points(&[0.5]), &c).is_safe());
     assert!(recheck(&points(&[0.4]), &c).is_safe());
     assert!(!recheck(&points(&[0.0]), &c).is_safe());
@@ -272,22 +239,10 @@ fn recheck_rejects_bad_certificates() {
 
 #[test]
 fn eigenvalue_bounds_are_sound() {
-    assert!(ldl_positive_definite(
-        &[vec![1.0, 0.0], vec![0.0, 1.0]],
-        0.0
-    ));
-    assert!(!ldl_positive_definite(
-        &[vec![1.0, 1.0], vec![1.0, 1.0]],
-        0.0
-    ));
-    assert!(ldl_positive_definite(
-        &[vec![1.0, 1.0], vec![1.0, 1.0]],
-        -1e-9
-    ));
-    assert!(!ldl_positive_definite(
-        &[vec![1.0, 2.0], vec![2.0, 1.0]],
-        0.0
-    ));
+    assert!(ldl_positive_definite(&[vec![1.0, 0.0], vec![0.0, 1.0]], 0.0));
+    assert!(!ldl_positive_definite(&[vec![1.0, 1.0], vec![1.0, 1.0]], 0.0));
+    assert!(ldl_positive_definite(&[vec![1.0, 1.0], vec![1.0, 1.0]], -1e-9));
+    assert!(!ldl_positive_definite(&[vec![1.0, 2.0], vec![2.0, 1.0]], 0.0));
     let l = eig_lower_bound_nonpos(&[vec![1.0, 2.0], vec![2.0, 1.0]]);
     assert!(l <= -1.0 && l > -1.0 - 1e-9, "{l}");
     assert!(gershgorin_lower(&[vec![1.0, 2.0], vec![2.0, 1.0]]) <= -1.0);
@@ -355,19 +310,11 @@ fn random_positive_polynomials_are_safe() {
         if out.verdict.is_safe() {
             safe += 1;
         }
-        assert!(
-            !out.verdict.is_unsafe(),
-            "positive polynomial refuted: {c:?}"
-        );
+        assert!(!out.verdict.is_unsafe(), "positive polynomial refuted: {c:?}");
         let cert = out.certificate.expect("certificate");
         if cert.solver_status == SdpStatus::Solved {
             let (m, _) = oracle_min(&c);
-            assert!(
-                (cert.gamma - m / cert.scale).abs() <= 1e-6,
-                "γ̂ {} vs {}",
-                cert.gamma,
-                m / cert.scale
-            );
+            assert!((cert.gamma - m / cert.scale).abs() <= 1e-6, "γ̂ {} vs {}", cert.gamma, m / cert.scale);
         }
     }
     assert!(safe * 100 >= total * 97, "only {safe}/{total} Safe");
@@ -379,9 +326,8 @@ fn random_positive_polynomials_are_safe() {
 #[test]
 fn example3_piece2_tangent_is_not_safe() {
     // RISKPLAN_REFERENCE_SCENES (as in CI), else shared/ beside the checkout
-    let dir = std::env::var("RISKPLAN_REFERENCE_SCENES").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/scenes").to_string()
-    });
+    let dir = std::env::var("RISKPLAN_REFERENCE_SCENES")
+        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/scenes").to_string());
     let Ok(text) = std::fs::read_to_string(format!("{dir}/illustrative-3.json")) else {
         eprintln!("reference scene not found in {dir}; skipping");
         return;
@@ -391,10 +337,7 @@ fn example3_piece2_tangent_is_not_safe() {
     let f = |x: &serde_json::Value| x.as_f64().unwrap();
     let (t0, t1) = (f(&piece["interval"][0]), f(&piece["interval"][1]));
     // Both readings of the printed numbers: exact binary floats and decimal digits.
-    for exact_of in [
-        f64_to_rational as fn(f64) -> Option<BigRational>,
-        f64_shortest_decimal,
-    ] {
+    for exact_of in [f64_to_rational as fn(f64) -> Option<BigRational>, f64_shortest_decimal] {
         let r = |x: f64| exact_of(x).unwrap();
         let (t0, t1) = (r(t0), r(t1));
         // absolute time t = t0 + (t1 − t0)τ; x_c = offset_c + slope_c·t
@@ -405,41 +348,26 @@ fn example3_piece2_tangent_is_not_safe() {
         let (x1, x2) = (coord(0), coord(1));
         let rho = x1.mul(&x1).add(&x2.mul(&x2));
         let ep = UPoly::constant(q(37, 300)).sub(&rho);
-        let ep2 = UPoly::constant(q(781, 50000))
-            .sub(&rho.scale(&q(37, 150)))
-            .add(&rho.mul(&rho));
+        let ep2 = UPoly::constant(q(781, 50000)).sub(&rho.scale(&q(37, 150))).add(&rho.mul(&rho));
         let g1 = ep.mul(&ep).sub(&ep2.scale(&q(9, 10)));
         assert_eq!(g1.degree(), 4);
         // the fixture really is (slightly) negative, exactly
         let fc: Vec<f64> = g1.coeffs().iter().map(f64::from_rational).collect();
         let (m, tmin) = oracle_min(&fc);
         let exact_at = g1.eval(&f64_to_rational(tmin).unwrap());
-        assert!(
-            exact_at < BigRational::from_integer(0.into()),
-            "fixture min {m} at {tmin}"
-        );
-        assert!(
-            m > -1e-7 && (0.25..0.4).contains(&tmin),
-            "min {m} at {tmin}"
-        );
+        assert!(exact_at < BigRational::from_integer(0.into()), "fixture min {m} at {tmin}");
+        assert!(m > -1e-7 && (0.25..0.4).contains(&tmin), "min {m} at {tmin}");
 
         let p = enclose(g1.coeffs());
         let out = run(&p);
-        assert!(
-            !out.verdict.is_safe(),
-            "tangent piece certified: {:?}",
-            out.verdict
-        );
+        assert!(!out.verdict.is_safe(), "tangent piece certified: {:?}", out.verdict);
         if let Some(c) = &out.certificate {
             assert!(!recheck(&p, c).is_safe());
         }
         if let Verdict::Unsafe(w) = out.verdict {
             assert!(p.eval(&Interval::point(w.tau)).hi <= 0.0);
         }
-        eprintln!(
-            "Example 3 piece 2: min {m:e} at τ = {tmin:.4}: {:?}",
-            out.verdict
-        );
+        eprintln!("Example 3 piece 2: min {m:e} at τ = {tmin:.4}: {:?}", out.verdict);
     }
 }
 
@@ -450,10 +378,7 @@ fn example3_piece2_tangent_is_not_safe() {
 #[test]
 fn solver_reuse_matches_fresh_solves() {
     let fresh = SosSettings::default();
-    let reuse = SosSettings {
-        reuse_solver: true,
-        ..SosSettings::default()
-    };
+    let reuse = SosSettings { reuse_solver: true, ..SosSettings::default() };
     let polys = [
         points(&[0.5, -1.0, 1.0]),
         points(&[0.3, -0.5, 0.2, 0.1, 0.4]),
@@ -467,12 +392,7 @@ fn solver_reuse_matches_fresh_solves() {
             let (a, b) = (certify(p, &fresh), certify(p, &reuse));
             assert_eq!(a.verdict.is_safe(), b.verdict.is_safe());
             let (ca, cb) = (a.certificate.unwrap(), b.certificate.unwrap());
-            assert!(
-                (ca.gamma - cb.gamma).abs() < 1e-6,
-                "{} vs {}",
-                ca.gamma,
-                cb.gamma
-            );
+            assert!((ca.gamma - cb.gamma).abs() < 1e-6, "{} vs {}", ca.gamma, cb.gamma);
         }
     }
 }
