@@ -301,8 +301,16 @@ def test_timeout_is_a_riskplan_error(client, ring_scene, unique):
 
 def test_no_reply_when_nothing_serves_the_key(client):
     with pytest.raises(riskplan.NoReplyError) as ei:
-        client.query("riskplan/nothing/serves/this", {})
+        client.query("nobody/serves/this", {})
     assert ei.value.code == "no_reply"
+
+
+def test_unknown_key_under_riskplan_is_answered(client):
+    """Not in the README: the server answers keys under riskplan/** that it does not
+    serve with an error (rather than leaving the query without a reply)."""
+    with pytest.raises(riskplan.RiskplanError) as ei:
+        client.query("riskplan/nothing/serves/this", {})
+    validate("error", {"code": ei.value.code, "message": ei.value.message, "field": ei.value.field})
 
 
 def test_time_limit_above_the_server_cap(client, name3):

@@ -238,7 +238,7 @@ DEFS = {
             "status": {"$ref": "#/$defs/status"},
             "margin": {"type": ["number", "null"]},
             "witness": {"$ref": "#/$defs/witness"},
-            "reason": {"type": "string"},
+            "reason": {"type": ["string", "null"], "description": "why undecided (absent or null otherwise)"},
         },
     },
     "constraint_report": {
@@ -250,10 +250,10 @@ DEFS = {
             "margin": {"type": ["number", "null"], "description": "proven lower bound on the constraint's minimum over the piece (safe), or the witness value (unsafe)"},
             "witness": {"$ref": "#/$defs/witness"},
             "method": {"type": "string"},
-            "reason": {"type": "string", "description": "why undecided"},
+            "reason": {"type": ["string", "null"], "description": "why undecided (absent or null otherwise)"},
             "methods": {
-                "type": "array",
-                "description": "per method, with method both: [name, report] pairs",
+                "type": ["array", "null"],
+                "description": "per method, with method both: [name, report] pairs (absent or null otherwise)",
                 "items": {"type": "array", "prefixItems": [{"type": "string"}, {"$ref": "#/$defs/method_report"}], "minItems": 2, "maxItems": 2},
             },
         },

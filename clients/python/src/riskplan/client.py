@@ -52,7 +52,7 @@ def _encode(payload: Any) -> Optional[bytes]:
         return payload
     if isinstance(payload, str):
         return payload.encode()
-    return json.dumps(payload, allow_nan=False).encode()
+    return json.dumps(payload, allow_nan=False, separators=(",", ":")).encode()
 
 
 def _encoding(enc: Union[None, str, zenoh.Encoding]) -> Optional[zenoh.Encoding]:
@@ -90,6 +90,9 @@ def _decode_err(err: zenoh.ReplyError) -> RiskplanError:
 class Client:
     """A connection to a riskplan server.
 
+    After each query, ``last_replies`` holds the number of replies received (the
+    protocol promises exactly one) and ``last_encoding`` the encoding of the reply used.
+
     ``endpoint``: a Zenoh locator (``tcp/127.0.0.1:7447``) or a list of them. The
     session runs in client mode with multicast scouting off, so it talks only to the
     endpoint(s) given. ``timeout``: seconds per query (plans use at least their time
@@ -111,6 +114,7 @@ class Client:
         except zenoh.ZError as e:
             raise ConnectError(f"cannot open a Zenoh session to {endpoint}: {e}") from None
         self.last_replies = 0
+        self.last_encoding: Optional[str] = None
 
     # -- lifecycle -----------------------------------------------------------------
 
@@ -154,6 +158,7 @@ class Client:
             kwargs["encoding"] = enc
         replies = list(self._session.get(key, **kwargs))
         self.last_replies = len(replies)
+        self.last_encoding = None
         if not replies:
             raise NoReplyError(f"no reply to the query on {key}: no server serves it (absent, or it died meanwhile)")
         oks = [r.ok for r in replies if r.ok is not None]
@@ -165,9 +170,11 @@ class Client:
         # the first real reply, in arrival order
         for r in replies:
             if r.ok is not None:
+                self.last_encoding = str(r.ok.encoding)
                 return _decode_ok(r.ok)
             e = _decode_err(r.err)
             if not isinstance(e, QueryTimeoutError):
+                self.last_encoding = str(r.err.encoding)
                 raise e
         raise errs[0]
 

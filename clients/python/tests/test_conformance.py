@@ -1,0 +1,151 @@
+"""Statements of proto/README.md checked one by one against the server (beyond the
+happy paths of test_service.py and the error codes of test_errors.py)."""
+from __future__ import annotations
+
+import json
+import time
+
+import pytest
+
+import riskplan
+
+from conftest import Server, load_scene, validate, wait_for
+
+
+def _put_counter(client):
+    return client.status()["requests"].get("put", {"served": 0, "failed": 0})
+
+
+@pytest.fixture
+def name3(client, scene3, unique):
+    name = unique()
+    client.apply(name, scene=scene3)
+    return name
+
+
+def test_exactly_one_reply_and_json_replies(client, name3):
+    """"Every query gets exactly one reply"; "A request's encoding selects the reply's"."""
+    for enc in ("application/json", "text/plain", None):
+        client.query(f"riskplan/scenes/{name3}/risk", {"points": [[1, 1]]}, encoding=enc)
+        assert client.last_replies == 1
+        assert client.last_encoding == "application/json", (enc, client.last_encoding)
+        with pytest.raises(riskplan.InvalidRequestError):
+            client.query(f"riskplan/scenes/{name3}/risk", {"points": [[1, 1, 1]]}, encoding=enc)
+        assert client.last_replies == 1
+        assert client.last_encoding == "application/json", (enc, client.last_encoding)
+    client.status()
+    assert client.last_replies == 1 and client.last_encoding == "application/json"
+    client.plan(name3, time_limit=20)
+    assert client.last_replies == 1
+
+
+def test_unsupported_encoding_error_is_json(client, name3):
+    with pytest.raises(riskplan.UnsupportedEncodingError):
+        client.query(f"riskplan/scenes/{name3}/plan", {}, encoding="application/xml")
+    assert client.last_encoding == "application/json"
+
+
+def test_obstacle_put_rebuilds_only_that_obstacle(client, scene3, unique):
+    """"each one bumps the scene's revision and rebuilds only that obstacle's contour"."""
+    name = unique()
+    s = json.loads(json.dumps(scene3))
+    s["params"]["r"] = {"dist": "uniform", "low": 0.05, "high": 0.1}
+    s["obstacles"].append({"id": "pole", "poly": "r^2 - (x1 - 0.5)^2 - (x2 + 0.5)^2"})
+    rev = client.apply(name, scene=s)
+    client.risk(name, [[0.9, 0.9]])
+    before = client.status()["cache"]
+    client.update_obstacle(name, "pole", "r^2 - (x1 - 0.55)^2 - (x2 + 0.5)^2")
+    wait_for(lambda: client.get_scene(name)["revision"] == rev + 1, what="revision bump")
+    client.risk(name, [[0.9, 0.9]])
+    after = client.status()["cache"]
+    assert after["misses"] - before["misses"] == 1, (before, after)
+
+
+def test_failed_obstacle_puts_are_counted(client, name3):
+    before = _put_counter(client)
+    rev = client.get_scene(name3)["revision"]
+    client.put(f"riskplan/scenes/{name3}/obstacles/x", {"poly": "x1 - 10", "colour": "red"})  # unknown field
+    client.put(f"riskplan/scenes/{name3}/obstacles/y", {"poly": "x1 +* 2"})                    # bad polynomial
+    client.put(f"riskplan/scenes/{name3}/obstacles/z", b"{nope")                              # bad JSON
+    wait_for(lambda: _put_counter(client)["failed"] >= before["failed"] + 3, what="3 failed puts counted")
+    assert client.get_scene(name3)["revision"] == rev
+    assert _put_counter(client)["served"] == before["served"]
+
+
+def test_oversized_scene_put_is_refused(client, scene3, unique):
+    """MAX_PAYLOAD_BYTES (1 MiB) applies to scene puts too: an oversized put is refused
+    (counted in requests.put.failed), not applied."""
+    name = unique()
+    before = _put_counter(client)
+    body = json.dumps(scene3).encode() + b" " * (1 << 20)
+    client.put(f"riskplan/scenes/{name}", body)
+    wait_for(lambda: _put_counter(client) != before, what="the put to be counted")
+    with pytest.raises(riskplan.UnknownSceneError):
+        client.get_scene(name)
+    assert _put_counter(client)["failed"] == before["failed"] + 1
+
+
+def test_oversized_obstacle_put_is_refused(client, name3):
+    before = _put_counter(client)
+    rev = client.get_scene(name3)["revision"]
+    client.put(f"riskplan/scenes/{name3}/obstacles/big", b'{"poly": "x1 - 10"}' + b" " * (1 << 20))
+    wait_for(lambda: _put_counter(client)["failed"] == before["failed"] + 1, what="the put to be counted failed")
+    assert client.get_scene(name3)["revision"] == rev
+
+
+def test_unknown_field_in_a_verify_trajectory_is_an_error(client, name3):
+    """"unknown fields are errors": also inside the trajectory of a verify_request."""
+    traj = {"format": "riskplan-trajectory/1", "colour": "red",
+            "pieces": [{"t0": 0, "t1": 1, "coeffs": [[-1, 0], [-1, 2]]}]}
+    with pytest.raises((riskplan.MalformedPayloadError, riskplan.InvalidTrajectoryError)):
+        client.query(f"riskplan/scenes/{name3}/verify", {"trajectory": traj})
+
+
+def test_unknown_field_in_a_delete_change_is_an_error(client, name3):
+    """A delete change is {"op": "delete", "id"}: a "poly" there is an unknown field."""
+    rev = client.get_scene(name3)["revision"]
+    with pytest.raises((riskplan.MalformedPayloadError, riskplan.InvalidSceneError)):
+        client.apply(name3, changes=[{"op": "delete", "id": "disk", "poly": "x1"}])
+    assert client.get_scene(name3)["revision"] == rev
+
+
+@pytest.mark.parametrize("change", [
+    {"op": "delete", "id": "no-such-obstacle"},
+    {"op": "put", "id": "", "poly": "x1 - 10"},
+    {"op": "put", "id": "nopoly"},
+], ids=["delete-missing", "empty-id", "put-without-poly"])
+def test_a_change_that_fails_validation_is_invalid_scene(client, name3, change):
+    """README: invalid_scene is "the scene (or a change) fails validation"."""
+    with pytest.raises(riskplan.RiskplanError) as ei:
+        client.apply(name3, changes=[change])
+    assert ei.value.code in ("invalid_scene", "malformed_payload"), repr(ei.value)
+    assert ei.value.field is None or "changes" in ei.value.field
+
+
+def test_apply_renames_the_scene_to_its_key(client, scene3, unique):
+    """Reading: the scene is served under its key name; scene_reply.name, the stored
+    scene's name and plan_reply.scene all say so."""
+    name = unique()
+    client.apply(name, scene=scene3)
+    got = client.get_scene(name)
+    assert got["name"] == name
+    assert got["scene"]["name"] in (name, scene3["name"])
+    assert client.plan(name, time_limit=20).scene == name
+
+
+@pytest.fixture(scope="module")
+def capped(binary, tmp_path_factory):
+    s = Server(binary, tmp_path_factory.mktemp("riskplan-capped"), extra=["--max-plan-seconds", "1"]).start()
+    yield s
+    s.stop()
+
+
+def test_time_limit_is_capped_by_max_plan_seconds(capped, ring_scene):
+    with capped.client() as c:
+        c.apply("ring", scene=ring_scene)
+        t = time.monotonic()
+        with pytest.raises(riskplan.RiskplanError) as ei:
+            c.plan("ring", time_limit=30.0)
+        elapsed = time.monotonic() - t
+        assert ei.value.code in ("no_plan", "limit_exceeded"), repr(ei.value)
+        assert elapsed < 10, elapsed
