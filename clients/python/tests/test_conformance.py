@@ -149,3 +149,10 @@ def test_time_limit_is_capped_by_max_plan_seconds(capped, ring_scene):
         elapsed = time.monotonic() - t
         assert ei.value.code in ("no_plan", "limit_exceeded"), repr(ei.value)
         assert elapsed < 10, elapsed
+
+
+@pytest.mark.parametrize("name", [".hidden", "a", "A-Z_0.9", "-dash-first"])
+def test_every_name_the_readme_allows_is_accepted(client, scene3, name):
+    """README: "1–128 characters from A–Z a–z 0–9 _ - ." (nothing about the first one)."""
+    assert client.apply(name, scene=scene3) >= 1
+    assert client.get_scene(name)["name"] == name
