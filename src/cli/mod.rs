@@ -3,6 +3,7 @@
 
 #[cfg(feature = "service")]
 mod client_cmd;
+mod bench_cmd;
 mod contour_cmd;
 mod plan_cmd;
 mod risk_cmd;
@@ -33,6 +34,7 @@ enum Command {
     Contour(contour_cmd::ContourArgs),
     Verify(verify_cmd::VerifyArgs),
     Plan(plan_cmd::PlanArgs),
+    Bench(bench_cmd::BenchArgs),
     #[cfg(feature = "service")]
     Serve(serve_cmd::ServeArgs),
     #[cfg(feature = "service")]
@@ -53,6 +55,7 @@ pub fn run() -> i32 {
         Command::Contour(a) => contour_cmd::run(a),
         Command::Verify(a) => verify_cmd::run(a),
         Command::Plan(a) => plan_cmd::run(a),
+        Command::Bench(a) => bench_cmd::run(a),
         #[cfg(feature = "service")]
         Command::Serve(a) => serve_cmd::run(a),
         #[cfg(feature = "service")]

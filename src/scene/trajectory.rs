@@ -66,6 +66,7 @@ impl Piece {
 
 /// A trajectory: contiguous pieces.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Trajectory {
     /// Must be [`TRAJECTORY_FORMAT`].
     pub format: String,

@@ -146,7 +146,12 @@ impl Registry {
                             .ok_or_else(|| invalid(&format!("changes[{i}].poly"), "a put needs 'poly'"))?;
                         put_obstacle_json(&mut json, &c.id, &poly, c.params.as_ref(), &format!("changes[{i}]"))?;
                     }
-                    "delete" => delete_obstacle_json(&mut json, &c.id, &format!("changes[{i}].id"))?,
+                    "delete" => {
+                        if c.poly.is_some() || c.params.is_some() {
+                            return Err(invalid(&format!("changes[{i}]"), "a delete takes only 'op' and 'id'"));
+                        }
+                        delete_obstacle_json(&mut json, &c.id, &format!("changes[{i}].id"))?
+                    }
                     other => {
                         return Err(invalid(
                             &format!("changes[{i}].op"),

@@ -252,6 +252,9 @@ fn handle_put(state: &State, key: &str, kind: SampleKind, bytes: &[u8]) {
     let _g = span.enter();
     let r: Result<Option<u64>, ServiceError> = (|| match (parts.as_slice(), kind) {
         (["riskplan", "scenes", name], SampleKind::Put) => {
+            if bytes.len() > MAX_PAYLOAD_BYTES {
+                return Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES));
+            }
             let json: serde_json::Value =
                 Codec::Json.decode(bytes).map_err(|(m, f)| ServiceError::Malformed { message: m, field: f })?;
             state.registry.put_scene(name, json).map(Some)

@@ -104,8 +104,9 @@ def test_unknown_field_in_a_verify_trajectory_is_an_error(client, name3):
 def test_unknown_field_in_a_delete_change_is_an_error(client, name3):
     """A delete change is {"op": "delete", "id"}: a "poly" there is an unknown field."""
     rev = client.get_scene(name3)["revision"]
-    with pytest.raises((riskplan.MalformedPayloadError, riskplan.InvalidSceneError)):
+    with pytest.raises(riskplan.InvalidRequestError) as ei:
         client.apply(name3, changes=[{"op": "delete", "id": "disk", "poly": "x1"}])
+    assert ei.value.field == "changes[0]"
     assert client.get_scene(name3)["revision"] == rev
 
 
@@ -114,12 +115,20 @@ def test_unknown_field_in_a_delete_change_is_an_error(client, name3):
     {"op": "put", "id": "", "poly": "x1 - 10"},
     {"op": "put", "id": "nopoly"},
 ], ids=["delete-missing", "empty-id", "put-without-poly"])
-def test_a_change_that_fails_validation_is_invalid_scene(client, name3, change):
-    """README: invalid_scene is "the scene (or a change) fails validation"."""
+def test_a_malformed_change_is_invalid_request(client, name3, change):
+    """README: invalid_request covers a malformed change (a put without poly, an id not in the scene, ...)."""
+    rev = client.get_scene(name3)["revision"]
     with pytest.raises(riskplan.RiskplanError) as ei:
         client.apply(name3, changes=[change])
-    assert ei.value.code in ("invalid_scene", "malformed_payload"), repr(ei.value)
-    assert ei.value.field is None or "changes" in ei.value.field
+    assert ei.value.code == "invalid_request", repr(ei.value)
+    assert ei.value.field is not None and ei.value.field.startswith("changes[0]")
+    assert client.get_scene(name3)["revision"] == rev
+
+
+def test_a_change_producing_an_invalid_scene_is_invalid_scene(client, name3):
+    """README: invalid_scene is "the scene, or the scene a change produces, fails validation"."""
+    with pytest.raises(riskplan.InvalidSceneError):
+        client.apply(name3, changes=[{"op": "put", "id": "bad", "poly": "x1 + + q"}])
 
 
 def test_apply_renames_the_scene_to_its_key(client, scene3, unique):
@@ -151,8 +160,14 @@ def test_time_limit_is_capped_by_max_plan_seconds(capped, ring_scene):
         assert elapsed < 10, elapsed
 
 
-@pytest.mark.parametrize("name", [".hidden", "a", "A-Z_0.9", "-dash-first"])
+@pytest.mark.parametrize("name", ["a", "A-Z_0.9", "-dash-first"])
 def test_every_name_the_readme_allows_is_accepted(client, scene3, name):
-    """README: "1–128 characters from A–Z a–z 0–9 _ - ." (nothing about the first one)."""
+    """README: "1–128 characters from A–Z a–z 0–9 _ - ., not starting with '.'"."""
     assert client.apply(name, scene=scene3) >= 1
     assert client.get_scene(name)["name"] == name
+
+
+def test_a_name_starting_with_a_dot_is_refused(client, scene3):
+    with pytest.raises(riskplan.RiskplanError) as ei:
+        client.apply(".hidden", scene=scene3)
+    assert ei.value.code == "invalid_scene_name"
