@@ -336,7 +336,16 @@ enum ConeKind {
     Psd(usize),
 }
 
-/// Solver settings. Defaults: Clarabel's tolerances (`1e-8`), 200 iterations, no
+/// Default gap and feasibility tolerance (Clarabel's own default). Tighter makes
+/// the returned point more accurate (and the solve slower); it proves nothing either
+/// way — callers re-check.
+pub const DEFAULT_TOL: f64 = 1e-8;
+
+/// Default iteration limit (Clarabel's own default). Hitting it gives
+/// [`SdpStatus::MaxIterations`], never a usable point.
+pub const DEFAULT_MAX_ITER: u32 = 200;
+
+/// Solver settings. Defaults: [`DEFAULT_TOL`], [`DEFAULT_MAX_ITER`], no
 /// time limit, presolve and chordal decomposition **off** (they only cost time on the
 /// small dense problems of this crate and forbid data updates), equilibration on.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -362,10 +371,10 @@ pub struct SdpSettings {
 impl Default for SdpSettings {
     fn default() -> Self {
         SdpSettings {
-            tol_gap_abs: 1e-8,
-            tol_gap_rel: 1e-8,
-            tol_feas: 1e-8,
-            max_iter: 200,
+            tol_gap_abs: DEFAULT_TOL,
+            tol_gap_rel: DEFAULT_TOL,
+            tol_feas: DEFAULT_TOL,
+            max_iter: DEFAULT_MAX_ITER,
             time_limit: f64::INFINITY,
             presolve: false,
             chordal_decomposition: false,
