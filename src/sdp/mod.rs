@@ -11,8 +11,9 @@
 //!   order (column-major upper triangle, position `j(j+1)/2 + i`), plus `N(N+1)/2`
 //!   PSD rows with `A = −1` (diagonal) or `A = −√2` (off-diagonal) and `b = 0`, so the
 //!   slack is `s = svec(Q)`. Sides 1 and 2 use exactly equivalent cheaper cones by
-//!   default ([`PsdForm`]: a nonnegative row, a 3-dimensional second-order cone). When `Q` enters a linear expression as a full symmetric
-//!   sum `Σ_ij c_ij Q_ij`, the raw variable `Q_ij` (`i < j`) must get `c_ij + c_ji`
+//!   default ([`PsdForm`]: a nonnegative row, a 3-dimensional second-order cone).
+//!   When `Q` enters a linear expression as a full symmetric sum
+//!   `Σ_ij c_ij Q_ij`, the raw variable `Q_ij` (`i < j`) must get `c_ij + c_ji`
 //!   ([`GramBlock::sym_factor`] gives the factor 2 for the common case `c_ij = c_ji`);
 //! * **affine PSD constraints** `M0 + Σ_k x_k M_k ⪰ 0` ([`Model::add_psd_affine`],
 //!   pattern 2): row `(i, j)` gets `A = −c_ij (M_k)_ij`, `b = c_ij (M0)_ij` with
@@ -22,6 +23,7 @@
 //! [`Model::solve`] assembles the CSC matrix directly from row-ordered triplets (a
 //! stable counting sort by column, no dense intermediate) and returns an
 //! [`SdpSolution`]: status, primal `x`, duals `z`, slacks `s`, iterations and time.
+//! [`Model::prepare`] keeps the set-up solver for re-solves after changing `b` or `q`.
 //!
 //! **A solver status is never a verdict.** Callers that need a proof (e.g.
 //! [`crate::certify::sos`]) must re-check the returned point rigorously.
@@ -324,7 +326,16 @@ enum ConeKind {
     Psd(usize),
 }
 
-/// Solver settings. Defaults: Clarabel's tolerances (`1e-8`), 200 iterations, no
+/// Default gap and feasibility tolerance (Clarabel's own default). Tighter makes
+/// the returned point more accurate (and the solve slower); it proves nothing either
+/// way — callers re-check.
+pub const DEFAULT_TOL: f64 = 1e-8;
+
+/// Default iteration limit (Clarabel's own default). Hitting it gives
+/// [`SdpStatus::MaxIterations`], never a usable point.
+pub const DEFAULT_MAX_ITER: u32 = 200;
+
+/// Solver settings. Defaults: [`DEFAULT_TOL`], [`DEFAULT_MAX_ITER`], no
 /// time limit, presolve and chordal decomposition **off** (they only cost time on the
 /// small dense problems of this crate and forbid data updates), equilibration on.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -350,10 +361,10 @@ pub struct SdpSettings {
 impl Default for SdpSettings {
     fn default() -> Self {
         SdpSettings {
-            tol_gap_abs: 1e-8,
-            tol_gap_rel: 1e-8,
-            tol_feas: 1e-8,
-            max_iter: 200,
+            tol_gap_abs: DEFAULT_TOL,
+            tol_gap_rel: DEFAULT_TOL,
+            tol_feas: DEFAULT_TOL,
+            max_iter: DEFAULT_MAX_ITER,
             time_limit: f64::INFINITY,
             presolve: false,
             chordal_decomposition: false,
@@ -471,7 +482,7 @@ pub struct SdpSolution {
     pub obj_dual: f64,
     /// Interior-point iterations.
     pub iterations: u32,
-    /// Solve time in seconds (Clarabel's own timer, setup included).
+    /// Time in seconds as reported by Clarabel (its own timers).
     pub solve_time: f64,
 }
 

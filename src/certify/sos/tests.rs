@@ -450,3 +450,36 @@ proptest! {
         }
     }
 }
+
+/// A solver status is never a verdict: an iteration or time limit gives
+/// `Undecided(Solver(..))`, even for a clearly positive polynomial.
+#[test]
+fn solver_failures_are_undecided() {
+    let p = points(&[1.0, -1.0, 1.0]);
+    let mut s = SosSettings::default();
+    s.sdp.max_iter = 1;
+    let out = certify(&p, &s);
+    assert_eq!(
+        out.verdict,
+        Verdict::Undecided(Undecided::Solver("MaxIterations".into()))
+    );
+    assert!(out.certificate.is_none());
+    let mut s = SosSettings::default();
+    s.sdp.time_limit = 1e-12;
+    assert!(matches!(
+        certify(&p, &s).verdict,
+        Verdict::Undecided(Undecided::Solver(_))
+    ));
+    let mut s = SosSettings::default();
+    s.sdp.tol_feas = f64::NAN; // rejected settings
+    assert!(matches!(
+        certify(&p, &s).verdict,
+        Verdict::Undecided(Undecided::Solver(_))
+    ));
+    // a NaN acceptance threshold never certifies
+    let s = SosSettings {
+        eps_acc: f64::NAN,
+        ..SosSettings::default()
+    };
+    assert!(!certify(&p, &s).verdict.is_safe());
+}
