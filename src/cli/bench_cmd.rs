@@ -5,7 +5,10 @@
 use super::util::{load_scene, print_out, CliError};
 use clap::Args;
 use riskplan::mc::clopper_pearson;
-use riskplan::plan::{LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, Planner, Problem, RrtParams, StaticRrt, Termination};
+use riskplan::plan::{
+    LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, Planner, Problem, RrtParams, StaticRrt,
+    Termination,
+};
 use riskplan::scene::{Scene, Trajectory};
 use riskplan::verify::{Method, SceneCertifier};
 use serde_json::json;
@@ -81,7 +84,14 @@ fn audit(s: &Scene, t: &Trajectory, times: usize, samples: u64, seed: u64) -> (f
 }
 
 fn host() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|c| c.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())).unwrap_or_default();
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|c| {
+            c.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
+        .unwrap_or_default();
     format!("{} cores, {cpu}", std::thread::available_parallelism().map(|n| n.get()).unwrap_or(0))
 }
 
@@ -94,11 +104,20 @@ pub fn run(a: BenchArgs) -> Result<i32, CliError> {
     files.sort();
     let mut log = std::fs::File::create(&a.out).map_err(|e| CliError(format!("{}: {e}", a.out.display())))?;
     let host = host();
-    let rev = std::process::Command::new("git").args(["rev-parse", "--short", "HEAD"]).output().ok().map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string()).unwrap_or_default();
+    let rev = std::process::Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default();
     let mut table = vec![
-        format!("Host: {host}; git {rev}; {} seeds; time limit {} s; audit {} scenarios × {} times per piece.", a.seeds, a.time_limit, a.audit_samples, a.audit_times),
+        format!(
+            "Host: {host}; git {rev}; {} seeds; time limit {} s; audit {} scenarios × {} times per piece.",
+            a.seeds, a.time_limit, a.audit_samples, a.audit_times
+        ),
         String::new(),
-        "| scene | planner | solved | median time (s) | paper (s) | median length | max MC risk | plans over Δ (99%) |".into(),
+        "| scene | planner | solved | median time (s) | paper (s) | median length | max MC risk | plans over Δ (99%) |"
+            .into(),
         "|---|---|---|---|---|---|---|---|".into(),
     ];
     for f in files {
@@ -130,11 +149,18 @@ pub fn run(a: BenchArgs) -> Result<i32, CliError> {
                     Box::new(StaticRrt::new(p))
                 };
                 let checker: Box<dyn MotionChecker> = if mc {
-                    Box::new(McChecker::new(scene.mc_model().map_err(|e| CliError(e.to_string()))?, scene.risk_f64(), McCheckerParams::default(), seed))
+                    Box::new(McChecker::new(
+                        scene.mc_model().map_err(|e| CliError(e.to_string()))?,
+                        scene.risk_f64(),
+                        McCheckerParams::default(),
+                        seed,
+                    ))
                 } else {
                     Box::new(SceneCertifier::new(scene.clone(), problem.delta.clone(), Method::Exact))
                 };
-                let out = planner.solve(&problem, checker.as_ref(), &Termination::after(Duration::from_secs_f64(a.time_limit))).map_err(|e| CliError(e.to_string()))?;
+                let out = planner
+                    .solve(&problem, checker.as_ref(), &Termination::after(Duration::from_secs_f64(a.time_limit)))
+                    .map_err(|e| CliError(e.to_string()))?;
                 let mut rec = json!({"scene": scene.name, "planner": label, "seed": seed, "host": host, "git": rev, "time_limit_s": a.time_limit, "status": out.status, "certified": out.certified, "stats": out.stats});
                 if let Some(t) = &out.trajectory {
                     solved += 1;

@@ -108,6 +108,23 @@ enum ClientCommand {
     },
     /// Server status.
     Status,
+    /// Load benchmark: N concurrent clients send verify queries (or, with --bare, empty
+    /// queries to the server's echo key: the bare Zenoh round trip) for S seconds;
+    /// prints throughput, latency percentiles and how many replies each query got.
+    Load {
+        /// Scene name (verify target).
+        #[arg(long, default_value = "illustrative-3")]
+        scene: String,
+        /// Concurrent clients.
+        #[arg(long, default_value_t = 16)]
+        clients: usize,
+        /// Duration, seconds.
+        #[arg(long, default_value_t = 30.0)]
+        seconds: f64,
+        /// Query riskplan/echo instead (no work): the bare round trip.
+        #[arg(long)]
+        bare: bool,
+    },
 }
 
 fn read_json(p: &PathBuf) -> Result<serde_json::Value, CliError> {
@@ -229,5 +246,70 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             show(&client.status().await.map_err(err)?)?;
             Ok(0)
         }
+        ClientCommand::Load { scene, clients, seconds, bare } => load(client, &scene, clients, seconds, bare).await,
     }
 }
+
+async fn load(client: &Client, scene: &str, clients: usize, seconds: f64, bare: bool) -> Result<i32, CliError> {
+    use std::collections::BTreeMap;
+    use std::time::Instant;
+    let (key, payload) = if bare {
+        ("riskplan/echo".to_string(), client.encode(&"ping"))
+    } else {
+        let req = VerifyRequest { segment: Some(Segment { from: vec![-1.0, -0.9], to: vec![1.0, -0.5], t0: None, t1: None }), ..Default::default() };
+        (format!("riskplan/scenes/{scene}/verify"), client.encode(&req))
+    };
+    let deadline = Instant::now() + Duration::from_secs_f64(seconds.max(0.1));
+    let started = Instant::now();
+    let mut tasks = Vec::new();
+    for _ in 0..clients.max(1) {
+        let (key, payload) = (key.clone(), payload.clone());
+        let c = client.clone();
+        tasks.push(tokio::spawn(async move {
+            let mut lat = Vec::new();
+            let mut outcomes: BTreeMap<String, u64> = BTreeMap::new();
+            let mut reply_counts: BTreeMap<usize, u64> = BTreeMap::new();
+            while Instant::now() < deadline {
+                let t = Instant::now();
+                let r = c.raw_query(&key, payload.clone()).await;
+                lat.push(t.elapsed().as_secs_f64());
+                let (n, code) = match r {
+                    Ok(v) => v,
+                    Err(e) => (0, Some(format!("client error: {e}"))),
+                };
+                *reply_counts.entry(n).or_default() += 1;
+                *outcomes.entry(code.unwrap_or_else(|| "ok".into())).or_default() += 1;
+            }
+            (lat, outcomes, reply_counts)
+        }));
+    }
+    let mut results = Vec::new();
+    for t in tasks {
+        results.push(t.await.map_err(|e| CliError(format!("load task failed: {e}")))?);
+    }
+    let elapsed = started.elapsed().as_secs_f64();
+    let mut lat: Vec<f64> = Vec::new();
+    let mut outcomes: BTreeMap<String, u64> = BTreeMap::new();
+    let mut counts: BTreeMap<usize, u64> = BTreeMap::new();
+    for (l, o, c) in results {
+        lat.extend(l);
+        for (k, v) in o {
+            *outcomes.entry(k).or_default() += v;
+        }
+        for (k, v) in c {
+            *counts.entry(k).or_default() += v;
+        }
+    }
+    lat.sort_by(f64::total_cmp);
+    let pct = |p: f64| lat.get(((lat.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(f64::NAN) * 1e3;
+    let out = serde_json::json!({
+        "key": key, "clients": clients, "seconds": elapsed, "queries": lat.len(),
+        "throughput_qps": lat.len() as f64 / elapsed,
+        "latency_ms": {"p50": pct(0.5), "p90": pct(0.9), "p99": pct(0.99), "max": pct(1.0)},
+        "outcomes": outcomes,
+        "replies_per_query": counts.iter().map(|(k, v)| (k.to_string(), *v)).collect::<BTreeMap<_, _>>(),
+    });
+    show(&out)?;
+    Ok(if counts.keys().all(|&k| k == 1) { 0 } else { 1 })
+}
+

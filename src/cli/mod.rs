@@ -1,9 +1,9 @@
 //! Command-line interface (clap). Exit status: 0 success, 1 a negative answer
 //! (unsafe, no plan), 2 bad input or usage, with the error on stderr.
 
+mod bench_cmd;
 #[cfg(feature = "service")]
 mod client_cmd;
-mod bench_cmd;
 mod contour_cmd;
 mod plan_cmd;
 mod risk_cmd;

@@ -28,7 +28,8 @@ pub enum ClientError {
     Decode(String),
 }
 
-/// A connection to a riskplan server.
+/// A connection to a riskplan server (cheap to clone: the Zenoh session is shared).
+#[derive(Clone)]
 pub struct Client {
     session: zenoh::Session,
     codec: Codec,
@@ -145,6 +146,42 @@ impl Client {
     /// Server status.
     pub async fn status(&self) -> Result<StatusReply, ClientError> {
         self.query::<(), _>("riskplan/status", None, self.timeout).await
+    }
+
+    /// One raw query for load tests: sends `payload` (in this client's encoding) and
+    /// returns (number of replies, the first error code if any). Counts every reply
+    /// until the query completes, so "exactly one reply" can be checked.
+    pub async fn raw_query(&self, key: &str, payload: Vec<u8>) -> Result<(usize, Option<String>), ClientError> {
+        let enc = match self.codec {
+            Codec::Json => Encoding::APPLICATION_JSON,
+            Codec::Bincode => Encoding::from(BINCODE),
+        };
+        let replies = self
+            .session
+            .get(key)
+            .payload(payload)
+            .encoding(enc)
+            .consolidation(ConsolidationMode::None)
+            .timeout(self.timeout)
+            .await
+            .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+        let (mut n, mut code) = (0, None);
+        while let Ok(r) = replies.recv_async().await {
+            n += 1;
+            if let Err(e) = r.result() {
+                let c = Codec::from_encoding(&e.encoding().to_string()).unwrap_or(Codec::Json);
+                code = Some(match c.decode::<ErrorReply>(&e.payload().to_bytes()) {
+                    Ok(er) => er.code,
+                    Err(_) => "timeout".to_string(),
+                });
+            }
+        }
+        Ok((n, code))
+    }
+
+    /// Encodes a message in this client's encoding.
+    pub fn encode<T: Serialize>(&self, v: &T) -> Vec<u8> {
+        self.codec.encode(v)
     }
 
     /// Closes the session.

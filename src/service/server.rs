@@ -291,6 +291,7 @@ async fn handle_query(state: Arc<State>, query: Query) {
     let parts: Vec<String> = key.split('/').map(str::to_string).collect();
     let kind = match parts.iter().map(String::as_str).collect::<Vec<_>>().as_slice() {
         ["riskplan", "status"] => "status",
+        ["riskplan", "echo"] => "echo",
         ["riskplan", "scenes", _] => "scene",
         ["riskplan", "scenes", _, k @ ("apply" | "plan" | "verify" | "risk")] => k,
         _ => "unknown",
@@ -346,6 +347,8 @@ async fn dispatch(
 ) -> Result<(Vec<u8>, Option<u64>), ServiceError> {
     match kind {
         "status" => Ok((codec.encode(&state.status()), None)),
+        // The bare round trip of the load benchmark: the payload back, no work, no pool.
+        "echo" => Ok((bytes, None)),
         "scene" => {
             let e = state.registry.get(scene)?;
             Ok((codec.encode(&SceneReply { name: scene.to_string(), revision: e.revision, scene: embedded(&e.json) }), Some(e.revision)))

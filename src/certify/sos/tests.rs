@@ -328,10 +328,8 @@ fn example3_piece2_tangent_is_not_safe() {
     // RISKPLAN_REFERENCE_SCENES (as in CI), else shared/ beside the checkout
     let dir = std::env::var("RISKPLAN_REFERENCE_SCENES")
         .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/scenes").to_string());
-    let Ok(text) = std::fs::read_to_string(format!("{dir}/illustrative-3.json")) else {
-        eprintln!("reference scene not found in {dir}; skipping");
-        return;
-    };
+    let text = std::fs::read_to_string(format!("{dir}/illustrative-3.json"))
+        .unwrap_or_else(|e| panic!("the reference scenes are required ({dir}/illustrative-3.json: {e})"));
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     let piece = &v["expected"]["trajectories"]["time_varying_sos"]["global"][1];
     let f = |x: &serde_json::Value| x.as_f64().unwrap();
@@ -459,27 +457,15 @@ fn solver_failures_are_undecided() {
     let mut s = SosSettings::default();
     s.sdp.max_iter = 1;
     let out = certify(&p, &s);
-    assert_eq!(
-        out.verdict,
-        Verdict::Undecided(Undecided::Solver("MaxIterations".into()))
-    );
+    assert_eq!(out.verdict, Verdict::Undecided(Undecided::Solver("MaxIterations".into())));
     assert!(out.certificate.is_none());
     let mut s = SosSettings::default();
     s.sdp.time_limit = 1e-12;
-    assert!(matches!(
-        certify(&p, &s).verdict,
-        Verdict::Undecided(Undecided::Solver(_))
-    ));
+    assert!(matches!(certify(&p, &s).verdict, Verdict::Undecided(Undecided::Solver(_))));
     let mut s = SosSettings::default();
     s.sdp.tol_feas = f64::NAN; // rejected settings
-    assert!(matches!(
-        certify(&p, &s).verdict,
-        Verdict::Undecided(Undecided::Solver(_))
-    ));
+    assert!(matches!(certify(&p, &s).verdict, Verdict::Undecided(Undecided::Solver(_))));
     // a NaN acceptance threshold never certifies
-    let s = SosSettings {
-        eps_acc: f64::NAN,
-        ..SosSettings::default()
-    };
+    let s = SosSettings { eps_acc: f64::NAN, ..SosSettings::default() };
     assert!(!certify(&p, &s).verdict.is_safe());
 }
