@@ -256,7 +256,10 @@ async fn load(client: &Client, scene: &str, clients: usize, seconds: f64, bare: 
     let (key, payload) = if bare {
         ("riskplan/echo".to_string(), client.encode(&"ping"))
     } else {
-        let req = VerifyRequest { segment: Some(Segment { from: vec![-1.0, -0.9], to: vec![1.0, -0.5], t0: None, t1: None }), ..Default::default() };
+        let req = VerifyRequest {
+            segment: Some(Segment { from: vec![-1.0, -0.9], to: vec![1.0, -0.5], t0: None, t1: None }),
+            ..Default::default()
+        };
         (format!("riskplan/scenes/{scene}/verify"), client.encode(&req))
     };
     let deadline = Instant::now() + Duration::from_secs_f64(seconds.max(0.1));
@@ -312,4 +315,3 @@ async fn load(client: &Client, scene: &str, clients: usize, seconds: f64, bare: 
     show(&out)?;
     Ok(if counts.keys().all(|&k| k == 1) { 0 } else { 1 })
 }
-

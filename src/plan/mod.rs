@@ -72,7 +72,7 @@ impl Problem {
                 message: format!("the risk level Δ must be in (0, 1), got {d}"),
             });
         }
-        if !(self.horizon.0 < self.horizon.1) || !self.horizon.0.is_finite() || !self.horizon.1.is_finite() {
+        if !self.horizon.0.is_finite() || !self.horizon.1.is_finite() || self.horizon.0 >= self.horizon.1 {
             return Err(PlanError::InvalidRequest { field: "horizon".into(), message: "needs finite t0 < tf".into() });
         }
         for (name, p) in [("start", &self.start), ("goal", &self.goal)] {

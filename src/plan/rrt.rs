@@ -86,7 +86,7 @@ impl RrtParams {
         if self.max_iterations == 0 {
             return bad("max_iterations", "must be ≥ 1");
         }
-        if self.widths.iter().any(|w| !(*w > 0.0)) {
+        if self.widths.iter().any(|w| w.is_nan() || *w <= 0.0) {
             return bad("widths", "must be positive");
         }
         Ok(())

@@ -68,7 +68,7 @@ impl StripeSampler {
 
 /// The authors' width list `start:step:stop` (inclusive, like MATLAB's colon).
 pub fn width_range(start: f64, step: f64, stop: f64) -> Vec<f64> {
-    if !(step > 0.0) || !(start <= stop) {
+    if step.is_nan() || step <= 0.0 || matches!(start.partial_cmp(&stop), None | Some(std::cmp::Ordering::Greater)) {
         return vec![];
     }
     let n = ((stop - start) / step + 1e-9).floor() as usize + 1;

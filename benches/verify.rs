@@ -1,0 +1,38 @@
+//! `verify` of a 2-piece trajectory against all 8 obstacles of example-d1-cluttered-2d
+//! (16 constraints per piece), with the exact checker and with SOS certificates; and
+//! the planners' fast path (the scene certifier, stopping at the first failure).
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use riskplan::plan::MotionChecker;
+use riskplan::scene::{Piece, Scene, Trajectory};
+use riskplan::verify::{verify, Method, SceneCertifier};
+use std::sync::Arc;
+
+fn scene() -> Scene {
+    let dir = std::env::var("RISKPLAN_REFERENCE_SCENES")
+        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/scenes").to_string());
+    let text = std::fs::read_to_string(format!("{dir}/example-d1-cluttered-2d.json")).expect("reference scene");
+    Scene::from_json(&text).expect("valid scene")
+}
+
+fn bench(c: &mut Criterion) {
+    let s = scene();
+    // (0,0) → (1.5, 0.5) → (5, 5): two straight pieces over the horizon [0, 1]
+    let traj = Trajectory::new(vec![
+        Piece::segment(&[0.0, 0.0], &[1.5, 0.5], 0.0, 0.5),
+        Piece::segment(&[1.5, 0.5], &[5.0, 5.0], 0.5, 1.0),
+    ]);
+    let delta = s.risk.clone();
+    c.bench_function("verify_2_pieces_d1_exact", |b| {
+        b.iter(|| verify(&s, black_box(&traj), &delta, Method::Exact, &Default::default()))
+    });
+    c.bench_function("verify_2_pieces_d1_sos", |b| {
+        b.iter(|| verify(&s, black_box(&traj), &delta, Method::Sos, &Default::default()))
+    });
+    let cert = SceneCertifier::new(Arc::new(s.clone()), delta.clone(), Method::Exact);
+    let safe = Piece::segment(&[0.0, 0.0], &[1.5, 0.5], 0.0, 0.5);
+    c.bench_function("scene_certifier_piece_d1_exact", |b| b.iter(|| cert.check(black_box(&safe))));
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
