@@ -77,6 +77,13 @@ fn sos_and_exact_never_disagree_and_never_certify_a_negative_polynomial() {
     }
     let g = |k| counts.get(&("truth", k)).copied().unwrap_or(0);
     println!("  truth  positive {:>6}  not positive {:>6}", g("positive"), g("not positive"));
-    println!("  mean time: exact {:.1} µs, sos {:.1} µs", (te + te2).as_secs_f64() * 1e6 / cases as f64, (ts + ts2).as_secs_f64() * 1e6 / cases as f64);
-    assert!(counts.get(&("sos", "safe")).copied().unwrap_or(0) > cases / 10, "SOS certifies too little to be a meaningful comparison");
+    println!(
+        "  mean time: exact {:.1} µs, sos {:.1} µs",
+        (te + te2).as_secs_f64() * 1e6 / cases as f64,
+        (ts + ts2).as_secs_f64() * 1e6 / cases as f64
+    );
+    assert!(
+        counts.get(&("sos", "safe")).copied().unwrap_or(0) > cases / 10,
+        "SOS certifies too little to be a meaningful comparison"
+    );
 }

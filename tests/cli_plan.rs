@@ -7,7 +7,11 @@ use serde_json::Value;
 
 fn run(args: &[&str]) -> (i32, String, String) {
     let out = common::bin().env("OPENBLAS_NUM_THREADS", "1").args(args).output().expect("run riskplan");
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
 }
 
 fn scene(name: &str) -> String {
@@ -17,10 +21,27 @@ fn scene(name: &str) -> String {
 #[test]
 fn plan_output_verifies_and_is_reproducible() {
     let dir = tempfile::tempdir().unwrap();
-    for name in ["illustrative-3", "illustrative-4", "example-b-lane-change", "example-c-delivery", "example-d1-cluttered-2d", "example-d2-cluttered-3d"] {
+    for name in [
+        "illustrative-3",
+        "illustrative-4",
+        "example-b-lane-change",
+        "example-c-delivery",
+        "example-d1-cluttered-2d",
+        "example-d2-cluttered-3d",
+    ] {
         let out = dir.path().join(format!("{name}.json"));
         let fig = dir.path().join(format!("{name}.svg"));
-        let (code, _, err) = run(&["plan", "--scene", &scene(name), "--seed", "4", "--out", out.to_str().unwrap(), "--figure", fig.to_str().unwrap()]);
+        let (code, _, err) = run(&[
+            "plan",
+            "--scene",
+            &scene(name),
+            "--seed",
+            "4",
+            "--out",
+            out.to_str().unwrap(),
+            "--figure",
+            fig.to_str().unwrap(),
+        ]);
         assert_eq!(code, 0, "{name}: {err}");
         assert!(err.contains("plan found (certified)"), "{name}: {err}");
         let plan: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
@@ -30,7 +51,8 @@ fn plan_output_verifies_and_is_reproducible() {
             assert!(plan["stats"][k].is_number(), "{name}: stats.{k}");
         }
         assert!(std::fs::read_to_string(&fig).unwrap().contains("<svg"));
-        let (code, report, err) = run(&["verify", "--scene", &scene(name), "--trajectory", out.to_str().unwrap(), "--method", "both"]);
+        let (code, report, err) =
+            run(&["verify", "--scene", &scene(name), "--trajectory", out.to_str().unwrap(), "--method", "both"]);
         assert_eq!(code, 0, "{name}: verify rejects the plan: {err} {report}");
         let r: Value = serde_json::from_str(&report).unwrap();
         assert_eq!(r["safe"], true);
@@ -55,14 +77,29 @@ fn mc_rrt_output_is_marked_not_certified() {
 fn verify_reports_unsafe_with_witness_and_exit_1() {
     let dir = tempfile::tempdir().unwrap();
     let t = dir.path().join("line.json");
-    std::fs::write(&t, r#"{"format": "riskplan-trajectory/1", "pieces": [{"t0": 0, "t1": 1, "coeffs": [[-1, 2], [-1, 2]]}]}"#).unwrap();
+    std::fs::write(
+        &t,
+        r#"{"format": "riskplan-trajectory/1", "pieces": [{"t0": 0, "t1": 1, "coeffs": [[-1, 2], [-1, 2]]}]}"#,
+    )
+    .unwrap();
     for method in ["exact", "sos", "both"] {
-        let (code, out, err) = run(&["verify", "--scene", &scene("illustrative-3"), "--trajectory", t.to_str().unwrap(), "--method", method]);
+        let (code, out, err) = run(&[
+            "verify",
+            "--scene",
+            &scene("illustrative-3"),
+            "--trajectory",
+            t.to_str().unwrap(),
+            "--method",
+            method,
+        ]);
         assert_eq!(code, 1, "{method}: {err}");
         let v: Value = serde_json::from_str(&out).unwrap();
         assert_eq!(v["safe"], false);
         let c = &v["pieces"][0]["obstacles"][0]["constraints"];
-        assert!(c.as_array().unwrap().iter().any(|c| c["status"] == "unsafe" && c["witness"]["t"].is_number()), "{method}: {out}");
+        assert!(
+            c.as_array().unwrap().iter().any(|c| c["status"] == "unsafe" && c["witness"]["t"].is_number()),
+            "{method}: {out}"
+        );
     }
 }
 
@@ -107,7 +144,11 @@ fn bad_requests_exit_2_with_clear_errors() {
     assert!(err.contains("no start and goal"), "{err}");
     // verify: a trajectory outside the horizon, a discontinuous one
     let t = dir.path().join("bad.json");
-    std::fs::write(&t, r#"{"format": "riskplan-trajectory/1", "pieces": [{"t0": 0, "t1": 2, "coeffs": [[-1, 1], [-1, 1]]}]}"#).unwrap();
+    std::fs::write(
+        &t,
+        r#"{"format": "riskplan-trajectory/1", "pieces": [{"t0": 0, "t1": 2, "coeffs": [[-1, 1], [-1, 1]]}]}"#,
+    )
+    .unwrap();
     let (code, _, err) = run(&["verify", "--scene", &scene("illustrative-3"), "--trajectory", t.to_str().unwrap()]);
     assert_eq!(code, 2);
     assert!(err.contains("horizon"), "{err}");

@@ -14,7 +14,9 @@ use std::path::PathBuf;
 /// Drops nulls and writes every number as f64, so that `{"t0": 0}` and `{"t0": 0.0, "x": null}` compare equal.
 fn normal(v: &Value) -> Value {
     match v {
-        Value::Object(m) => Value::Object(m.iter().filter(|(_, v)| !v.is_null()).map(|(k, v)| (k.clone(), normal(v))).collect()),
+        Value::Object(m) => {
+            Value::Object(m.iter().filter(|(_, v)| !v.is_null()).map(|(k, v)| (k.clone(), normal(v))).collect())
+        }
         Value::Array(a) => Value::Array(a.iter().map(normal).collect()),
         Value::Number(n) => serde_json::json!(n.as_f64()),
         other => other.clone(),
