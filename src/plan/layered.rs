@@ -13,8 +13,8 @@
 use super::rrt::steer;
 use super::sampling::{width_range, StripeSampler};
 use super::{
-    check_endpoints, dist, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats, PlanStatus, Planner,
-    PlannerSpecs, Problem, Termination,
+    check_endpoints, dist, nearest, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats, PlanStatus,
+    Planner, PlannerSpecs, Problem, Termination,
 };
 use crate::scene::{Piece, Trajectory};
 use rand::SeedableRng;
@@ -228,17 +228,6 @@ impl LayeredRrt {
         }
         Attempt::Failed
     }
-}
-
-fn nearest(verts: &[Vec<f64>], q: &[f64]) -> usize {
-    let mut best = (f64::INFINITY, 0);
-    for (i, v) in verts.iter().enumerate() {
-        let d = dist(v, q);
-        if d < best.0 {
-            best = (d, i);
-        }
-    }
-    best.1
 }
 
 impl Planner for LayeredRrt {

@@ -354,6 +354,18 @@ pub fn dist(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
 }
 
+/// Index of the point of `verts` nearest to `q` (linear scan; 0 when empty).
+pub fn nearest(verts: &[Vec<f64>], q: &[f64]) -> usize {
+    let mut best = (f64::INFINITY, 0);
+    for (i, v) in verts.iter().enumerate() {
+        let d = dist(v, q);
+        if d < best.0 {
+            best = (d, i);
+        }
+    }
+    best.1
+}
+
 /// Straight pieces through `points` at constant speed over `[t0, tf]`.
 pub fn constant_speed(points: &[Vec<f64>], horizon: (f64, f64)) -> Vec<Piece> {
     let lens: Vec<f64> = points.windows(2).map(|w| dist(&w[0], &w[1])).collect();

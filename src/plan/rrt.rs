@@ -13,8 +13,8 @@
 
 use super::sampling::{width_range, StripeSampler};
 use super::{
-    check_endpoints, constant_speed, dist, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats,
-    PlanStatus, Planner, PlannerSpecs, Problem, Termination,
+    check_endpoints, constant_speed, dist, nearest, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome,
+    PlanStats, PlanStatus, Planner, PlannerSpecs, Problem, Termination,
 };
 use crate::scene::{Piece, Trajectory};
 use rand::SeedableRng;
@@ -114,14 +114,7 @@ struct Tree {
 
 impl Tree {
     fn nearest(&self, q: &[f64]) -> usize {
-        let mut best = (f64::INFINITY, 0);
-        for (i, v) in self.verts.iter().enumerate() {
-            let d = dist(v, q);
-            if d < best.0 {
-                best = (d, i);
-            }
-        }
-        best.1
+        nearest(&self.verts, q)
     }
     fn path_to(&self, mut i: usize) -> Vec<usize> {
         let mut out = vec![i];
