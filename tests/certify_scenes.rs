@@ -104,14 +104,7 @@ fn random_segment(s: &Scene, rng: &mut rand_chacha::ChaCha8Rng) -> Piece {
 /// safe, the Monte Carlo risk at 50 times along the segment stays under Δ (99%
 /// confidence per obstacle and time, Clopper–Pearson lower bound ≤ Δ).
 fn audit_random_segments(segments: usize, samples: u64) {
-    let scenes = [
-        "illustrative-3",
-        "illustrative-4",
-        "example-b-lane-change",
-        "example-c-delivery",
-        "example-d1-cluttered-2d",
-        "example-d2-cluttered-3d",
-    ];
+    let scenes = common::PLANNING_SCENES;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15);
     for name in scenes {
         let s = common::scene(name);

@@ -21,14 +21,7 @@ fn scene(name: &str) -> String {
 #[test]
 fn plan_output_verifies_and_is_reproducible() {
     let dir = tempfile::tempdir().unwrap();
-    for name in [
-        "illustrative-3",
-        "illustrative-4",
-        "example-b-lane-change",
-        "example-c-delivery",
-        "example-d1-cluttered-2d",
-        "example-d2-cluttered-3d",
-    ] {
+    for name in common::PLANNING_SCENES {
         let out = dir.path().join(format!("{name}.json"));
         let fig = dir.path().join(format!("{name}.svg"));
         let (code, _, err) = run(&[

@@ -13,14 +13,7 @@ use riskplan::verify::{verify, Method, SceneCertifier};
 use std::sync::Arc;
 use std::time::Duration;
 
-const SCENES: [&str; 6] = [
-    "illustrative-3",
-    "illustrative-4",
-    "example-b-lane-change",
-    "example-c-delivery",
-    "example-d1-cluttered-2d",
-    "example-d2-cluttered-3d",
-];
+const SCENES: [&str; 6] = common::PLANNING_SCENES;
 
 fn planner_for(s: &Scene, dynamic: bool) -> Box<dyn Planner> {
     let block = s.file.planner.as_ref().and_then(|p| p.get("rrt_sos"));

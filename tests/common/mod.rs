@@ -4,6 +4,16 @@
 use riskplan::scene::Scene;
 use std::path::PathBuf;
 
+/// The reference scenes with a start and a goal.
+pub const PLANNING_SCENES: [&str; 6] = [
+    "illustrative-3",
+    "illustrative-4",
+    "example-b-lane-change",
+    "example-c-delivery",
+    "example-d1-cluttered-2d",
+    "example-d2-cluttered-3d",
+];
+
 /// The reference scenes (`shared/reference/scenes` beside the repository, or
 /// `RISKPLAN_REFERENCE_SCENES`). Missing scenes fail the tests: they are required.
 pub fn reference_dir() -> PathBuf {
