@@ -4,19 +4,14 @@
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use riskplan::plan::MotionChecker;
-use riskplan::scene::{Piece, Scene, Trajectory};
+use riskplan::scene::{Piece, Trajectory};
 use riskplan::verify::{verify, Method, SceneCertifier};
 use std::sync::Arc;
 
-fn scene() -> Scene {
-    let dir = std::env::var("RISKPLAN_REFERENCE_SCENES")
-        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/scenes").to_string());
-    let text = std::fs::read_to_string(format!("{dir}/example-d1-cluttered-2d.json")).expect("reference scene");
-    Scene::from_json(&text).expect("valid scene")
-}
+mod common;
 
 fn bench(c: &mut Criterion) {
-    let s = scene();
+    let s = common::reference_scene("example-d1-cluttered-2d");
     // (0,0) → (1.5, 0.5) → (5, 5): two straight pieces over the horizon [0, 1]
     let traj = Trajectory::new(vec![
         Piece::segment(&[0.0, 0.0], &[1.5, 0.5], 0.0, 0.5),

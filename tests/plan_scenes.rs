@@ -5,9 +5,7 @@ mod common;
 
 use riskplan::mc::clopper_pearson;
 use riskplan::plan::testing::conformance;
-use riskplan::plan::{
-    LayeredParams, LayeredRrt, McChecker, McCheckerParams, Planner, Problem, RrtParams, StaticRrt, Termination,
-};
+use riskplan::plan::{McChecker, McCheckerParams, Planner, Problem, Termination};
 use riskplan::scene::{Scene, Trajectory};
 use riskplan::verify::{verify, Method, SceneCertifier};
 use std::sync::Arc;
@@ -15,20 +13,15 @@ use std::time::Duration;
 
 const SCENES: [&str; 6] = common::PLANNING_SCENES;
 
-fn planner_for(s: &Scene, dynamic: bool) -> Box<dyn Planner> {
-    let block = s.file.planner.as_ref().and_then(|p| p.get("rrt_sos"));
-    if dynamic {
-        Box::new(LayeredRrt::new(LayeredParams::from_scene_block(block)))
-    } else {
-        Box::new(StaticRrt::new(RrtParams::from_scene_block(block)))
-    }
+fn planner_for(p: &Problem) -> Box<dyn Planner> {
+    riskplan::plan::rrt_planner(p, None, false).expect("valid planner options")
 }
 
 fn plan(name: &str, seed: u64) -> (Arc<Scene>, Trajectory) {
     let s = Arc::new(common::scene(name));
     let p = Problem::from_scene(s.clone(), seed).unwrap();
     let checker = SceneCertifier::new(s.clone(), p.delta.clone(), Method::Exact);
-    let mut planner = planner_for(&s, p.is_dynamic());
+    let mut planner = planner_for(&p);
     let out = planner.solve(&p, &checker, &Termination::after(Duration::from_secs(120))).unwrap();
     let t = out.trajectory.unwrap_or_else(|| panic!("{name}: no plan: {:?} {:?}", out.status, out.stats));
     assert!(out.certified);
@@ -96,10 +89,9 @@ fn conformance_rrt_sos_and_mc_rrt_static_and_dynamic() {
     for name in ["illustrative-3", "illustrative-4"] {
         let s = Arc::new(common::scene(name));
         let p = Problem::from_scene(s.clone(), 3).unwrap();
-        let dynamic = p.is_dynamic();
         let cert = SceneCertifier::new(s.clone(), p.delta.clone(), Method::Exact);
-        conformance(planner_for(&s, dynamic).as_mut(), &p, &cert, Duration::from_secs(60));
+        conformance(planner_for(&p).as_mut(), &p, &cert, Duration::from_secs(60));
         let mc = McChecker::new(s.mc_model().unwrap(), 0.1, McCheckerParams::default(), 3);
-        conformance(planner_for(&s, dynamic).as_mut(), &p, &mc, Duration::from_secs(60));
+        conformance(planner_for(&p).as_mut(), &p, &mc, Duration::from_secs(60));
     }
 }

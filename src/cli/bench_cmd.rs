@@ -5,10 +5,7 @@
 use super::util::{load_scene, print_out, CliError};
 use clap::Args;
 use riskplan::mc::clopper_pearson;
-use riskplan::plan::{
-    LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, Planner, Problem, RrtParams, StaticRrt,
-    Termination,
-};
+use riskplan::plan::{rrt_planner, McChecker, McCheckerParams, MotionChecker, Problem, Termination};
 use riskplan::scene::{Scene, Trajectory};
 use riskplan::verify::{Method, SceneCertifier};
 use serde_json::json;
@@ -126,7 +123,6 @@ pub fn run(a: BenchArgs) -> Result<i32, CliError> {
             continue;
         }
         let dynamic = scene.obstacles.iter().any(|o| o.contour.is_dynamic());
-        let block = scene.file.planner.as_ref().and_then(|p| p.get("rrt_sos")).cloned();
         let paper = scene.file.expected.as_ref().map(|e| e["run_time_s"].clone()).unwrap_or_default();
         let paper_t = |k: &str| paper[k]["paper"].as_f64().map(|v| format!("{v}")).unwrap_or_else(|| "–".into());
         let mut variants: Vec<(&str, bool, bool, String)> = vec![];
@@ -141,13 +137,7 @@ pub fn run(a: BenchArgs) -> Result<i32, CliError> {
             let (mut times, mut lens, mut worst, mut over, mut solved) = (vec![], vec![], 0.0f64, 0, 0);
             for seed in 1..=a.seeds {
                 let problem = Problem::from_scene(scene.clone(), seed).map_err(|e| CliError(e.to_string()))?;
-                let mut planner: Box<dyn Planner> = if dynamic {
-                    Box::new(LayeredRrt::new(LayeredParams::from_scene_block(block.as_ref())))
-                } else {
-                    let mut p = RrtParams::from_scene_block(block.as_ref());
-                    p.improve = improve;
-                    Box::new(StaticRrt::new(p))
-                };
+                let mut planner = rrt_planner(&problem, None, improve).map_err(|e| CliError(e.to_string()))?;
                 let checker: Box<dyn MotionChecker> = if mc {
                     Box::new(McChecker::new(
                         scene.mc_model().map_err(|e| CliError(e.to_string()))?,

@@ -2,10 +2,7 @@
 
 use super::util::{delta_arg, load_scene, print_out, CliError};
 use clap::Args;
-use riskplan::plan::{
-    LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, PlanStatus, Planner, Problem, RrtParams,
-    StaticRrt, Termination,
-};
+use riskplan::plan::{rrt_planner, McChecker, McCheckerParams, MotionChecker, PlanStatus, Problem, Termination};
 use riskplan::scene::{Scene, TrajectoryFile, TRAJECTORY_FORMAT};
 use riskplan::verify::{Method, SceneCertifier};
 use riskplan::viz::{self, ContourOptions, Overlay};
@@ -60,10 +57,6 @@ pub struct PlanArgs {
     figure: Option<PathBuf>,
 }
 
-fn rrt_block(scene: &Scene) -> Option<&serde_json::Value> {
-    scene.file.planner.as_ref().and_then(|p| p.get("rrt_sos"))
-}
-
 pub fn run(a: PlanArgs) -> Result<i32, CliError> {
     if !(a.time_limit > 0.0 && a.time_limit.is_finite()) {
         return Err(CliError(format!("--time-limit must be a positive number of seconds, got {}", a.time_limit)));
@@ -74,23 +67,7 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
     if let Some(d) = &a.delta {
         problem.delta = delta_arg(d)?;
     }
-    let layered = a.pieces.is_some() || problem.is_dynamic();
-    let mut planner: Box<dyn Planner> = if layered {
-        let mut params = LayeredParams::from_scene_block(rrt_block(&scene));
-        if let Some(s) = a.pieces {
-            params.pieces = s;
-        }
-        if a.improve {
-            return Err(CliError(
-                "--improve applies to static scenes only; the layered planner has no improve step".into(),
-            ));
-        }
-        Box::new(LayeredRrt::new(params))
-    } else {
-        let mut params = RrtParams::from_scene_block(rrt_block(&scene));
-        params.improve = a.improve;
-        Box::new(StaticRrt::new(params))
-    };
+    let mut planner = rrt_planner(&problem, a.pieces, a.improve).map_err(|e| CliError(e.to_string()))?;
     let checker: Box<dyn MotionChecker> = if a.planner == "mc-rrt" {
         let model = scene.mc_model().map_err(|e| CliError(format!("mc-rrt: {e}")))?;
         Box::new(McChecker::new(

@@ -354,6 +354,31 @@ pub fn dist(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
 }
 
+/// The RRT-SOS planner a problem calls for: the time-layered planner when an obstacle
+/// moves or `pieces` is given, else the static tree (with the improve step if asked).
+/// Parameters default to the scene's `planner.rrt_sos` block. The improve step does
+/// not exist for the layered planner: asking for it there is an error.
+pub fn rrt_planner(p: &Problem, pieces: Option<usize>, improve: bool) -> Result<Box<dyn Planner>, PlanError> {
+    let block = p.scene.file.planner.as_ref().and_then(|b| b.get("rrt_sos"));
+    if pieces.is_some() || p.is_dynamic() {
+        if improve {
+            return Err(PlanError::InvalidOption {
+                option: "improve".into(),
+                message: "applies to static scenes only; the layered planner has no improve step".into(),
+            });
+        }
+        let mut params = LayeredParams::from_scene_block(block);
+        if let Some(s) = pieces {
+            params.pieces = s;
+        }
+        Ok(Box::new(LayeredRrt::new(params)))
+    } else {
+        let mut params = RrtParams::from_scene_block(block);
+        params.improve = improve;
+        Ok(Box::new(StaticRrt::new(params)))
+    }
+}
+
 /// Index of the point of `verts` nearest to `q` (linear scan; 0 when empty).
 pub fn nearest(verts: &[Vec<f64>], q: &[f64]) -> usize {
     let mut best = (f64::INFINITY, 0);

@@ -145,6 +145,11 @@ pub struct Scene {
 impl Scene {
     /// Parses and validates scene JSON text.
     pub fn from_json(text: &str) -> Result<Scene, SceneError> {
+        Scene::from_json_cached(text, &ContourCache::default())
+    }
+
+    /// [`Scene::from_json`] with contours shared through `cache` (see [`Scene::from_file_cached`]).
+    pub fn from_json_cached(text: &str, cache: &ContourCache) -> Result<Scene, SceneError> {
         let de = &mut serde_json::Deserializer::from_str(text);
         let file: SceneFile = serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
@@ -153,7 +158,7 @@ impl Scene {
                 kind: SceneErrorKind::Syntax(e.into_inner().to_string()),
             }
         })?;
-        Scene::from_file(file)
+        Scene::from_file_cached(file, cache)
     }
 
     /// Validates a parsed scene file.

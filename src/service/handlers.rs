@@ -6,10 +6,7 @@ use super::proto::{
     PlanReply, PlanRequest, RiskReply, RiskRequest, VerifyReply, VerifyRequest, MAX_GRID_SIDE, MAX_RISK_POINTS,
 };
 use super::registry::Entry;
-use crate::plan::{
-    LayeredParams, LayeredRrt, McChecker, McCheckerParams, MotionChecker, PlanStatus, Planner, Problem, RrtParams,
-    StaticRrt, Termination,
-};
+use crate::plan::{McChecker, McCheckerParams, MotionChecker, PlanStatus, Problem, Termination};
 use crate::scene::{Piece, Trajectory, TRAJECTORY_FORMAT};
 use crate::verify::{verify, Method, SceneCertifier};
 use num_rational::BigRational;
@@ -63,22 +60,12 @@ pub fn plan(entry: &Entry, req: &PlanRequest, cap: f64, cancel: Arc<AtomicBool>)
     };
     problem.seed = req.seed.unwrap_or(1);
     problem.delta = delta_of(entry, req.delta)?;
-    let block = scene.file.planner.as_ref().and_then(|p| p.get("rrt_sos"));
-    let layered = req.pieces.is_some() || problem.is_dynamic();
-    let mut planner: Box<dyn Planner> = if layered {
-        if req.improve == Some(true) {
-            return Err(invalid("improve", "applies to static scenes only; the layered planner has no improve step"));
-        }
-        let mut p = LayeredParams::from_scene_block(block);
-        if let Some(s) = req.pieces {
-            p.pieces = usize::try_from(s).map_err(|_| invalid("pieces", "too large"))?;
-        }
-        Box::new(LayeredRrt::new(p))
-    } else {
-        let mut p = RrtParams::from_scene_block(block);
-        p.improve = req.improve.unwrap_or(false);
-        Box::new(StaticRrt::new(p))
-    };
+    let pieces = req.pieces.map(|s| usize::try_from(s).map_err(|_| invalid("pieces", "too large"))).transpose()?;
+    let mut planner =
+        crate::plan::rrt_planner(&problem, pieces, req.improve.unwrap_or(false)).map_err(|e| match e {
+            crate::plan::PlanError::InvalidOption { option, message } => invalid(&option, message),
+            other => ServiceError::Plan(other),
+        })?;
     let checker: Box<dyn MotionChecker> = match planner_name.as_str() {
         "rrt-sos" => Box::new(SceneCertifier::new(
             scene.clone(),

@@ -74,16 +74,7 @@ impl Registry {
     }
 
     fn build(&self, json: &serde_json::Value) -> Result<Scene, ServiceError> {
-        let text = json.to_string();
-        let de = &mut serde_json::Deserializer::from_str(&text);
-        let file = serde_path_to_error::deserialize(de).map_err(|e| {
-            let path = e.path().to_string();
-            ServiceError::InvalidScene(crate::scene::SceneError {
-                path: if path == "." { String::new() } else { path },
-                kind: crate::scene::SceneErrorKind::Syntax(e.into_inner().to_string()),
-            })
-        })?;
-        Scene::from_file_cached(file, &self.cache).map_err(ServiceError::InvalidScene)
+        Scene::from_json_cached(&json.to_string(), &self.cache).map_err(ServiceError::InvalidScene)
     }
 
     /// The scene `name`.

@@ -211,6 +211,35 @@ fn worst(a: Status, b: Status) -> Status {
     }
 }
 
+/// Decides an obstacle's two constraints over a piece in order (`mean`, the lower
+/// degree, first; then `cantelli`) and hands each decision to `visit`, which returns
+/// whether to go on. The interval restriction is built once; the exact one only if a
+/// decision needs the exact fallback, and then once for both constraints.
+fn decide_obstacle(
+    o: &Obstacle,
+    piece: PieceRef<'_>,
+    delta: &BigRational,
+    method: Method,
+    settings: &sos::SosSettings,
+    mut visit: impl FnMut(&'static str, Vec<(&'static str, Verdict)>) -> bool,
+) {
+    let iv = restrict_interval(&o.contour, piece, delta);
+    let exact = std::cell::OnceCell::new();
+    for (name, poly) in [("mean", &iv.mean), ("cantelli", &iv.cantelli)] {
+        let ex = || {
+            let r = exact.get_or_init(|| restrict_exact(&o.contour, piece, delta));
+            if name == "mean" {
+                r.mean.clone()
+            } else {
+                r.cantelli.clone()
+            }
+        };
+        if !visit(name, decide(method, poly, &ex, settings)) {
+            return;
+        }
+    }
+}
+
 /// Verifies one obstacle over one piece, constraint by constraint.
 pub fn verify_obstacle(
     o: &Obstacle,
@@ -219,21 +248,9 @@ pub fn verify_obstacle(
     method: Method,
     settings: &sos::SosSettings,
 ) -> ObstacleReport {
-    let iv = restrict_interval(&o.contour, piece, delta);
-    let exact = std::cell::OnceCell::new();
-    let get_exact = || exact.get_or_init(|| restrict_exact(&o.contour, piece, delta)).clone();
     let mut constraints = Vec::with_capacity(2);
     let mut status = Status::Safe;
-    for (name, poly) in [("mean", &iv.mean), ("cantelli", &iv.cantelli)] {
-        let ex = || {
-            let r = get_exact();
-            if name == "mean" {
-                r.mean
-            } else {
-                r.cantelli
-            }
-        };
-        let vs = decide(method, poly, &ex, settings);
+    decide_obstacle(o, piece, delta, method, settings, |name, vs| {
         let st = combine(&vs);
         status = worst(status, st);
         let reports: Vec<(&'static str, MethodReport)> =
@@ -255,7 +272,8 @@ pub fn verify_obstacle(
             method: method.as_str().to_string(),
             methods: (method == Method::Both).then(|| reports.into_iter().map(|(m, r)| (m.to_string(), r)).collect()),
         });
-    }
+        true
+    });
     ObstacleReport { id: o.id.clone(), status, constraints }
 }
 
@@ -335,19 +353,13 @@ impl MotionChecker for SceneCertifier {
             return Motion::Rejected;
         }
         for o in &self.scene.obstacles {
-            let iv = restrict_interval(&o.contour, pr, &self.delta);
-            for (which, poly) in [(0, &iv.mean), (1, &iv.cantelli)] {
-                let ex = || {
-                    let r = restrict_exact(&o.contour, pr, &self.delta);
-                    if which == 0 {
-                        r.mean
-                    } else {
-                        r.cantelli
-                    }
-                };
-                if combine(&decide(self.method, poly, &ex, &self.settings)) != Status::Safe {
-                    return Motion::Rejected;
-                }
+            let mut safe = true;
+            decide_obstacle(o, pr, &self.delta, self.method, &self.settings, |_, vs| {
+                safe = combine(&vs) == Status::Safe;
+                safe
+            });
+            if !safe {
+                return Motion::Rejected;
             }
         }
         Motion::Accepted
