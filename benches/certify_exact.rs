@@ -1,4 +1,4 @@
-//! Speed of the Bernstein positivity checker (algorithms.md §3.5) on realistic
+//! Speed of the Bernstein positivity checker (docs/design.md §5.3) on realistic
 //! constraints: the Cantelli constraint `g1 = E[P]² − 0.9·E[P²]` (Δ = 0.1, eq. (10))
 //! and the mean constraint `g2 = −E[P]` of an uncertain disk, restricted to straight
 //! segments — the univariate polynomials eq. (15) asks about.

@@ -19,8 +19,12 @@
 //! Layers, bottom to top: [`poly`] and [`moments`] (L0) → [`contour`] and [`mc`]
 //! (L1) → [`scene`] (L2) → the command-line tool. The core does no I/O and has no
 //! async code.
+//!
+//! Section numbers (§) in the doc comments refer to `docs/design.md`, the project's
+//! design document; equation numbers refer to the paper.
 #![warn(missing_docs)]
 
+pub mod app;
 pub mod certify;
 pub mod contour;
 pub mod mc;
@@ -32,4 +36,5 @@ pub mod sdp;
 #[cfg(feature = "service")]
 pub mod service;
 pub mod verify;
+#[cfg(feature = "cli")]
 pub mod viz;

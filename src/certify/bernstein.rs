@@ -1,8 +1,8 @@
-//! Positivity on [0, 1] without an SDP: Bernstein subdivision (algorithms.md §3.5).
+//! Positivity on [0, 1] without an SDP: Bernstein subdivision (docs/design.md §5.3).
 //!
 //! The continuous-time safety condition of the paper, eq. (15) (`SOS_Cond`), asks
 //! whether a constraint restricted to a trajectory piece, `p(τ)`, is positive for
-//! every τ in [0, 1] (§3.1). Instead of an SOS certificate this module decides it
+//! every τ in [0, 1] (§5.1). Instead of an SOS certificate this module decides it
 //! directly from the Bernstein form of `p` on [0, 1]:
 //!
 //! ```text
@@ -17,7 +17,7 @@
 //!   bound on `p` there, so the smallest one over all leaves is the reported margin;
 //! * `b_0 ≤ 0` or `b_n ≤ 0`: `p` is non-positive at an end of the sub-interval, a
 //!   dyadic (hence exactly representable) τ — a witness of "unsafe". Touching, `p = 0`,
-//!   is unsafe by policy (§3.1);
+//!   is unsafe by policy (§5.1);
 //! * otherwise the sub-interval is halved, until [`DEFAULT_MAX_DEPTH`].
 //!
 //! Three entry points: [`check_interval`] (outward-rounded `f64` intervals, no heap
@@ -200,7 +200,7 @@ pub fn check(p: &UPoly<Interval>, exact: impl FnOnce() -> UPoly<BigRational>) ->
 }
 
 /// The Bernstein coefficients of `p` on [0, 1], exactly (`b_0 = p(0)`, `b_n = p(1)`;
-/// `max |b_k|` bounds `|p|` on [0, 1], the normalisation of algorithms.md §3.3).
+/// `max |b_k|` bounds `|p|` on [0, 1], the normalisation of docs/design.md §5.5).
 /// Empty for the zero polynomial.
 pub fn bernstein_coefficients(p: &UPoly<BigRational>) -> Vec<BigRational> {
     if p.is_zero() {
@@ -299,7 +299,7 @@ fn run_in_stack_buffer<const K: usize>(a: &[Interval], b: &[Interval], max_depth
     subdivide_interval(a, b, max_depth, &mut Slices { cur: &mut cur, tmp: &mut tmp, stack: &mut stack })
 }
 
-/// The depth-first work-list of §3.5 on interval Bernstein coefficients `b` of `a`.
+/// The depth-first work-list of §5.3 on interval Bernstein coefficients `b` of `a`.
 fn subdivide_interval(a: &[Interval], b: &[Interval], max_depth: u32, w: &mut Slices<'_>) -> Verdict {
     let m = b.len();
     let cur = &mut w.cur[..m];
@@ -345,7 +345,7 @@ enum Node {
     Split,
 }
 
-/// The tests of §3.5 on one node `[index/2^depth, (index+1)/2^depth]` with interval
+/// The tests of §5.3 on one node `[index/2^depth, (index+1)/2^depth]` with interval
 /// Bernstein coefficients `c` (of the polynomial with power coefficients `a`).
 fn visit(a: &[Interval], c: &[Interval], index: u64, depth: u32, max_depth: u32) -> Node {
     let n = c.len() - 1;

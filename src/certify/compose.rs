@@ -1,4 +1,4 @@
-//! Restriction of contour constraints to a trajectory piece (algorithms.md §3.1).
+//! Restriction of contour constraints to a trajectory piece (docs/design.md §5.1).
 //!
 //! For a piece `x(t) = Σ_k c_k t^k` on `[t0, t1]`, with `τ = (t − t0)/(t1 − t0)`,
 //! the restrictions `e1(τ) = E[P](x(t(τ)), t(τ))` and `e2(τ) = E[P²](…)` are

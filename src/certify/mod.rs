@@ -2,7 +2,7 @@
 //!
 //! A trajectory piece is safe for an obstacle over its whole time interval when both
 //! contour constraints composed with the piece are positive on the interval
-//! (algorithms.md §3). Everything here reduces to positivity of a univariate
+//! (docs/design.md §5). Everything here reduces to positivity of a univariate
 //! polynomial on [0, 1]; see [`Verdict`]. Two independent deciders: [`bernstein`]
 //! (exact subdivision, no SDP) and [`sos`] (the SOS certificate of eq. (15) on
 //! Clarabel, re-checked rigorously); [`sturm`] is the exact oracle of the tests.
@@ -10,8 +10,9 @@
 pub mod bernstein;
 mod compose;
 pub mod sos;
+#[cfg(any(test, feature = "test-support"))]
 pub mod sturm;
-#[doc(hidden)]
+#[cfg(any(test, feature = "test-support"))]
 pub mod testgen;
 mod verdict;
 

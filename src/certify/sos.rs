@@ -1,24 +1,24 @@
 //! The SOS certificate of eq. (15) (`SOS_Cond`) for one univariate constraint on
-//! [0, 1], solved with Clarabel and then **re-checked rigorously** (algorithms.md
-//! §3.2–§3.4).
+//! [0, 1], solved with Clarabel and then **re-checked rigorously** (docs/design.md
+//! §5.4–§5.6).
 //!
 //! Input: `p(τ)`, the restriction of a contour constraint to a trajectory piece with
-//! the piece's time interval already rescaled to τ ∈ [0, 1] (§3.1), as a
+//! the piece's time interval already rescaled to τ ∈ [0, 1] (§5.1), as a
 //! [`UPoly<Interval>`] whose coefficients are outward enclosures of the exact ones.
 //!
 //! # Method
 //!
-//! 1. **Markov–Lukács, single form (§3.2).** `p ≥ 0` on [0, 1] iff
+//! 1. **Markov–Lukács, single form (§5.4).** `p ≥ 0` on [0, 1] iff
 //!    `p = σ0 + τ(1−τ)σ1` with `σ0 = v_{e0}ᵀ Q0 v_{e0}`, `σ1 = v_{e0−1}ᵀ Q1 v_{e0−1}`,
 //!    `Q0, Q1 ⪰ 0`, `v_e = (1, τ, …, τ^e)` and `e0 = ⌈n/2⌉` (also exact for odd `n`).
-//! 2. **Margin maximisation (§3.3).** Normalise `p ← p/S`, `S = max_k |b_k|` over the
+//! 2. **Margin maximisation (§5.5).** Normalise `p ← p/S`, `S = max_k |b_k|` over the
 //!    Bernstein coefficients of the coefficient midpoints (just a scale, so `|p| ≲ 1`
 //!    on [0, 1] and tolerances are relative; kept in the [`Certificate`]). Then
 //!    `max γ  s.t.  p − γ = σ0 + τ(1−τ)σ1`: at the optimum `γ* = min_{[0,1]} p` (no
 //!    relaxation gap for univariate polynomials). Equality row `k = 0..2e0` reads
 //!    `γ[k=0] + [σ0]_k + [σ1]_{k−1} − [σ1]_{k−2} = p_k`, with `[σ]_k = Σ_{i+j=k} Q_ij`
 //!    (full symmetric sum: raw `Q_ij`, `i < j`, gets coefficient 2).
-//! 3. **Sound decision (§3.4).** A solver status is never a verdict:
+//! 3. **Sound decision (§5.6).** A solver status is never a verdict:
 //!    * status other than `Solved`/`AlmostSolved` → `Undecided(Solver(status))`;
 //!    * `γ̂ ≤ ε_acc` ([`EPS_ACC`]) → search for a witness (interval Horner at the dual
 //!      estimate `τ* = y1/y0` of the minimiser, Newton-refined, at 0, 1 and on a grid):
@@ -45,7 +45,7 @@
 //! * `|Σ r_k τ^k| ≤ Σ |r_k| τ^k ≤ Σ_k max|r_k|`.
 //!
 //! Hence `min_{[0,1]} p ≥ LB = γ̂ + min(λ0,0)·s0 + min(λ1,0)·s1/4 − Σ_k max|r_k|`,
-//! with `s0 = e0+1`, `s1 = e0` as in §3.4. `LB` is itself evaluated with outward
+//! with `s0 = e0+1`, `s1 = e0` as in §5.6. `LB` is itself evaluated with outward
 //! rounding and its lower end is used. The eigenvalue bounds are proven: take the
 //! float eigenvalue from nalgebra minus a slack ([`EIG_SLACK_REL`]) and show
 //! `Q̂ − λI ≻ 0` by an interval `LDLᵀ` whose pivots all have positive lower ends
@@ -71,7 +71,7 @@ use std::cell::RefCell;
 pub const EPS_ACC: f64 = 1e-7;
 
 /// Relative slack of the eigenvalue lower bound: `λ = λ̂ − δ` with
-/// `δ = EIG_SLACK_REL·N·(1 + ‖Q̂‖_F)` (§3.4). Larger is more conservative (a lower
+/// `δ = EIG_SLACK_REL·N·(1 + ‖Q̂‖_F)` (§5.6). Larger is more conservative (a lower
 /// `λ`, slightly smaller `LB`); soundness does not depend on it because `Q̂ − λI ≻ 0`
 /// is then *proven* by interval `LDLᵀ`. If that proof fails the slack is multiplied
 /// by [`EIG_SLACK_GROWTH`] up to [`EIG_SLACK_TRIES`] times.
@@ -130,7 +130,7 @@ impl Default for SosSettings {
     }
 }
 
-/// A floating-point Markov–Lukács certificate (§3.4): `p/scale − gamma` is claimed
+/// A floating-point Markov–Lukács certificate (§5.6): `p/scale − gamma` is claimed
 /// to equal `v0ᵀ q0 v0 + τ(1−τ) v1ᵀ q1 v1` up to small residuals. It proves nothing
 /// by itself; [`recheck`] turns it into a verdict independently of the solver.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -223,7 +223,7 @@ pub fn certify(p: &UPoly<Interval>, settings: &SosSettings) -> SosOutcome {
         }
     } else {
         // τ* = y1/y0 from the duals of the matching rows (moments of a measure on the
-        // minimisers, §3.3); any overall sign cancels.
+        // minimisers, §5.5); any overall sign cancels.
         let y = sol.duals(eq_rows);
         let mut cands = Vec::with_capacity(2);
         if let (Some(&y0), Some(&y1)) = (y.first(), y.get(1)) {
@@ -283,7 +283,7 @@ fn inverse_enclosure(s: f64) -> Option<Interval> {
 }
 
 /// `S = max_k |b_k|` over the Bernstein coefficients on [0, 1] of the polynomial with
-/// coefficients `a` (§3.5): `b_k = Σ_{i≤k} C(k,i)/C(n,i)·a_i`. Floating point: it is
+/// coefficients `a` (§5.3): `b_k = Σ_{i≤k} C(k,i)/C(n,i)·a_i`. Floating point: it is
 /// only a scale.
 pub fn bernstein_scale(a: &[f64]) -> f64 {
     let n = a.len().saturating_sub(1);
@@ -319,7 +319,7 @@ fn decide_linear(p: &UPoly<Interval>) -> Verdict {
     Verdict::Undecided(Undecided::MarginTooSmall(at0.mid().min(at1.mid())))
 }
 
-/// Where the pieces of the §3.3 SDP live in a [`Model`].
+/// Where the pieces of the §5.5 SDP live in a [`Model`].
 #[derive(Clone, Copy, Debug)]
 struct Layout {
     gamma: Var,
@@ -328,7 +328,7 @@ struct Layout {
     g1: GramBlock,
 }
 
-/// A prepared §3.3 SDP for one `e0` and one set of solver settings; only `b` (the
+/// A prepared §5.5 SDP for one `e0` and one set of solver settings; only `b` (the
 /// normalised coefficients) changes between polynomials of the same degree.
 struct CachedSdp {
     e0: usize,
@@ -395,7 +395,7 @@ fn solve_margin_sdp(rhs: &[f64], e0: usize, settings: &SosSettings) -> Result<(S
     })
 }
 
-/// The margin-maximisation SDP of §3.3 for normalised coefficients `p` (`len ≤ 2e0+1`).
+/// The margin-maximisation SDP of §5.5 for normalised coefficients `p` (`len ≤ 2e0+1`).
 fn build_model(p: &[f64], e0: usize) -> Result<(Model, Layout), SdpError> {
     let (s0, s1) = (e0 + 1, e0);
     let n_rows = 2 * e0 + 1;
@@ -439,7 +439,7 @@ fn push_antidiagonal(terms: &mut Vec<(Var, f64)>, g: &GramBlock, k: usize, sign:
     }
 }
 
-/// Witness search (§3.4 step 2): interval Horner on the *given* `p` at the candidates,
+/// Witness search (§5.6 step 2): interval Horner on the *given* `p` at the candidates,
 /// their Newton refinements, 0, 1 and a grid. `Unsafe` with the most negative proven
 /// value, else `Undecided(MarginTooSmall(margin))`.
 fn witness_or(p: &UPoly<Interval>, cands: &[f64], grid: usize, margin: f64) -> Verdict {

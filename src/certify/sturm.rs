@@ -1,7 +1,7 @@
-//! Exact oracle for positivity on [0, 1]: Sturm sequences (algorithms.md §3.6).
+//! Exact oracle for positivity on [0, 1]: Sturm sequences (docs/design.md §5.7).
 //!
 //! Slow but complete, this is the reference the fast certifiers of eq. (15)
-//! (`SOS_Cond`) are tested against (§3.7) and the source of exact minima for reports.
+//! (`SOS_Cond`) are tested against (§5.8) and the source of exact minima for reports.
 //!
 //! All arithmetic is exact. Polynomials are kept as primitive integer polynomials
 //! (a positive rational multiple of the input, so signs are unchanged); the Sturm
@@ -151,7 +151,7 @@ impl Tol {
 /// each critical point (root of `p'` in (0, 1), isolated with Sturm sequences) a Taylor
 /// bound `p(m) − Σ_{k≥1} |p^(k)(m)/k!| r^k` on `[m − r, m + r]`, refined by bisection
 /// until it is within `tol` of the best value found. This is the exact `min p` of
-/// algorithms.md §3.7 for the `|γ − min p|` checks of the SDP path.
+/// docs/design.md §5.8 for the `|γ − min p|` checks of the SDP path.
 pub fn min_on_unit(p: &UPoly<BigRational>, tol: &BigRational) -> MinEnclosure {
     min_enclosure(p, &Tol::Absolute(tol.abs()))
 }

@@ -1,5 +1,5 @@
 //! Seeded random univariate polynomials for testing and benchmarking the positivity
-//! checkers (algorithms.md §3.7, generator 1). Not part of the stable API.
+//! checkers (docs/design.md §5.8, generator 1). Not part of the stable API.
 //!
 //! Each [`Case`] is built in a time variable `t` on a random interval `[t1, t2]` as
 //!
@@ -11,7 +11,7 @@
 //! sometimes exactly at an end), a positive constant `c`, positive quadratic factors,
 //! a sign `s` and a perturbation `ε ∈ {0, ±10^-k·S}` (`k = 1..12`, `S` the size of the
 //! coefficients), and then composed with `t = t1 + (t2 − t1)·τ` by
-//! [`UPoly::compose_affine`], so the question is again `p > 0` for τ in [0, 1] (§3.1).
+//! [`UPoly::compose_affine`], so the question is again `p > 0` for τ in [0, 1] (§5.1).
 //! "Tangent" cases put only even-multiplicity roots inside with `p0 ≥ 0`, so that
 //! `±ε` makes them barely positive or barely negative.
 //!

@@ -1,9 +1,9 @@
 //! Verdicts of a positivity check of a univariate polynomial on [0, 1].
 //!
-//! Every certifier in riskplan reduces to one question (algorithms.md §3.1): given
+//! Every certifier in riskplan reduces to one question (docs/design.md §5.1): given
 //! `p(τ)`, the restriction of a contour constraint to a trajectory piece with the
 //! piece's time interval rescaled to τ ∈ [0, 1], is `p(τ) > 0` for every τ in
-//! [0, 1]? Strict positivity is required: touching the contour is unsafe (§2.2).
+//! [0, 1]? Strict positivity is required: touching the contour is unsafe (§3.2).
 //!
 //! Only [`Verdict::Safe`] may ever be treated as safe. [`Verdict::Undecided`] (a
 //! tangency the method cannot resolve, a solver failure) counts as not safe.

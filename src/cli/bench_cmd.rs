@@ -2,17 +2,14 @@
 //! scene × planner × seed, with the paper's times beside ours and a Monte Carlo audit
 //! of each returned plan. Prints a Markdown table and writes JSON lines.
 
-use super::util::{load_scene, print_out, CliError};
+use super::util::{load_scene, print_out, time_limit_arg, CliError};
 use clap::Args;
-use riskplan::mc::clopper_pearson;
-use riskplan::plan::{rrt_planner, McChecker, McCheckerParams, MotionChecker, Problem, Termination};
-use riskplan::scene::{Scene, Trajectory};
-use riskplan::verify::{Method, SceneCertifier};
+use riskplan::app::{PlanRequest, PlannerKind};
+use riskplan::verify::{audit_trajectory, AuditOptions};
 use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Duration;
 
 /// Benchmark the planners on the reference planning scenes.
 ///
@@ -24,8 +21,8 @@ use std::time::Duration;
 /// count of plans whose Clopper–Pearson lower bound (99%) exceeds Δ.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// Directory of scene files.
-    #[arg(long, default_value = "../shared/reference/scenes")]
+    /// Directory of scene files (default: the paper's experiments in the repository's scenes/).
+    #[arg(long, default_value = "scenes")]
     scenes: PathBuf,
     /// Seeds per planner and scene.
     #[arg(long, default_value_t = 5)]
@@ -52,34 +49,6 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
     Some(if v.len() % 2 == 1 { v[v.len() / 2] } else { 0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2]) })
 }
 
-/// (max estimated risk, plan exceeds Δ at 99%).
-fn audit(s: &Scene, t: &Trajectory, times: usize, samples: u64, seed: u64) -> (f64, bool) {
-    let Ok(model) = s.mc_model() else { return (f64::NAN, false) };
-    let delta = riskplan::poly::rational_to_f64(&s.risk);
-    let pts: Vec<Vec<f64>> = t
-        .pieces
-        .iter()
-        .flat_map(|pc| {
-            (0..times).map(move |k| {
-                let tt = pc.t0 + (pc.t1 - pc.t0) * k as f64 / (times.max(2) - 1) as f64;
-                let mut x = pc.at(tt);
-                x.push(tt);
-                x
-            })
-        })
-        .collect();
-    let hits = model.hits(&pts, samples, seed);
-    let mut worst = 0.0f64;
-    let mut exceeds = false;
-    for h in &hits {
-        for &k in h {
-            worst = worst.max(k as f64 / samples as f64);
-            exceeds |= clopper_pearson(k, samples, 0.98).0 > delta;
-        }
-    }
-    (worst, exceeds)
-}
-
 fn host() -> String {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
@@ -93,6 +62,7 @@ fn host() -> String {
 }
 
 pub fn run(a: BenchArgs) -> Result<i32, CliError> {
+    let time_limit = time_limit_arg(a.time_limit)?;
     let mut files: Vec<PathBuf> = std::fs::read_dir(&a.scenes)
         .map_err(|e| CliError(format!("--scenes {}: {e}", a.scenes.display())))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -125,38 +95,34 @@ pub fn run(a: BenchArgs) -> Result<i32, CliError> {
         let dynamic = scene.obstacles.iter().any(|o| o.contour.is_dynamic());
         let paper = scene.file.expected.as_ref().map(|e| e["run_time_s"].clone()).unwrap_or_default();
         let paper_t = |k: &str| paper[k]["paper"].as_f64().map(|v| format!("{v}")).unwrap_or_else(|| "–".into());
-        let mut variants: Vec<(&str, bool, bool, String)> = vec![];
+        let mut variants: Vec<(&str, PlannerKind, bool, String)> = vec![];
         if dynamic {
-            variants.push(("rrt-sos", false, false, paper_t("rrt_sos")));
+            variants.push(("rrt-sos", PlannerKind::RrtSos, false, paper_t("rrt_sos")));
         } else {
-            variants.push(("rrt-sos", false, false, paper_t("rrt_sos_feasible")));
-            variants.push(("rrt-sos --improve", true, false, paper_t("rrt_sos_optimal")));
+            variants.push(("rrt-sos", PlannerKind::RrtSos, false, paper_t("rrt_sos_feasible")));
+            variants.push(("rrt-sos --improve", PlannerKind::RrtSos, true, paper_t("rrt_sos_optimal")));
         }
-        variants.push(("mc-rrt", false, true, if dynamic { "–".into() } else { paper_t("monte_carlo_rrt_feasible") }));
-        for (label, improve, mc, paper_time) in variants {
+        let mc_paper = if dynamic { "–".into() } else { paper_t("monte_carlo_rrt_feasible") };
+        variants.push(("mc-rrt", PlannerKind::McRrt, false, mc_paper));
+        for (label, planner, improve, paper_time) in variants {
             let (mut times, mut lens, mut worst, mut over, mut solved) = (vec![], vec![], 0.0f64, 0, 0);
             for seed in 1..=a.seeds {
-                let problem = Problem::from_scene(scene.clone(), seed).map_err(|e| CliError(e.to_string()))?;
-                let mut planner = rrt_planner(&problem, None, improve).map_err(|e| CliError(e.to_string()))?;
-                let checker: Box<dyn MotionChecker> = if mc {
-                    Box::new(McChecker::new(
-                        scene.mc_model().map_err(|e| CliError(e.to_string()))?,
-                        scene.risk_f64(),
-                        McCheckerParams::default(),
-                        seed,
-                    ))
-                } else {
-                    Box::new(SceneCertifier::new(scene.clone(), problem.delta.clone(), Method::Exact))
-                };
-                let out = planner
-                    .solve(&problem, checker.as_ref(), &Termination::after(Duration::from_secs_f64(a.time_limit)))
-                    .map_err(|e| CliError(e.to_string()))?;
+                let request = PlanRequest { planner, improve, seed, time_limit, ..PlanRequest::default() };
+                let (_, out) = request.run(scene.clone(), None).map_err(|e| CliError(e.to_string()))?;
                 let mut rec = json!({"scene": scene.name, "planner": label, "seed": seed, "host": host, "git": rev, "time_limit_s": a.time_limit, "status": out.status, "certified": out.certified, "stats": out.stats});
                 if let Some(t) = &out.trajectory {
                     solved += 1;
                     times.push(out.stats.planning_time_s);
                     lens.push(out.stats.path_length.unwrap_or(f64::NAN));
-                    let (w, ex) = audit(&scene, t, a.audit_times, a.audit_samples, 7 + seed);
+                    let opts = AuditOptions {
+                        times_per_piece: a.audit_times,
+                        samples: a.audit_samples,
+                        seed: 7 + seed,
+                        ..AuditOptions::default()
+                    };
+                    let audit = audit_trajectory(&scene, t, scene.risk_f64(), &opts)
+                        .map_err(|e| CliError(format!("{}: Monte Carlo audit: {e}", scene.name)))?;
+                    let (w, ex) = (audit.max_estimate, audit.exceeds());
                     worst = worst.max(w);
                     over += ex as usize;
                     rec["audit"] = json!({"max_risk_estimate": w, "exceeds_delta_99": ex, "samples": a.audit_samples});

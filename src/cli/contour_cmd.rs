@@ -2,6 +2,7 @@
 
 use super::util::{delta_arg, exact_arg, load_scene, CliError};
 use clap::Args;
+use riskplan::contour::RiskLevel;
 use riskplan::poly::rational_to_f64;
 use riskplan::viz::{self, ContourOptions};
 use std::path::PathBuf;
@@ -58,9 +59,9 @@ fn parse_slice(s: &str) -> Result<(usize, f64), CliError> {
 pub fn run(a: ContourArgs) -> Result<i32, CliError> {
     let scene = load_scene(&a.scene)?;
     let deltas: Vec<f64> = if a.delta.is_empty() {
-        scene.risk_levels.iter().map(rational_to_f64).collect()
+        scene.risk_levels.iter().map(RiskLevel::to_f64).collect()
     } else {
-        a.delta.iter().map(|d| delta_arg(d).map(|q| rational_to_f64(&q))).collect::<Result<_, _>>()?
+        a.delta.iter().map(|d| delta_arg(d).map(|q| q.to_f64())).collect::<Result<_, _>>()?
     };
     let times: Vec<f64> = if a.time.is_empty() {
         vec![scene.horizon.0]

@@ -1,10 +1,11 @@
 //! `riskplan plan`: RRT-SOS (static or time-layered) and the Monte Carlo baseline.
 
-use super::util::{delta_arg, load_scene, print_out, CliError};
+use super::util::{delta_arg, load_scene, method_parser, planner_parser, print_out, time_limit_arg, CliError};
 use clap::Args;
-use riskplan::plan::{rrt_planner, McChecker, McCheckerParams, MotionChecker, PlanStatus, Problem, Termination};
+use riskplan::app::{PlanRequest, PlannerKind};
+use riskplan::plan::{PlanStatus, Problem, Termination};
 use riskplan::scene::{Scene, TrajectoryFile, TRAJECTORY_FORMAT};
-use riskplan::verify::{Method, SceneCertifier};
+use riskplan::verify::Method;
 use riskplan::viz::{self, ContourOptions, Overlay};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -29,8 +30,8 @@ pub struct PlanArgs {
     #[arg(long)]
     scene: PathBuf,
     /// Planner.
-    #[arg(long, default_value = "rrt-sos", value_parser = ["rrt-sos", "mc-rrt"])]
-    planner: String,
+    #[arg(long, default_value = "rrt-sos", value_parser = planner_parser())]
+    planner: PlannerKind,
     /// Run the improve step (static scenes): shortest path over all certified edges between tree vertices.
     #[arg(long)]
     improve: bool,
@@ -47,8 +48,8 @@ pub struct PlanArgs {
     #[arg(long)]
     delta: Option<String>,
     /// Certification method of rrt-sos edges.
-    #[arg(long, default_value = "exact", value_parser = ["exact", "sos", "both"])]
-    certifier: String,
+    #[arg(long, default_value = "exact", value_parser = method_parser())]
+    certifier: Method,
     /// Write the trajectory here instead of stdout.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -58,32 +59,23 @@ pub struct PlanArgs {
 }
 
 pub fn run(a: PlanArgs) -> Result<i32, CliError> {
-    if !(a.time_limit > 0.0 && a.time_limit.is_finite()) {
-        return Err(CliError(format!("--time-limit must be a positive number of seconds, got {}", a.time_limit)));
-    }
     let scene = Arc::new(load_scene(&a.scene)?);
-    let mut problem =
-        Problem::from_scene(scene.clone(), a.seed).map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
-    if let Some(d) = &a.delta {
-        problem.delta = delta_arg(d)?;
-    }
-    let mut planner = rrt_planner(&problem, a.pieces, a.improve).map_err(|e| CliError(e.to_string()))?;
-    let checker: Box<dyn MotionChecker> = if a.planner == "mc-rrt" {
-        let model = scene.mc_model().map_err(|e| CliError(format!("mc-rrt: {e}")))?;
-        Box::new(McChecker::new(
-            model,
-            riskplan::poly::rational_to_f64(&problem.delta),
-            McCheckerParams::default(),
-            a.seed,
-        ))
-    } else {
-        let method: Method = a.certifier.parse().map_err(CliError)?;
-        Box::new(SceneCertifier::new(scene.clone(), problem.delta.clone(), method))
+    let request = PlanRequest {
+        planner: a.planner,
+        certifier: a.certifier,
+        delta: a.delta.as_deref().map(delta_arg).transpose()?,
+        endpoints: None,
+        seed: a.seed,
+        pieces: a.pieces,
+        improve: a.improve,
+        time_limit: time_limit_arg(a.time_limit)?,
     };
-    let term = Termination::after(Duration::from_secs_f64(a.time_limit));
+    let mut prepared = request.prepare(scene.clone()).map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
+    let term = request.termination(None);
     let progress = Progress::start(term.clone());
-    let result = planner.solve(&problem, checker.as_ref(), &term);
+    let result = prepared.solve(&term);
     progress.finish();
+    let problem = prepared.problem;
     let outcome = result.map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
     let s = &outcome.stats;
     eprintln!(
@@ -110,12 +102,12 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
     let file = TrajectoryFile {
         format: TRAJECTORY_FORMAT.to_string(),
         pieces: traj.pieces,
-        planner: Some(a.planner.clone()),
+        planner: Some(a.planner.to_string()),
         certified: Some(outcome.certified),
         stats: serde_json::to_value(&outcome.stats).ok(),
         revision: None,
         scene: Some(scene.name.clone()),
-        risk: Some(riskplan::poly::rational_to_f64(&problem.delta)),
+        risk: Some(problem.delta.to_f64()),
     };
     let text = serde_json::to_string_pretty(&file).map_err(|e| CliError(e.to_string()))?;
     match &a.out {
@@ -169,7 +161,7 @@ fn draw_figure(
     });
     let slices = if scene.dim == 3 { vec![(2, 0.0)] } else { vec![] };
     let opts = ContourOptions {
-        deltas: vec![riskplan::poly::rational_to_f64(&p.delta)],
+        deltas: vec![p.delta.to_f64()],
         times,
         slices,
         grid: 250,

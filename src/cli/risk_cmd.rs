@@ -80,7 +80,7 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
             "bound_exact": r.bound.to_string(),
         });
         if let Some(d) = &delta {
-            entry["within_delta"] = json!(r.bound <= *d);
+            entry["within_delta"] = json!(&r.bound <= d.rational());
         }
         if let Some(mc) = &mc {
             let e = mc[i];

@@ -4,6 +4,10 @@ use super::util::CliError;
 use clap::Args;
 use riskplan::service::{serve, ServerConfig};
 use std::path::PathBuf;
+use std::time::Duration;
+
+/// How long shutdown waits for jobs still running after their plans were cancelled.
+const SHUTDOWN_GRACE: Duration = Duration::from_secs(1);
 
 /// Run the planning service over Zenoh (see proto/README.md for the protocol).
 ///
@@ -26,8 +30,9 @@ pub struct ServeArgs {
     /// Data directory: acknowledged scene updates are persisted here.
     #[arg(long, default_value = "riskplan-data")]
     data: PathBuf,
-    /// Load every *.json scene of this directory at start (name = file stem), unless stored already.
-    #[arg(long)]
+    /// Load every *.json scene of this directory at start (name = file stem), unless stored
+    /// already. `--preload` alone loads `scenes`: the paper's experiments in the repository.
+    #[arg(long, num_args = 0..=1, default_missing_value = "scenes", value_name = "DIR")]
     preload: Option<PathBuf>,
     /// Worker threads for certification and planning (default: the number of cores).
     #[arg(long)]
@@ -102,6 +107,10 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
         .max_blocking_threads(workers.max(1) + 4)
         .build()
         .map_err(|e| CliError(e.to_string()))?;
-    rt.block_on(serve(config)).map_err(CliError)?;
+    let served = rt.block_on(serve(config));
+    // Running plans were cancelled at shutdown; do not wait long for a job that is
+    // still finishing (a verify in progress): its client is gone with the server.
+    rt.shutdown_timeout(SHUTDOWN_GRACE);
+    served.map_err(CliError)?;
     Ok(0)
 }

@@ -1,6 +1,9 @@
 //! Helpers shared by subcommands: loading scenes, parsing exact numbers.
 
+use riskplan::app::PlannerKind;
+use riskplan::contour::RiskLevel;
 use riskplan::scene::{parse_num_text, Scene};
+use riskplan::verify::Method;
 use std::path::Path;
 
 /// A user-facing error: one line, printed as `error: ...`, exit status 2.
@@ -19,14 +22,29 @@ pub fn exact_arg(flag: &str, s: &str) -> Result<num_rational::BigRational, CliEr
     parse_num_text(s).ok_or_else(|| CliError(format!("{flag}: '{s}' is not a number (decimal or p/q)")))
 }
 
-/// Parses a risk level: a number in (0, 1).
-pub fn delta_arg(s: &str) -> Result<num_rational::BigRational, CliError> {
-    let d = exact_arg("--delta", s)?;
-    let f = riskplan::poly::rational_to_f64(&d);
-    if !(f > 0.0 && f < 1.0) {
-        return Err(CliError(format!("--delta: the risk level Δ must be in (0, 1), got {s}")));
-    }
-    Ok(d)
+/// Parses a risk level: a number in (0, 1), exactly.
+pub fn delta_arg(s: &str) -> Result<RiskLevel, CliError> {
+    RiskLevel::parse(s).map_err(|e| CliError(format!("--delta: {e}")))
+}
+
+/// `--time-limit`: positive, finite seconds.
+pub fn time_limit_arg(seconds: f64) -> Result<std::time::Duration, CliError> {
+    riskplan::app::time_limit(seconds).map_err(|e| match e {
+        riskplan::plan::PlanError::InvalidRequest { message, .. } => CliError(format!("--time-limit: {message}")),
+        other => CliError(other.to_string()),
+    })
+}
+
+/// `--planner`: the names of [`PlannerKind`], listed in `--help`.
+pub fn planner_parser() -> impl clap::builder::TypedValueParser<Value = PlannerKind> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(PlannerKind::ALL.map(|k| k.as_str())).try_map(|s| s.parse::<PlannerKind>())
+}
+
+/// `--method` / `--certifier`: exact, sos or both.
+pub fn method_parser() -> impl clap::builder::TypedValueParser<Value = Method> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(["exact", "sos", "both"]).try_map(|s| s.parse::<Method>())
 }
 
 /// Writes `text` and a newline to stdout; a closed pipe (`| head`) is not an error.

@@ -1,6 +1,6 @@
 //! `riskplan verify`: certify a trajectory against a scene.
 
-use super::util::{delta_arg, load_scene, print_out, CliError};
+use super::util::{delta_arg, load_scene, method_parser, print_out, CliError};
 use clap::Args;
 use riskplan::scene::Trajectory;
 use riskplan::verify::{verify, Method};
@@ -26,8 +26,8 @@ pub struct VerifyArgs {
     #[arg(long)]
     trajectory: PathBuf,
     /// Decision method: exact (Bernstein), sos (eq. 15 on Clarabel) or both.
-    #[arg(long, default_value = "exact", value_parser = ["exact", "sos", "both"])]
-    method: String,
+    #[arg(long, default_value = "exact", value_parser = method_parser())]
+    method: Method,
     /// Risk level Δ (default: the scene's risk).
     #[arg(long)]
     delta: Option<String>,
@@ -47,8 +47,7 @@ pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
         Some(d) => delta_arg(d)?,
         None => scene.risk.clone(),
     };
-    let method: Method = a.method.parse().map_err(CliError)?;
-    let report = verify(&scene, &traj, &delta, method, &Default::default());
+    let report = verify(&scene, &traj, &delta, a.method, &Default::default());
     let out = if a.compact { serde_json::to_string(&report) } else { serde_json::to_string_pretty(&report) };
     print_out(&out.map_err(|e| CliError(e.to_string()))?)?;
     Ok(if report.safe { 0 } else { 1 })

@@ -3,7 +3,7 @@
 //!
 //! For an obstacle `{x : P(x, ω, t) ≥ 0}` the contour polynomials are E[P] and E[P²]
 //! in (x, t), computed once from the moments of ω and kept ([`RiskContour`]). For a
-//! risk level Δ they give the two constraints of algorithms.md §2.2,
+//! risk level Δ they give the two constraints of docs/design.md §3.2,
 //!
 //! ```text
 //! g1 = E[P]² − (1−Δ)·E[P²] ≥ 0      (Cantelli, Theorem 1)
@@ -12,7 +12,7 @@
 //!
 //! and, at a point, the bound `(E[P²] − E[P]²) / E[P²]` on the probability of
 //! collision where `E[P] ≤ 0` (1 elsewhere). The guarantee is per obstacle and per
-//! instant (§2.1, §8.13).
+//! instant (§3.1, §1.1).
 
 use crate::poly::{rational_to_f64, Interval, Poly, QPoly, Var};
 use num_rational::BigRational;
@@ -55,7 +55,7 @@ impl Layout {
     }
 }
 
-/// The constraints of one obstacle at one risk level (algorithms.md §2.2).
+/// The constraints of one obstacle at one risk level (docs/design.md §3.2).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Constraints {
     /// `g1 = E[P]² − (1−Δ)·E[P²]` (degree `2·deg P`).
@@ -110,7 +110,7 @@ pub struct RiskContour {
 impl RiskContour {
     /// Builds E[P] and E[P²] from the obstacle polynomial and the raw moments of its
     /// parameters (`moment(ω, k)` = E[ω^k]). Squares first, then takes expectations
-    /// (E[P²] ≠ E[P]², algorithms.md §1.2).
+    /// (E[P²] ≠ E[P]², docs/design.md §2.3).
     pub fn new(
         layout: Layout,
         p: &QPoly,
@@ -144,13 +144,13 @@ impl RiskContour {
         self.layout
     }
 
-    /// `D`: the largest total degree in (x, t) of E[P] (algorithms.md §2.3);
+    /// `D`: the largest total degree in (x, t) of E[P] (docs/design.md §3.3);
     /// `deg g2 = D`, `deg g1 ≤ 2D`.
     pub fn degree(&self) -> u32 {
         self.mean.degree()
     }
 
-    /// The constraints `g1`, `g2` at risk level Δ (§2.2).
+    /// The constraints `g1`, `g2` at risk level Δ (§3.2).
     pub fn constraints(&self, delta: &BigRational) -> Constraints {
         let one_minus = BigRational::one() - delta;
         Constraints { cantelli: self.mean.mul(&self.mean).sub(&self.second.scale(&one_minus)), mean: self.mean.neg() }
@@ -187,6 +187,65 @@ impl RiskContour {
         let mut v = xt.to_vec();
         v.resize(self.layout.xt_len(), zero);
         v
+    }
+}
+
+/// A risk level Δ, validated once: an exact rational strictly between 0 and 1.
+///
+/// Every front end (scene files, CLI flags, service requests) makes one with
+/// [`RiskLevel::new`], [`RiskLevel::from_f64`] or [`RiskLevel::parse`], so the rule
+/// "Δ ∈ (0, 1)" is checked in one place and in exact arithmetic (a float such as
+/// `1 − 1e-17` that rounds to 1 is judged by its exact value).
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct RiskLevel(BigRational);
+
+/// A number that is not a valid risk level.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("the risk level Δ must be in (0, 1), got {0}")]
+pub struct RiskLevelError(pub String);
+
+impl RiskLevel {
+    /// Δ = `q` if `0 < q < 1`.
+    pub fn new(q: BigRational) -> Result<RiskLevel, RiskLevelError> {
+        if q.is_positive() && q < BigRational::one() {
+            Ok(RiskLevel(q))
+        } else {
+            Err(RiskLevelError(q.to_string()))
+        }
+    }
+    /// Δ from a float, read as its shortest decimal (`0.1` is 1/10, as in scene files).
+    pub fn from_f64(d: f64) -> Result<RiskLevel, RiskLevelError> {
+        let q = crate::poly::f64_shortest_decimal(d).ok_or_else(|| RiskLevelError(d.to_string()))?;
+        RiskLevel::new(q).map_err(|_| RiskLevelError(d.to_string()))
+    }
+    /// Δ from text: a decimal (`0.1`, `1e-3`) or a fraction (`1/10`), exactly.
+    pub fn parse(s: &str) -> Result<RiskLevel, RiskLevelError> {
+        let q = match s.split_once('/') {
+            Some((a, b)) => {
+                let (a, b) = (crate::poly::parse_decimal(a), crate::poly::parse_decimal(b));
+                match (a, b) {
+                    (Some(a), Some(b)) if !b.is_zero() => Some(a / b),
+                    _ => None,
+                }
+            }
+            None => crate::poly::parse_decimal(s),
+        };
+        let q = q.ok_or_else(|| RiskLevelError(format!("'{s}' (not a number)")))?;
+        RiskLevel::new(q).map_err(|_| RiskLevelError(s.to_string()))
+    }
+    /// The exact value.
+    pub fn rational(&self) -> &BigRational {
+        &self.0
+    }
+    /// The nearest float (for displays and sampling checks, never for decisions).
+    pub fn to_f64(&self) -> f64 {
+        rational_to_f64(&self.0)
+    }
+}
+
+impl std::fmt::Display for RiskLevel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.to_f64())
     }
 }
 
@@ -234,7 +293,7 @@ mod tests {
         assert_eq!(c.degree(), 2);
     }
 
-    /// The 0.1-contour is the circle of radius 0.428948 (algorithms.md §2.4).
+    /// The 0.1-contour is the circle of radius 0.428948 (docs/design.md §3.4).
     #[test]
     fn contour_radius_matches_closed_form() {
         let (c, _) = example1();

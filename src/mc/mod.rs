@@ -1,4 +1,4 @@
-//! Monte Carlo estimates of the true risk Prob(P(x, ω, t) ≥ 0) (algorithms.md §7) —
+//! Monte Carlo estimates of the true risk Prob(P(x, ω, t) ≥ 0) (docs/design.md §7) —
 //! layer L1. These are *estimates* used to audit the certified bounds, never to
 //! certify anything.
 //!
@@ -41,7 +41,7 @@ impl McEstimate {
 
 /// The exact binomial confidence interval of Clopper and Pearson at two-sided level
 /// `confidence`: `[B⁻¹(α/2; k, n−k+1), B⁻¹(1−α/2; k+1, n−k)]`, with 0 when `k = 0`
-/// and 1 when `k = n` (algorithms.md §7.1).
+/// and 1 when `k = n` (docs/design.md §7.1).
 pub fn clopper_pearson(k: u64, n: u64, confidence: f64) -> (f64, f64) {
     if n == 0 {
         return (0.0, 1.0);

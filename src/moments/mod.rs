@@ -2,8 +2,8 @@
 //!
 //! Every family of scene format v1 has rational moments when its parameters are
 //! rational, so moments are computed exactly as [`BigRational`]s with the
-//! recurrences of algorithms.md §1.1. This sidesteps the cancellation in
-//! E[P²] − E[P]² that floats suffer when a mean dominates its spread (§1.3).
+//! recurrences of docs/design.md §2.1. This sidesteps the cancellation in
+//! E[P²] − E[P]² that floats suffer when a mean dominates its spread (§1.4).
 //! [`Sampler`] draws the same distributions with `rand_distr` for Monte Carlo.
 
 mod sample;
@@ -185,7 +185,7 @@ impl Distribution {
     }
 
     /// Raw moments `m_0 = 1, m_1, ..., m_k` (exact). For `moments`, fails when fewer
-    /// than `k` are given or when they are not a moment sequence (Hankel check, §1.3).
+    /// than `k` are given or when they are not a moment sequence (Hankel check, §1.4).
     pub fn raw_moments(&self, k: u32) -> Result<Vec<BigRational>, MomentError> {
         let k = k as usize;
         let mut m = vec![q(1)];

@@ -1,4 +1,4 @@
-//! Seeded sampling of parameter distributions (algorithms.md §7.1), via `rand_distr`.
+//! Seeded sampling of parameter distributions (docs/design.md §7.1), via `rand_distr`.
 
 use super::{Distribution, MomentError};
 use crate::poly::rational_to_f64;

@@ -9,7 +9,7 @@ fn dec(s: &str) -> BigRational {
     crate::poly::parse_decimal(s).unwrap()
 }
 
-/// Test vectors of algorithms.md §1.4.
+/// Test vectors of docs/design.md §2.4.
 #[test]
 fn closed_form_test_vectors() {
     let u = Distribution::Uniform { low: dec("0.3"), high: dec("0.4") };

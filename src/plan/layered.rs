@@ -1,5 +1,5 @@
 //! Time-layered RRT-SOS for moving obstacles (Section V-B; authors'
-//! `RRT_SOS_Dynamic.m`, algorithms.md §4.4). With `s` pieces on equal time
+//! `RRT_SOS_Dynamic.m`, docs/design.md §6.4). With `s` pieces on equal time
 //! intervals `t_i = t0 + i(tf − t0)/s`, layer `i` holds positions at time `t_i`; an
 //! edge from layer `i−1` to layer `i` is the constant-velocity motion between them
 //! and is certified **only on its own interval** `[t_{i−1}, t_i]`, against moving
@@ -14,7 +14,7 @@ use super::rrt::steer;
 use super::sampling::{width_range, StripeSampler};
 use super::{
     check_endpoints, dist, nearest, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats, PlanStatus,
-    Planner, PlannerSpecs, Problem, Termination,
+    Planner, Problem, Termination,
 };
 use crate::scene::{Piece, Trajectory};
 use rand::SeedableRng;
@@ -234,12 +234,6 @@ impl Planner for LayeredRrt {
     fn name(&self) -> &'static str {
         "rrt-sos"
     }
-
-    fn specs(&self) -> PlannerSpecs {
-        PlannerSpecs { optimizing: false, dynamic: true }
-    }
-
-    fn clear(&mut self) {}
 
     fn solve(
         &mut self,

@@ -1,5 +1,5 @@
 //! The Monte Carlo motion checker of the paper's baseline (Section V-A.3,
-//! Illustrative Example 3; algorithms.md §7.3): `K` fresh uncertainty scenarios per
+//! Illustrative Example 3; docs/design.md §7.3): `K` fresh uncertainty scenarios per
 //! edge, `W` evenly spaced waypoints `τ_k = k/(W−1)`; an edge is accepted iff at
 //! every waypoint, for every obstacle, the fraction of scenarios in collision is
 //! at most Δ. **Not sound**: an accepted edge carries no guarantee, and planners

@@ -13,6 +13,7 @@ mod layered;
 mod mc_checker;
 mod rrt;
 mod sampling;
+#[cfg(any(test, feature = "test-support"))]
 pub mod testing;
 
 pub use layered::{LayeredParams, LayeredRrt};
@@ -20,8 +21,8 @@ pub use mc_checker::{McChecker, McCheckerParams};
 pub use rrt::{RrtParams, StaticRrt};
 pub use sampling::StripeSampler;
 
+use crate::contour::RiskLevel;
 use crate::scene::{Piece, Scene, Trajectory};
-use num_rational::BigRational;
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -39,8 +40,8 @@ pub struct Problem {
     pub goal: Vec<f64>,
     /// `[t0, tf]`.
     pub horizon: (f64, f64),
-    /// Risk level Δ (exact).
-    pub delta: BigRational,
+    /// Risk level Δ (exact, validated).
+    pub delta: RiskLevel,
     /// Seed of the planner's RNG.
     pub seed: u64,
 }
@@ -62,16 +63,10 @@ impl Problem {
         self.scene.obstacles.iter().any(|o| o.contour.is_dynamic())
     }
 
-    /// Checks the request: dimensions, workspace, Δ in (0, 1), a non-empty horizon.
+    /// Checks the request: dimensions, workspace, a non-empty horizon (Δ is a
+    /// [`RiskLevel`], valid by construction).
     pub fn validate(&self) -> Result<(), PlanError> {
         let s = &self.scene;
-        let d = crate::poly::rational_to_f64(&self.delta);
-        if !(d > 0.0 && d < 1.0) {
-            return Err(PlanError::InvalidRequest {
-                field: "delta".into(),
-                message: format!("the risk level Δ must be in (0, 1), got {d}"),
-            });
-        }
         if !self.horizon.0.is_finite() || !self.horizon.1.is_finite() || self.horizon.0 >= self.horizon.1 {
             return Err(PlanError::InvalidRequest { field: "horizon".into(), message: "needs finite t0 < tf".into() });
         }
@@ -304,38 +299,14 @@ pub enum PlanError {
     },
 }
 
-impl PlanError {
-    /// A stable snake_case code for wire protocols and exit messages.
-    pub fn code(&self) -> &'static str {
-        match self {
-            PlanError::InvalidRequest { .. } => "invalid_request",
-            PlanError::OutsideWorkspace { .. } => "outside_workspace",
-            PlanError::UnsafeEndpoint { .. } => "unsafe_endpoint",
-            PlanError::InvalidOption { .. } => "invalid_option",
-        }
-    }
-}
-
-/// What a planner can do.
-#[derive(Clone, Copy, Debug, Serialize)]
-pub struct PlannerSpecs {
-    /// Improves its first solution when asked.
-    pub optimizing: bool,
-    /// Handles moving obstacles.
-    pub dynamic: bool,
-}
-
-/// A planner. `solve` may be called again after `clear`.
+/// A planner. Each `solve` starts afresh: the same problem (and seed) gives the same
+/// outcome however often it is called.
 pub trait Planner: Send {
     /// Name (`rrt-sos`, `mc-rrt`, ...).
     fn name(&self) -> &'static str;
-    /// Capabilities.
-    fn specs(&self) -> PlannerSpecs;
     /// Plans, polling `term`.
     fn solve(&mut self, p: &Problem, checker: &dyn MotionChecker, term: &Termination)
         -> Result<PlanOutcome, PlanError>;
-    /// Forgets any state of a previous run.
-    fn clear(&mut self);
 }
 
 /// Checks start and goal: inside the workspace and strictly inside every Δ-contour.

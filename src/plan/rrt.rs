@@ -1,5 +1,5 @@
 //! RRT-SOS for static scenes (Section V-A.3; authors' `RRT_SOS_Static.m`,
-//! algorithms.md §4.1–4.3): straight edges, nearest vertex, widening-stripe
+//! docs/design.md §6.1–§6.3): straight edges, nearest vertex, widening-stripe
 //! sampling, a goal-connection test after every accepted vertex, and the optional
 //! improve step (a graph of all certified edges between tree vertices, shortest
 //! path by Dijkstra). Every edge is judged by the [`MotionChecker`] — for RRT-SOS,
@@ -14,7 +14,7 @@
 use super::sampling::{width_range, StripeSampler};
 use super::{
     check_endpoints, constant_speed, dist, nearest, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome,
-    PlanStats, PlanStatus, Planner, PlannerSpecs, Problem, Termination,
+    PlanStats, PlanStatus, Planner, Problem, Termination,
 };
 use crate::scene::{Piece, Trajectory};
 use rand::SeedableRng;
@@ -147,12 +147,6 @@ impl Planner for StaticRrt {
     fn name(&self) -> &'static str {
         "rrt-sos"
     }
-
-    fn specs(&self) -> PlannerSpecs {
-        PlannerSpecs { optimizing: true, dynamic: false }
-    }
-
-    fn clear(&mut self) {}
 
     fn solve(
         &mut self,

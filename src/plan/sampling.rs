@@ -1,5 +1,5 @@
 //! Widening-stripe sampling around the start–goal line (Section V-A.3's "smart
-//! initialization"; algorithms.md §4.3): points are drawn uniformly in the
+//! initialization"; docs/design.md §6.3): points are drawn uniformly in the
 //! workspace and kept when within the current half-width of the infinite line
 //! through start and goal. The half-width grows with a stripe index chosen by the
 //! planner; past the last width the stripe is the whole workspace.
@@ -33,7 +33,7 @@ impl StripeSampler {
     }
 
     /// Distance of `p` from the line: `‖p − proj(p)‖`, correct in any dimension
-    /// (the authors' 3-D sampler measured the foot point's norm instead, §4.3).
+    /// (the authors' 3-D sampler measured the foot point's norm instead, §6.3).
     pub fn dist_to_line(&self, p: &[f64]) -> f64 {
         let v: Vec<f64> = p.iter().zip(&self.start).map(|(a, b)| a - b).collect();
         let along: f64 = v.iter().zip(&self.dir).map(|(a, b)| a * b).sum();

@@ -1,5 +1,5 @@
 //! The conformance harness every planner must pass (after OMPL's `PlannerTest`):
-//! solve, clear, solve again with the same seed and get the same trajectory; an
+//! solve, solve again with the same seed and get the same trajectory; an
 //! already-expired termination and a set cancel flag return promptly without a
 //! plan; every returned trajectory is continuous, starts at the start at t0, ends
 //! at the goal at tf, and every piece is accepted by the checker.
@@ -34,8 +34,7 @@ pub fn conformance(planner: &mut dyn Planner, p: &Problem, checker: &dyn MotionC
         assert_eq!(checker.check(pc), Motion::Accepted, "{name}: a returned piece is not accepted");
     }
     assert_eq!(out.certified, checker.sound(), "{name}: certified flag");
-    // Same seed, same plan (after clear).
-    planner.clear();
+    // Same seed, same plan.
     let again = planner.solve(p, checker, &Termination::after(budget)).unwrap_or_else(|e| panic!("{name}: {e}"));
     assert_eq!(again.trajectory, out.trajectory, "{name}: same seed gave a different plan");
     // An expired termination returns at once without a plan.

@@ -3,7 +3,7 @@
 //! Every operation computes the round-to-nearest result and then widens it by one
 //! ulp in each direction (`next_down`/`next_up`). Round-to-nearest errs by at most
 //! half an ulp, so the widened interval always contains the exact result of the
-//! operation on any reals in the operands (algorithms.md §3.5). This makes "all
+//! operation on any reals in the operands (docs/design.md §5.3). This makes "all
 //! lower bounds > 0" a proof of positivity, at a cost of a few ulps of width.
 
 use num_rational::BigRational;

@@ -2,11 +2,11 @@
 //!
 //! A [`Poly`] maps [`Monomial`]s to coefficients of a [`Ring`]. Variables are small
 //! integers ([`Var`]); names live in a [`VarTable`] owned by whoever parses the text
-//! (a scene numbers them `x1..xn, t, ω1..ωp`, algorithms.md §0.1).
+//! (a scene numbers them `x1..xn, t, ω1..ωp`, docs/design.md §1.2).
 //!
 //! Operations: `+ - *`, powers, substitution of a variable by a polynomial
 //! (composition), evaluation, degree per variable, the expectation operator E[·]
-//! over independent parameters (§1.2), and printing that [`parse`] reads back.
+//! over independent parameters (§2.3), and printing that [`parse`] reads back.
 
 mod interval;
 mod parse;
@@ -351,7 +351,7 @@ impl<C: Ring> Poly<C> {
 
     /// Composes with univariate polynomials: every variable `v` that occurs is replaced by
     /// `subs[v]` (a polynomial in one common variable τ). Used to restrict a constraint
-    /// g(x, t) to a trajectory piece (algorithms.md §3.1).
+    /// g(x, t) to a trajectory piece (docs/design.md §5.1).
     ///
     /// # Panics
     /// If a variable that occurs has no entry in `subs` (a caller bug).
@@ -386,7 +386,7 @@ impl<C: Ring> Poly<C> {
         Some(UPoly::new(coeffs))
     }
 
-    /// The expectation operator over independent parameters (algorithms.md §1.2):
+    /// The expectation operator over independent parameters (docs/design.md §2.3):
     /// every monomial's parameter part `Π ωj^βj` becomes `Π moment(ωj, βj)`.
     ///
     /// `moment` returns `None` when a moment is unavailable; the first such

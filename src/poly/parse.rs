@@ -1,4 +1,4 @@
-//! Parser for the polynomial text of scene format v1 (`shared/reference/README.md`):
+//! Parser for the polynomial text of scene format v1 (`docs/formats.md`):
 //! numbers (`0.3`, `1e-3`, `37/300`), identifiers, `+ - * ^`, parentheses, unary
 //! minus; `^` takes a non-negative integer literal; `/` divides by a constant only.
 //!
@@ -10,7 +10,7 @@
 //! power  := atom ('^' INTEGER)?
 //! atom   := NUMBER | IDENT | '(' expr ')'
 //! ```
-//! Numbers are read exactly as rationals (algorithms.md §1.3). Every error names the
+//! Numbers are read exactly as rationals (docs/design.md §1.4). Every error names the
 //! column (1-based character position) and what was expected there.
 
 use super::ring::parse_decimal;

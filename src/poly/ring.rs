@@ -1,9 +1,9 @@
 //! The coefficient rings polynomials are generic over.
 //!
 //! Three rings matter to riskplan: exact rationals ([`BigRational`]) for the
-//! contour polynomials E[P], E[P²] (algorithms.md §1.3: exact arithmetic makes
+//! contour polynomials E[P], E[P²] (docs/design.md §1.4: exact arithmetic makes
 //! certification reproducible), `f64` for plotting and sampling, and
-//! outward-rounded [`Interval`]s for fast *sound* certification (§3.5).
+//! outward-rounded [`Interval`]s for fast *sound* certification (§5.3).
 
 use super::interval::Interval;
 use num_bigint::BigInt;
@@ -152,7 +152,7 @@ pub fn f64_to_rational(f: f64) -> Option<BigRational> {
 /// Parses decimal text exactly: `"0.3"` is 3/10, `"1e-3"` is 1/1000, `"-2.5E2"` is -250.
 ///
 /// Returns `None` when the text is not a decimal number. This is the policy of
-/// algorithms.md §1.3: scene numbers are exact rationals, not binary floats.
+/// docs/design.md §1.4: scene numbers are exact rationals, not binary floats.
 pub fn parse_decimal(s: &str) -> Option<BigRational> {
     let s = s.trim();
     let (neg, body) = match s.strip_prefix('-') {

@@ -1,5 +1,5 @@
 //! Dense univariate polynomials `Σ c_k τ^k`, the form every certification works on
-//! (a constraint restricted to a trajectory piece, algorithms.md §3.1).
+//! (a constraint restricted to a trajectory piece, docs/design.md §5.1).
 
 use super::ring::Ring;
 

@@ -1,4 +1,4 @@
-//! The serde shape of scene format v1 (`shared/reference/README.md`). Unknown
+//! The serde shape of scene format v1 (`docs/formats.md`). Unknown
 //! fields are errors: they are probably typos.
 
 use super::num::Num;

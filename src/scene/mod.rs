@@ -16,12 +16,12 @@ pub use trajectory::{
     TRAJECTORY_FORMAT,
 };
 
-use crate::contour::{ContourError, Layout, RiskContour};
+use crate::contour::{ContourError, Layout, RiskContour, RiskLevel, RiskLevelError};
 use crate::mc::McModel;
 use crate::moments::{Distribution, MomentError};
 use crate::poly::{parse, rational_to_f64, QPoly, Var, VarTable};
 use num_rational::BigRational;
-use num_traits::{One, Signed};
+use num_traits::Signed;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use thiserror::Error;
@@ -125,9 +125,9 @@ pub struct Scene {
     /// `[t0, tf]`.
     pub horizon: (f64, f64),
     /// Δ, exact.
-    pub risk: BigRational,
+    pub risk: RiskLevel,
     /// Levels for contour figures (`risk_levels`, else `[risk]`).
-    pub risk_levels: Vec<BigRational>,
+    pub risk_levels: Vec<RiskLevel>,
     /// Parameters, in variable order.
     pub params: Vec<Param>,
     /// Obstacles, in file order.
@@ -236,7 +236,7 @@ impl Scene {
 
     /// Δ as `f64`.
     pub fn risk_f64(&self) -> f64 {
-        rational_to_f64(&self.risk)
+        self.risk.to_f64()
     }
 
     /// The obstacle with this id.
@@ -245,7 +245,7 @@ impl Scene {
     }
 
     /// A Monte Carlo model of the scene: parameters sampled jointly per scenario, so
-    /// a parameter named by two obstacles is one random variable (algorithms.md §7.1).
+    /// a parameter named by two obstacles is one random variable (docs/design.md §7.1).
     pub fn mc_model(&self) -> Result<McModel, SceneError> {
         let mut samplers = Vec::new();
         for p in &self.params {
@@ -343,11 +343,8 @@ fn validate_horizon(h: &[Num]) -> Result<(f64, f64), SceneError> {
 }
 
 /// Δ must lie in the open interval (0, 1).
-pub fn validate_risk(path: &str, d: &Num) -> Result<BigRational, SceneError> {
-    if !d.0.is_positive() || d.0 >= BigRational::one() {
-        return Err(err(path, format!("the risk level Δ must be in (0, 1), got {}", d.f64())));
-    }
-    Ok(d.0.clone())
+pub fn validate_risk(path: &str, d: &Num) -> Result<RiskLevel, SceneError> {
+    RiskLevel::new(d.0.clone()).map_err(|_| err(path, RiskLevelError(d.f64().to_string()).to_string()))
 }
 
 fn is_identifier(s: &str) -> bool {
@@ -431,7 +428,7 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
     Ok(out)
 }
 
-/// Raw moments of every parameter up to `2·max deg` over the obstacles (§1.1: E[P²]).
+/// Raw moments of every parameter up to `2·max deg` over the obstacles (§2.1: E[P²]).
 fn needed_moments(polys: &[QPoly], params: &[Param]) -> Result<BTreeMap<Var, Vec<BigRational>>, SceneError> {
     let mut out = BTreeMap::new();
     for p in params {

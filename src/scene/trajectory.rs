@@ -1,4 +1,4 @@
-//! Trajectory format v1 (`shared/reference/README.md`): pieces `x_d(t) = Σ_k
+//! Trajectory format v1 (`docs/formats.md`): pieces `x_d(t) = Σ_k
 //! coeffs[d][k]·t^k` on `[t0, t1]` in absolute time, contiguous in time.
 //!
 //! Trajectory numbers are `f64` and are taken *as they are*: the certified

@@ -1,4 +1,4 @@
-//! A small conic modelling layer over Clarabel (algorithms.md §0.2) — the only
+//! A small conic modelling layer over Clarabel (docs/design.md §4) — the only
 //! place in the crate that talks to the solver.
 //!
 //! Clarabel solves `min qᵀx  s.t.  A x + s = b,  s ∈ K` (we never use the quadratic
@@ -6,7 +6,7 @@
 //! order. A [`Model`] collects
 //!
 //! * scalar variables ([`Model::add_var`]);
-//! * **Gram blocks** `Q ⪰ 0` ([`Model::add_gram`], pattern 1 of §0.2): one variable per
+//! * **Gram blocks** `Q ⪰ 0` ([`Model::add_gram`], pattern 1, docs/design.md §4.2): one variable per
 //!   upper-triangle entry holding the *raw* value `Q_ij` (`i ≤ j`), in Clarabel's svec
 //!   order (column-major upper triangle, position `j(j+1)/2 + i`), plus `N(N+1)/2`
 //!   PSD rows with `A = −1` (diagonal) or `A = −√2` (off-diagonal) and `b = 0`, so the
@@ -261,7 +261,7 @@ impl PsdBlock {
     }
 }
 
-/// A PSD Gram block `Q ⪰ 0` of a [`Model`] (pattern 1 of algorithms.md §0.2).
+/// A PSD Gram block `Q ⪰ 0` of a [`Model`] (pattern 1, docs/design.md §4.2).
 ///
 /// Its `N(N+1)/2` variables hold the raw upper-triangle entries `Q_ij`, `i ≤ j`, in
 /// svec order (`svec_index(i, j)`); its cone rows are described by [`GramBlock::psd`].
@@ -652,7 +652,7 @@ impl Model {
         Ok(self.push_block(ConeKind::Soc, es.len()))
     }
 
-    /// A new Gram block `Q ⪰ 0` of side `side ≥ 1` (pattern 1 of §0.2): `side(side+1)/2`
+    /// A new Gram block `Q ⪰ 0` of side `side ≥ 1` (pattern 1, docs/design.md §4.2): `side(side+1)/2`
     /// new variables (raw `Q_ij`, svec order) and the cone rows of `Q ⪰ 0`: PSD rows
     /// `s = svec(Q)` (coefficients −1 on the diagonal, −√2 off it), or the equivalent
     /// small form for side ≤ 2 (see [`PsdForm`], [`Model::set_force_psd_triangle`]).
@@ -671,7 +671,7 @@ impl Model {
     }
 
     /// The affine matrix inequality `M(x) = M0 + Σ_k x_k M_k ⪰ 0` of side `side ≥ 1`
-    /// (pattern 2 of §0.2). `entries` holds the *raw* (unscaled) entries `M(x)_ij`,
+    /// (pattern 2, docs/design.md §4.3). `entries` holds the *raw* (unscaled) entries `M(x)_ij`,
     /// `i ≤ j`, in svec order (`entries[svec_index(i, j)]`); the √2 scaling of the
     /// off-diagonal rows (`A = −c_ij (M_k)_ij`, `b = c_ij (M0)_ij`) is applied here.
     /// Side ≤ 2 uses the equivalent small form unless
@@ -815,8 +815,8 @@ impl Model {
 
     /// Builds the Clarabel solver once (setup: KKT assembly, ordering, equilibration)
     /// so that it can be re-solved after [`Prepared::update_b`] / [`Prepared::update_q`]
-    /// — the iterated SDPs of algorithms.md §5 change only `q`, and a family of
-    /// certificates of one degree (§3.3) changes only `b`.
+    /// — the iterated SDPs of docs/design.md §8 change only `q`, and a family of
+    /// certificates of one degree (§5.5) changes only `b`.
     pub fn prepare(&self, settings: &SdpSettings) -> Result<Prepared, SdpError> {
         let cs = settings.to_clarabel()?;
         if self.a_val.iter().any(|v| !v.is_finite()) {

@@ -14,7 +14,7 @@ fn sym_matrix(n: usize, vals: &[f64]) -> Vec<Vec<f64>> {
 
 proptest! {
     /// Raw and scaled packing are inverse to unpacking, and the scaled svec turns the
-    /// Frobenius inner product into a dot product (Clarabel's convention, §0.2).
+    /// Frobenius inner product into a dot product (Clarabel's convention, §4).
     #[test]
     fn pack_unpack_round_trip(n in 1usize..7, raw in proptest::collection::vec(-10.0f64..10.0, 28), raw2 in proptest::collection::vec(-10.0f64..10.0, 28)) {
         let a = sym_matrix(n, &raw);

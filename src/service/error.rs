@@ -114,6 +114,17 @@ impl ServiceError {
     }
 }
 
+impl From<PlanError> for ServiceError {
+    /// A planner option out of range is a request-field error (`invalid_request` with
+    /// the option as the field); every other planning error keeps its own code.
+    fn from(e: PlanError) -> Self {
+        match e {
+            PlanError::InvalidOption { option, message } => invalid(&option, message),
+            other => ServiceError::Plan(other),
+        }
+    }
+}
+
 /// Shorthand for a request-field error.
 pub fn invalid(field: &str, message: impl Into<String>) -> ServiceError {
     ServiceError::InvalidRequest { message: message.into(), field: Some(field.to_string()) }

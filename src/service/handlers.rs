@@ -6,51 +6,32 @@ use super::proto::{
     PlanReply, PlanRequest, RiskReply, RiskRequest, VerifyReply, VerifyRequest, MAX_GRID_SIDE, MAX_RISK_POINTS,
 };
 use super::registry::Entry;
-use crate::plan::{McChecker, McCheckerParams, MotionChecker, PlanStatus, Problem, Termination};
+use crate::app::{self, PlannerKind};
+use crate::contour::RiskLevel;
 use crate::scene::{Piece, Trajectory, TRAJECTORY_FORMAT};
-use crate::verify::{verify, Method, SceneCertifier};
-use num_rational::BigRational;
+use crate::verify::{verify, Method};
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// Default plan time limit (seconds) when the request gives none.
-pub const DEFAULT_PLAN_SECONDS: f64 = 10.0;
-
-fn delta_of(entry: &Entry, d: Option<f64>) -> Result<BigRational, ServiceError> {
-    match d {
-        None => Ok(entry.scene.risk.clone()),
-        Some(d) if d > 0.0 && d < 1.0 => {
-            crate::poly::f64_shortest_decimal(d).ok_or_else(|| invalid("delta", "must be finite"))
-        }
-        Some(d) => Err(invalid("delta", format!("the risk level Δ must be in (0, 1), got {d}"))),
-    }
+fn delta_of(d: Option<f64>) -> Result<Option<RiskLevel>, ServiceError> {
+    d.map(|d| RiskLevel::from_f64(d).map_err(|e| invalid("delta", e.to_string()))).transpose()
 }
 
 fn method_of(m: Option<&str>, field: &str) -> Result<Method, ServiceError> {
     m.unwrap_or("exact").parse().map_err(|e: String| invalid(field, e))
 }
 
-/// Plans on a scene. `cap` bounds the time limit; `cancel` stops the planner early.
-pub fn plan(entry: &Entry, req: &PlanRequest, cap: f64, cancel: Arc<AtomicBool>) -> Result<PlanReply, ServiceError> {
-    let scene = entry.scene.clone();
-    let limit = req.time_limit.unwrap_or(DEFAULT_PLAN_SECONDS);
-    if !(limit > 0.0 && limit.is_finite()) {
-        return Err(invalid("time_limit", format!("must be a positive number of seconds, got {limit}")));
-    }
-    let limit = limit.min(cap);
-    let planner_name = req.planner.clone().unwrap_or_else(|| "rrt-sos".into());
-    let mut problem = match (&req.start, &req.goal) {
-        (Some(s), Some(g)) => Problem {
-            scene: scene.clone(),
-            start: s.clone(),
-            goal: g.clone(),
-            horizon: scene.horizon,
-            delta: scene.risk.clone(),
-            seed: 1,
-        },
-        (None, None) => Problem::from_scene(scene.clone(), 1).map_err(ServiceError::Plan)?,
+/// The typed request of a wire plan request; the time limit is capped by `cap`.
+fn plan_request(req: &PlanRequest, cap: Duration) -> Result<app::PlanRequest, ServiceError> {
+    let time_limit = match req.time_limit {
+        Some(s) => app::time_limit(s)?,
+        None => app::DEFAULT_TIME_LIMIT,
+    };
+    let endpoints = match (&req.start, &req.goal) {
+        (Some(s), Some(g)) => Some((s.clone(), g.clone())),
+        (None, None) => None,
         _ => {
             return Err(invalid(
                 if req.start.is_none() { "start" } else { "goal" },
@@ -58,57 +39,42 @@ pub fn plan(entry: &Entry, req: &PlanRequest, cap: f64, cancel: Arc<AtomicBool>)
             ))
         }
     };
-    problem.seed = req.seed.unwrap_or(1);
-    problem.delta = delta_of(entry, req.delta)?;
-    let pieces = req.pieces.map(|s| usize::try_from(s).map_err(|_| invalid("pieces", "too large"))).transpose()?;
-    let mut planner =
-        crate::plan::rrt_planner(&problem, pieces, req.improve.unwrap_or(false)).map_err(|e| match e {
-            crate::plan::PlanError::InvalidOption { option, message } => invalid(&option, message),
-            other => ServiceError::Plan(other),
-        })?;
-    let checker: Box<dyn MotionChecker> = match planner_name.as_str() {
-        "rrt-sos" => Box::new(SceneCertifier::new(
-            scene.clone(),
-            problem.delta.clone(),
-            method_of(req.certifier.as_deref(), "certifier")?,
-        )),
-        "mc-rrt" => {
-            let model =
-                scene.mc_model().map_err(|e| invalid("planner", format!("mc-rrt needs sampleable parameters: {e}")))?;
-            Box::new(McChecker::new(
-                model,
-                crate::poly::rational_to_f64(&problem.delta),
-                McCheckerParams::default(),
-                problem.seed,
-            ))
-        }
-        other => return Err(invalid("planner", format!("unknown planner '{other}' (rrt-sos or mc-rrt)"))),
-    };
-    let term = Termination::after(Duration::from_secs_f64(limit)).with_cancel(cancel);
-    let out = planner.solve(&problem, checker.as_ref(), &term).map_err(|e| match e {
-        crate::plan::PlanError::InvalidOption { option, message } => invalid(&option, message),
-        other => ServiceError::Plan(other),
-    })?;
+    Ok(app::PlanRequest {
+        planner: match req.planner.as_deref() {
+            Some(p) => p.parse::<PlannerKind>().map_err(|e| invalid("planner", e.to_string()))?,
+            None => PlannerKind::RrtSos,
+        },
+        certifier: method_of(req.certifier.as_deref(), "certifier")?,
+        delta: delta_of(req.delta)?,
+        endpoints,
+        seed: req.seed.unwrap_or(1),
+        pieces: req.pieces.map(|s| usize::try_from(s).map_err(|_| invalid("pieces", "too large"))).transpose()?,
+        improve: req.improve.unwrap_or(false),
+        time_limit: time_limit.min(cap),
+    })
+}
+
+/// Plans on a scene. `cap` bounds the time limit; `cancel` stops the planner early.
+pub fn plan(
+    entry: &Entry,
+    req: &PlanRequest,
+    cap: Duration,
+    cancel: Arc<AtomicBool>,
+) -> Result<PlanReply, ServiceError> {
+    let request = plan_request(req, cap)?;
+    let (problem, out) = request.run(entry.scene.clone(), Some(cancel))?;
     let Some(traj) = out.trajectory else {
-        let why = match out.status {
-            PlanStatus::DeadlineReached => format!("no plan within the time limit of {limit} s"),
-            PlanStatus::Cancelled => "the plan was cancelled".into(),
-            _ => "no plan within the planner's iteration limits".into(),
-        };
-        return Err(ServiceError::NoPlan(format!(
-            "{why} ({} iterations, {} edges checked)",
-            out.stats.iterations, out.stats.edges_checked
-        )));
+        return Err(ServiceError::NoPlan(app::no_plan_reason(&out, request.time_limit)));
     };
     Ok(PlanReply {
         format: TRAJECTORY_FORMAT.into(),
         pieces: traj.pieces,
-        planner: planner_name,
+        planner: request.planner.as_str().into(),
         certified: out.certified,
         stats: out.stats,
         revision: entry.revision,
-        scene: scene.name.clone(),
-        risk: crate::poly::rational_to_f64(&problem.delta),
+        scene: entry.scene.name.clone(),
+        risk: problem.delta.to_f64(),
     })
 }
 
@@ -140,7 +106,7 @@ pub fn verify_request(entry: &Entry, req: &VerifyRequest) -> Result<VerifyReply,
         message: e.message.clone(),
         field: Some(format!("trajectory.{}", e.path)),
     })?;
-    let delta = delta_of(entry, req.delta)?;
+    let delta = delta_of(req.delta)?.unwrap_or_else(|| scene.risk.clone());
     let method = method_of(req.method.as_deref(), "method")?;
     let r = verify(scene, &traj, &delta, method, &Default::default());
     Ok(VerifyReply { safe: r.safe, method: r.method, risk: r.risk, pieces: r.pieces, revision: entry.revision })

@@ -10,9 +10,9 @@ use super::store::{embedded, Store};
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use tokio::sync::Semaphore;
 use tracing::{info, warn, Instrument};
 use zenoh::bytes::Encoding;
@@ -96,6 +96,57 @@ impl Jobs {
     }
 }
 
+/// The cancellation flags of running jobs. Shutdown sets them all, so long plans
+/// stop within one planner iteration instead of holding the process.
+#[derive(Debug, Default)]
+pub struct Cancels {
+    flags: Mutex<BTreeMap<u64, Arc<AtomicBool>>>,
+    next: AtomicU64,
+    shutting_down: AtomicBool,
+}
+
+/// A registered cancellation flag; dropping it unregisters the flag.
+pub struct CancelGuard<'a> {
+    owner: &'a Cancels,
+    id: u64,
+    /// The flag to hand to the job.
+    pub flag: Arc<AtomicBool>,
+}
+
+impl Drop for CancelGuard<'_> {
+    fn drop(&mut self) {
+        if let Ok(mut m) = self.owner.flags.lock() {
+            m.remove(&self.id);
+        }
+    }
+}
+
+impl Cancels {
+    /// A new flag, already set when shutdown has begun.
+    pub fn register(&self) -> CancelGuard<'_> {
+        let id = self.next.fetch_add(1, Ordering::Relaxed);
+        let flag = Arc::new(AtomicBool::new(self.shutting_down.load(Ordering::SeqCst)));
+        if let Ok(mut m) = self.flags.lock() {
+            m.insert(id, flag.clone());
+        }
+        // A shutdown between the load above and the insert must not be missed.
+        if self.shutting_down.load(Ordering::SeqCst) {
+            flag.store(true, Ordering::SeqCst);
+        }
+        CancelGuard { owner: self, id, flag }
+    }
+
+    /// Sets every flag, now and for jobs registered later.
+    pub fn cancel_all(&self) -> usize {
+        self.shutting_down.store(true, Ordering::SeqCst);
+        let m = self.flags.lock().map(|m| m.values().cloned().collect::<Vec<_>>()).unwrap_or_default();
+        for f in &m {
+            f.store(true, Ordering::SeqCst);
+        }
+        m.len()
+    }
+}
+
 fn panic_text(p: &Box<dyn std::any::Any + Send>) -> String {
     p.downcast_ref::<&str>()
         .map(|s| s.to_string())
@@ -112,7 +163,9 @@ pub struct State {
     pub jobs: Jobs,
     started: Instant,
     counters: Mutex<BTreeMap<String, Counter>>,
-    max_plan_seconds: f64,
+    max_plan_seconds: Duration,
+    /// Cancellation flags of running plans.
+    pub cancels: Cancels,
 }
 
 impl State {
@@ -181,7 +234,9 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         jobs: Jobs::new(cfg.workers.max(1), cfg.queue),
         started: Instant::now(),
         counters: Mutex::new(BTreeMap::new()),
-        max_plan_seconds: cfg.max_plan_seconds,
+        max_plan_seconds: Duration::try_from_secs_f64(cfg.max_plan_seconds)
+            .map_err(|e| format!("--max-plan-seconds {}: {e}", cfg.max_plan_seconds))?,
+        cancels: Cancels::default(),
     });
     let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
     let queryable =
@@ -221,7 +276,8 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
             },
         }
     }
-    info!("shutting down");
+    let cancelled = state.cancels.cancel_all();
+    info!(cancelled, "shutting down");
     let _ = session.close().await;
     Ok(())
 }
@@ -372,9 +428,12 @@ async fn dispatch(
             let entry = state.registry.get(scene)?;
             tracing::Span::current().record("planner", req.planner.as_deref().unwrap_or("rrt-sos"));
             let cap = state.max_plan_seconds;
-            let cancel = Arc::new(AtomicBool::new(false));
+            let guard = state.cancels.register();
+            let cancel = guard.flag.clone();
             let rev = entry.revision;
-            let reply = state.jobs.run(move || handlers::plan(&entry, &req, cap, cancel)).await?;
+            let reply = state.jobs.run(move || handlers::plan(&entry, &req, cap, cancel)).await;
+            drop(guard);
+            let reply = reply?;
             Ok((codec.encode(&reply), Some(rev)))
         }
         "verify" => {

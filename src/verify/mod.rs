@@ -4,23 +4,26 @@
 //!
 //! For each piece and obstacle, the cached contour polynomials are composed with the
 //! piece on its own absolute time interval (moving obstacles) and both constraints
-//! of eq. (15) are decided on [0, 1] (algorithms.md §3) by the exact checker
+//! of eq. (15) are decided on [0, 1] (docs/design.md §5) by the exact checker
 //! (Bernstein subdivision in outward-rounded interval arithmetic, exact rational
 //! fallback), the SOS certificate (Clarabel, rigorously re-checked), or both.
 //! Only a proof counts as safe: an undecided constraint makes the piece unsafe.
 //! The workspace box is checked exactly (non-strictly: start and goal may lie on it).
 
+mod audit;
 mod workspace;
 
 use crate::certify::{bernstein, restrict_exact, restrict_interval, sos, PieceRef, Undecided, Verdict};
+use crate::contour::RiskLevel;
 use crate::plan::{Motion, MotionChecker};
-use crate::poly::{rational_to_f64, Interval, UPoly};
+use crate::poly::{Interval, UPoly};
 use crate::scene::{Obstacle, Piece, Scene, Trajectory};
 use num_rational::BigRational;
 use num_traits::Signed;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
+pub use audit::{audit_trajectory, Audit, AuditOptions, Exceedance};
 pub use workspace::{check_workspace, WorkspaceStatus};
 
 /// Which method decides positivity.
@@ -244,13 +247,13 @@ fn decide_obstacle(
 pub fn verify_obstacle(
     o: &Obstacle,
     piece: PieceRef<'_>,
-    delta: &BigRational,
+    delta: &RiskLevel,
     method: Method,
     settings: &sos::SosSettings,
 ) -> ObstacleReport {
     let mut constraints = Vec::with_capacity(2);
     let mut status = Status::Safe;
-    decide_obstacle(o, piece, delta, method, settings, |name, vs| {
+    decide_obstacle(o, piece, delta.rational(), method, settings, |name, vs| {
         let st = combine(&vs);
         status = worst(status, st);
         let reports: Vec<(&'static str, MethodReport)> =
@@ -281,7 +284,7 @@ pub fn verify_obstacle(
 pub fn verify(
     scene: &Scene,
     traj: &Trajectory,
-    delta: &BigRational,
+    delta: &RiskLevel,
     method: Method,
     settings: &sos::SosSettings,
 ) -> VerifyReport {
@@ -297,21 +300,21 @@ pub fn verify(
     VerifyReport {
         safe: pieces.iter().all(|p| p.safe),
         method: method.as_str().to_string(),
-        risk: rational_to_f64(delta),
+        risk: delta.to_f64(),
         pieces,
     }
 }
 
 /// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,
 /// exactly) and inside the workspace.
-pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &BigRational) -> bool {
+pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &RiskLevel) -> bool {
     if !scene.workspace.contains(x) {
         return false;
     }
     let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else { return false };
     let Some(tq) = BigRational::from_float(t) else { return false };
     xt.push(tq);
-    let one_minus = BigRational::from_integer(1.into()) - delta;
+    let one_minus = BigRational::from_integer(1.into()) - delta.rational();
     scene.obstacles.iter().all(|o| {
         let r = o.contour.risk_at(&xt);
         let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
@@ -326,14 +329,14 @@ pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &BigRational) -> bool
 #[derive(Clone, Debug)]
 pub struct SceneCertifier {
     scene: Arc<Scene>,
-    delta: BigRational,
+    delta: RiskLevel,
     method: Method,
     settings: sos::SosSettings,
 }
 
 impl SceneCertifier {
     /// A certifier for `scene` at risk `delta`.
-    pub fn new(scene: Arc<Scene>, delta: BigRational, method: Method) -> Self {
+    pub fn new(scene: Arc<Scene>, delta: RiskLevel, method: Method) -> Self {
         SceneCertifier { scene, delta, method, settings: sos::SosSettings::default() }
     }
 }
@@ -354,7 +357,7 @@ impl MotionChecker for SceneCertifier {
         }
         for o in &self.scene.obstacles {
             let mut safe = true;
-            decide_obstacle(o, pr, &self.delta, self.method, &self.settings, |_, vs| {
+            decide_obstacle(o, pr, self.delta.rational(), self.method, &self.settings, |_, vs| {
                 safe = combine(&vs) == Status::Safe;
                 safe
             });

@@ -1,5 +1,5 @@
 //! The workspace box along a piece, checked exactly and non-strictly (start and goal
-//! may lie on the box, algorithms.md §3.1): each coordinate `x_d(τ)` must satisfy
+//! may lie on the box, docs/design.md §5.1): each coordinate `x_d(τ)` must satisfy
 //! `lo_d ≤ x_d(τ) ≤ hi_d` on [0, 1]. Bernstein coefficients all within the bounds
 //! prove it (convex hull property); for straight pieces they are the end values, so
 //! the check is exact. Otherwise a violation is searched on a grid.

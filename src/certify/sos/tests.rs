@@ -320,14 +320,12 @@ fn random_positive_polynomials_are_safe() {
     assert!(safe * 100 >= total * 97, "only {safe}/{total} Safe");
 }
 
-/// The authors' tangent case (algorithms.md §3.4, §5.6): Example 3, piece 2 of the
+/// The authors' tangent case (docs/design.md §5.6, §8.5): Example 3, piece 2 of the
 /// time-varying SOS output against g1 = E[P]² − 0.9·E[P²] of the disk w² − x1² − x2²,
 /// w ~ U[0.3, 0.4]. Exactly, min g1 ≈ −1.5e-9 < 0 on the piece: never Safe.
 #[test]
 fn example3_piece2_tangent_is_not_safe() {
-    // RISKPLAN_REFERENCE_SCENES (as in CI), else shared/ beside the checkout
-    let dir = std::env::var("RISKPLAN_REFERENCE_SCENES")
-        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/scenes").to_string());
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes");
     let text = std::fs::read_to_string(format!("{dir}/illustrative-3.json"))
         .unwrap_or_else(|e| panic!("the reference scenes are required ({dir}/illustrative-3.json: {e})"));
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
@@ -395,7 +393,7 @@ fn solver_reuse_matches_fresh_solves() {
     }
 }
 
-/// The duals of the matching rows are moments of a measure on the minimisers (§3.3):
+/// The duals of the matching rows are moments of a measure on the minimisers (§5.5):
 /// y1/y0 ≈ argmin p.
 #[test]
 fn dual_moments_locate_the_minimiser() {
@@ -418,7 +416,7 @@ fn dual_moments_locate_the_minimiser() {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
-    /// Near-tangent generator (§3.7, generator 1): p = a·(τ − r1)²·((τ − r2)² + d) ± 10^-k
+    /// Near-tangent generator (§5.8, generator 1): p = a·(τ − r1)²·((τ − r2)² + d) ± 10^-k
     /// in exact rationals, r1 ∈ [0, 1]. With −10^-k, p(r1) < 0 exactly: never Safe;
     /// with +10^-k, p > 0: never Unsafe, and a Safe margin is at most p(r1) = 10^-k.
     #[test]

@@ -1,6 +1,8 @@
 //! Shared helpers of the integration tests.
 #![allow(dead_code)]
 
+pub mod oracle;
+
 use riskplan::scene::Scene;
 use std::path::PathBuf;
 
@@ -14,13 +16,26 @@ pub const PLANNING_SCENES: [&str; 6] = [
     "example-d2-cluttered-3d",
 ];
 
-/// The reference scenes (`shared/reference/scenes` beside the repository, or
-/// `RISKPLAN_REFERENCE_SCENES`). Missing scenes fail the tests: they are required.
+/// The reference scenes: the repository's `scenes/` (the paper's experiments).
+/// Missing scenes fail the tests: they are required.
 pub fn reference_dir() -> PathBuf {
-    if let Ok(d) = std::env::var("RISKPLAN_REFERENCE_SCENES") {
-        return PathBuf::from(d);
-    }
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/reference/scenes")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes")
+}
+
+/// Whether this run is the full tier (`RISKPLAN_TEST_TIER=full`, set by
+/// `scripts/test.sh`) rather than the quick edit-loop tier (`scripts/quick.sh`).
+pub fn full_tier() -> bool {
+    std::env::var("RISKPLAN_TEST_TIER").is_ok_and(|v| v == "full")
+}
+
+/// A test size: `quick` in the quick tier, `full` in the full tier; an explicit
+/// `RISKPLAN_<name>` (e.g. `RISKPLAN_DIFF_CASES=1000`) overrides both.
+pub fn size(name: &str, quick: usize, full: usize) -> usize {
+    std::env::var(format!("RISKPLAN_{name}")).ok().and_then(|v| v.parse().ok()).unwrap_or(if full_tier() {
+        full
+    } else {
+        quick
+    })
 }
 
 /// Every reference scene file, sorted by name.
@@ -44,6 +59,7 @@ pub fn scene(name: &str) -> Scene {
 }
 
 /// The `riskplan` binary built for these tests.
+#[cfg(feature = "cli")]
 pub fn bin() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_riskplan"))
 }

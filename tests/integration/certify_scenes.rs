@@ -2,16 +2,17 @@
 //! illustrative-3, the authors' time-varying SOS trajectory, and random segments
 //! audited by Monte Carlo.
 
-mod common;
+use crate::common;
 
+use crate::common::oracle;
 use num_rational::BigRational;
 use rand::{Rng, SeedableRng};
-use riskplan::mc::clopper_pearson;
+use riskplan::contour::RiskLevel;
 use riskplan::scene::{Piece, Scene, Trajectory};
-use riskplan::verify::{verify, Method, Status};
+use riskplan::verify::{audit_trajectory, verify, AuditOptions, Method, Status};
 
-fn dec(s: &str) -> BigRational {
-    riskplan::scene::parse_num_text(s).unwrap()
+fn dec(s: &str) -> RiskLevel {
+    RiskLevel::parse(s).unwrap()
 }
 
 /// The straight segment from start to goal of illustrative-3 is unsafe, with a
@@ -32,7 +33,7 @@ fn illustrative_3_straight_line_is_unsafe_with_witness() {
         let bound = o.id.as_str().to_string();
         let risk = s.obstacle(&bound).unwrap().contour.risk_at(&xq).bound;
         assert!(
-            risk > s.risk,
+            &risk > s.risk.rational(),
             "{method:?}: witness t={} at {x:?} has bound {} ≤ Δ",
             w.t,
             riskplan::poly::rational_to_f64(&risk)
@@ -101,19 +102,19 @@ fn random_segment(s: &Scene, rng: &mut rand_chacha::ChaCha8Rng) -> Piece {
 }
 
 /// On every reference planning scene, random segments: wherever `verify` says
-/// safe, the Monte Carlo risk at 50 times along the segment stays under Δ (99%
-/// confidence per obstacle and time, Clopper–Pearson lower bound ≤ Δ).
+/// safe, the independent oracle finds both constraints positive at 1000 times of the
+/// segment, and the Monte Carlo risk at 50 times along the segment stays under Δ
+/// (99% confidence per obstacle and time, Clopper–Pearson lower bound ≤ Δ).
 fn audit_random_segments(segments: usize, samples: u64) {
     let scenes = common::PLANNING_SCENES;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15);
     for name in scenes {
         let s = common::scene(name);
-        let model = s.mc_model().unwrap();
-        let delta = riskplan::poly::rational_to_f64(&s.risk);
-        let (mut safe, mut unsafe_, mut undecided, mut audited) = (0, 0, 0, 0u64);
+        let (mut safe, mut unsafe_, mut undecided, mut audited, mut exact) = (0, 0, 0, 0u64, 0u64);
         for i in 0..segments {
             let pc = random_segment(&s, &mut rng);
-            let r = verify(&s, &Trajectory::new(vec![pc.clone()]), &s.risk, Method::Exact, &Default::default());
+            let traj = Trajectory::new(vec![pc.clone()]);
+            let r = verify(&s, &traj, &s.risk, Method::Exact, &Default::default());
             let any_undecided = r.pieces[0].obstacles.iter().any(|o| o.status == Status::Undecided);
             if !r.safe {
                 if any_undecided {
@@ -124,29 +125,16 @@ fn audit_random_segments(segments: usize, samples: u64) {
                 continue;
             }
             safe += 1;
-            let pts: Vec<Vec<f64>> = (0..50)
-                .map(|k| {
-                    let t = pc.t0 + (pc.t1 - pc.t0) * k as f64 / 49.0;
-                    let mut x = pc.at(t);
-                    x.push(t);
-                    x
-                })
-                .collect();
-            let hits = model.hits(&pts, samples, 1000 + i as u64);
-            for (p, h) in pts.iter().zip(&hits) {
-                for (o, &k) in s.obstacles.iter().zip(h) {
-                    let (lower, _) = clopper_pearson(k, samples, 0.98);
-                    audited += 1;
-                    assert!(
-                        lower <= delta,
-                        "{name}: certified segment {pc:?}: obstacle {} at {p:?} has MC risk ≥ {lower} > Δ",
-                        o.id
-                    );
-                }
-            }
+            let o = oracle::check_trajectory(&s, &traj.pieces, &s.risk)
+                .unwrap_or_else(|e| panic!("certified segment {pc:?} fails the independent check: {e}"));
+            exact += o.exact;
+            let opts = AuditOptions { times_per_piece: 50, samples, seed: 1000 + i as u64, ..AuditOptions::default() };
+            let a = audit_trajectory(&s, &traj, s.risk_f64(), &opts).unwrap();
+            audited += a.audited;
+            assert!(!a.exceeds(), "{name}: certified segment {pc:?}: Monte Carlo risk above Δ: {:?}", a.exceedances);
         }
         println!(
-            "{name}: {segments} segments: {safe} safe, {unsafe_} unsafe, {undecided} undecided; {audited} MC audits"
+            "{name}: {segments} segments: {safe} safe, {unsafe_} unsafe, {undecided} undecided; {audited} MC audits, {exact} exact oracle evaluations"
         );
         assert!(safe > 0, "{name}: no safe segment to audit");
     }
@@ -154,7 +142,7 @@ fn audit_random_segments(segments: usize, samples: u64) {
 
 #[test]
 fn random_segments_certified_safe_stay_under_delta() {
-    audit_random_segments(1000, 400);
+    audit_random_segments(common::size("RANDOM_SEGMENTS", 100, 1000), 400);
 }
 
 /// The same audit with 10⁵ samples per point (slow: run with --ignored).
@@ -162,4 +150,78 @@ fn random_segments_certified_safe_stay_under_delta() {
 #[ignore]
 fn random_segments_certified_safe_stay_under_delta_1e5() {
     audit_random_segments(200, 100_000);
+}
+
+/// Segments that graze a contour: a random segment that the certifier rejects for
+/// one obstacle is translated along a random direction until it is certified, and
+/// the boundary is located by bisection to 2⁻⁴⁰ of the translation, where the true
+/// minimum of a constraint on the segment is a hair above zero. Each certified
+/// grazing segment must pass the independent oracle at 1000 times. A certifier
+/// that accepts slightly negative minima (say, a lower bound above −1e-3 instead of
+/// above 0) certifies segments that dip into the contour, and this test fails.
+#[test]
+fn grazing_segments_certified_safe_pass_the_independent_check() {
+    let per_obstacle = common::size("GRAZING_SEGMENTS", 3, 10);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(77);
+    let settings = Default::default();
+    let mut grazing = 0;
+    for name in common::PLANNING_SCENES {
+        let s = common::scene(name);
+        let diag = riskplan::plan::dist(&s.workspace.lower, &s.workspace.upper);
+        for (k, ob) in s.obstacles.iter().enumerate() {
+            let decide = |pc: &Piece, method| {
+                let pr = riskplan::certify::PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
+                riskplan::verify::verify_obstacle(ob, pr, &s.risk, method, &settings).status
+            };
+            let mut found = 0;
+            for _ in 0..2000 {
+                if found == per_obstacle {
+                    break;
+                }
+                let pc = random_segment(&s, &mut rng);
+                if decide(&pc, Method::Exact) != Status::Unsafe {
+                    continue;
+                }
+                let dir: Vec<f64> = (0..s.dim).map(|_| rng.random_range(-1.0..1.0)).collect();
+                let norm = dir.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let shifted = |lambda: f64| {
+                    let mut p = pc.clone();
+                    for (c, d) in p.coeffs.iter_mut().zip(&dir) {
+                        c[0] += lambda * d / norm;
+                    }
+                    p
+                };
+                let Some(far) = [0.25, 0.5, 1.0, 2.0, 4.0]
+                    .iter()
+                    .map(|f| f * diag)
+                    .find(|&l| decide(&shifted(l), Method::Exact) == Status::Safe)
+                else {
+                    continue;
+                };
+                let (mut lo, mut hi) = (0.0, far);
+                for _ in 0..40 {
+                    let mid = 0.5 * (lo + hi);
+                    if decide(&shifted(mid), Method::Exact) == Status::Safe {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                let pc = shifted(hi);
+                let single = Scene { obstacles: vec![ob.clone()], ..s.clone() };
+                oracle::check_piece(&single, &pc, &s.risk, oracle::TIMES_PER_PIECE).unwrap_or_else(|e| {
+                    panic!("{name}: obstacle #{k}: grazing segment certified by exact fails the oracle: {e}")
+                });
+                if decide(&pc, Method::Sos) == Status::Safe {
+                    oracle::check_piece(&single, &pc, &s.risk, oracle::TIMES_PER_PIECE).unwrap_or_else(|e| {
+                        panic!("{name}: obstacle #{k}: grazing segment certified by sos fails the oracle: {e}")
+                    });
+                }
+                found += 1;
+            }
+            grazing += found;
+        }
+    }
+    println!("{grazing} grazing segments certified and checked");
+    assert!(grazing >= 20, "too few grazing segments were found ({grazing})");
 }

@@ -7,6 +7,7 @@
 //! [0, 1] (decided independently by Sturm root isolation). Counts are printed
 //! (`--nocapture`). `RISKPLAN_DIFF_CASES` overrides the number of cases.
 
+use crate::common;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use riskplan::certify::testgen::{Generator, IntPoly};
@@ -62,7 +63,7 @@ fn run(cases: usize, seed: u64) -> (BTreeMap<(&'static str, &'static str), usize
 
 #[test]
 fn sos_and_exact_never_disagree_and_never_certify_a_negative_polynomial() {
-    let cases: usize = std::env::var("RISKPLAN_DIFF_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(100_000);
+    let cases = common::size("DIFF_CASES", 2_000, 100_000);
     let half = cases / 2;
     let h = std::thread::spawn(move || run(half, 0xd1ff_0001));
     let (mut counts, te, ts) = run(cases - half, 0xd1ff_0002);

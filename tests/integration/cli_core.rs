@@ -1,6 +1,6 @@
 //! The `risk` and `contour` subcommands end to end, and the errors of bad scenes.
 
-mod common;
+use crate::common;
 
 use num_rational::BigRational;
 use serde_json::Value;

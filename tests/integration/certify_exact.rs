@@ -1,10 +1,11 @@
-//! Differential test of the exact positivity checkers (algorithms.md §3.7): Bernstein
+//! Differential test of the exact positivity checkers (docs/design.md §5.8): Bernstein
 //! subdivision in interval and in exact arithmetic, and the Sturm oracle, on random
 //! polynomials from `certify::testgen`, plus fixtures.
 //!
 //! Run with `--nocapture` to see the counts. `RISKPLAN_DIFF_CASES` overrides the number
 //! of random cases (default 100 000).
 
+use crate::common;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use riskplan::certify::testgen::{Generator, IntPoly, Truth};
@@ -13,7 +14,6 @@ use riskplan::poly::{parse_decimal, Interval, UPoly};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-const DEFAULT_CASES: usize = 100_000;
 /// Seeds of the two halves run on the two threads.
 const SEEDS: [u64; 2] = [0x5eed_0001, 0x5eed_0002];
 
@@ -145,7 +145,7 @@ fn check_case(p: &UPoly<BigRational>, pi: &UPoly<Interval>, truth: Truth, recipe
 
 #[test]
 fn differential_random_polynomials() {
-    let total: usize = std::env::var("RISKPLAN_DIFF_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(DEFAULT_CASES);
+    let total = common::size("DIFF_CASES", 5_000, 100_000);
     let start = Instant::now();
     let tally = std::thread::scope(|s| {
         let handles: Vec<_> = SEEDS
@@ -278,7 +278,7 @@ fn fixture_constants() {
 
 #[test]
 fn bernstein_coefficients_bound_the_polynomial() {
-    // §3.3 normalises by max |b_k|, which bounds |p| on [0, 1]
+    // §5.5 normalises by max |b_k|, which bounds |p| on [0, 1]
     let mut g = Generator::new(11);
     for _ in 0..200 {
         let c = g.case();

@@ -1,13 +1,13 @@
 //! Planners on the reference planning scenes: every plan is certified by both
 //! methods and audited by Monte Carlo; the conformance harness runs every planner.
 
-mod common;
+use crate::common;
 
-use riskplan::mc::clopper_pearson;
+use riskplan::app::PlanRequest;
 use riskplan::plan::testing::conformance;
-use riskplan::plan::{McChecker, McCheckerParams, Planner, Problem, Termination};
+use riskplan::plan::{McChecker, McCheckerParams, Planner, Problem};
 use riskplan::scene::{Scene, Trajectory};
-use riskplan::verify::{verify, Method, SceneCertifier};
+use riskplan::verify::{audit_trajectory, verify, AuditOptions, Method, SceneCertifier};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -19,42 +19,20 @@ fn planner_for(p: &Problem) -> Box<dyn Planner> {
 
 fn plan(name: &str, seed: u64) -> (Arc<Scene>, Trajectory) {
     let s = Arc::new(common::scene(name));
-    let p = Problem::from_scene(s.clone(), seed).unwrap();
-    let checker = SceneCertifier::new(s.clone(), p.delta.clone(), Method::Exact);
-    let mut planner = planner_for(&p);
-    let out = planner.solve(&p, &checker, &Termination::after(Duration::from_secs(120))).unwrap();
+    let request = PlanRequest { seed, time_limit: Duration::from_secs(120), ..PlanRequest::default() };
+    let (_, out) = request.run(s.clone(), None).unwrap();
     let t = out.trajectory.unwrap_or_else(|| panic!("{name}: no plan: {:?} {:?}", out.status, out.stats));
     assert!(out.certified);
     (s, t)
 }
 
-/// Monte Carlo risk of a trajectory at `times` points per piece, per obstacle:
+/// Monte Carlo risk of a trajectory at `per_piece` points per piece, per obstacle:
 /// the Clopper–Pearson lower bound (99% one-sided) never exceeds Δ.
 fn audit(s: &Scene, t: &Trajectory, per_piece: usize, samples: u64) -> f64 {
-    let model = s.mc_model().unwrap();
-    let delta = riskplan::poly::rational_to_f64(&s.risk);
-    let pts: Vec<Vec<f64>> = t
-        .pieces
-        .iter()
-        .flat_map(|pc| {
-            (0..per_piece).map(move |k| {
-                let tt = pc.t0 + (pc.t1 - pc.t0) * k as f64 / (per_piece - 1) as f64;
-                let mut x = pc.at(tt);
-                x.push(tt);
-                x
-            })
-        })
-        .collect();
-    let hits = model.hits(&pts, samples, 99);
-    let mut max_est: f64 = 0.0;
-    for (p, h) in pts.iter().zip(&hits) {
-        for (o, &k) in s.obstacles.iter().zip(h) {
-            let (lower, _) = clopper_pearson(k, samples, 0.98);
-            max_est = max_est.max(k as f64 / samples as f64);
-            assert!(lower <= delta, "{}: obstacle {} at {p:?}: MC risk ≥ {lower} > Δ", s.name, o.id);
-        }
-    }
-    max_est
+    let opts = AuditOptions { times_per_piece: per_piece, samples, seed: 99, ..AuditOptions::default() };
+    let a = audit_trajectory(s, t, s.risk_f64(), &opts).unwrap();
+    assert!(!a.exceeds(), "{}: Monte Carlo risk above Δ: {:?}", s.name, a.exceedances);
+    a.max_estimate
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! Every reference scene loads as it is, reproduces the values prepared with it,
 //! and satisfies Theorem 1 against Monte Carlo.
 
-mod common;
+use crate::common;
 
 use num_rational::BigRational;
 use rand::{Rng, SeedableRng};

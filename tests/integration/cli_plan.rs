@@ -1,7 +1,7 @@
 //! `riskplan plan` and `riskplan verify` end to end: plans found, accepted by
 //! `verify` as they are, reproducible by seed, and bad requests rejected with status 2.
 
-mod common;
+use crate::common;
 
 use serde_json::Value;
 

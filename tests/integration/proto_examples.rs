@@ -2,7 +2,6 @@
 //! re-encodes to the same JSON (up to absent-versus-null optional fields and integer
 //! versus float spelling), and round-trips through bincode unchanged — the same files
 //! the Python tests validate against the JSON Schemas.
-#![cfg(feature = "service")]
 
 use riskplan::service::proto::*;
 use serde::de::DeserializeOwned;

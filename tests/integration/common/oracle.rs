@@ -1,0 +1,128 @@
+//! An oracle for certified pieces that shares no code with the certifiers: the
+//! contour constraints evaluated at many times of the piece, term by term, with
+//! no composition, no Bernstein form, no interval arithmetic and no SDP.
+//!
+//! At each time `t` (evenly spaced over the piece, both ends included) the point
+//! `x(t)` is formed from the piece's coefficients, and for every obstacle
+//! `m = E[P](x, t)` and `s = E[P²](x, t)` are evaluated from the contour polynomials'
+//! terms. The piece passes when `m < 0` and `g1 = m² − (1 − Δ)·s > 0` at every time —
+//! the Cantelli bound `(s − m²)/s` is then below Δ. A fast floating-point evaluation
+//! decides where its sign is beyond doubt (|g| above `F64_TRUST` times the sum of the
+//! absolute values of the terms); everywhere else the values are computed exactly in
+//! rational arithmetic.
+
+use num_rational::BigRational;
+use num_traits::{One, Signed, Zero};
+use riskplan::contour::RiskLevel;
+use riskplan::poly::QPoly;
+use riskplan::scene::{Piece, Scene};
+
+/// The floating-point sign of a polynomial value is trusted when the value exceeds
+/// this share of the sum of its terms' absolute values. The rounding error of a
+/// term-by-term evaluation of at most a few thousand terms of degree ≤ 16 (E[P²] of
+/// a degree-8 contour), at a point whose own coordinates carry a relative error of
+/// a few ulps, stays below 1e-12 of that sum, so 1e-6 leaves a wide margin.
+pub const F64_TRUST: f64 = 1e-6;
+
+/// Times checked per piece.
+pub const TIMES_PER_PIECE: usize = 1000;
+
+/// What the oracle saw on one piece.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OracleStats {
+    /// Point × obstacle evaluations.
+    pub evaluations: u64,
+    /// Of those, decided in exact arithmetic.
+    pub exact: u64,
+}
+
+fn f64_terms(p: &QPoly, xt: &[f64]) -> (f64, f64) {
+    let (mut v, mut a) = (0.0, 0.0);
+    for (m, c) in p.terms() {
+        let mut term = riskplan::poly::rational_to_f64(c);
+        for &(var, e) in m.pairs() {
+            term *= xt[var as usize].powi(e as i32);
+        }
+        v += term;
+        a += term.abs();
+    }
+    (v, a)
+}
+
+fn exact_terms(p: &QPoly, xt: &[BigRational]) -> BigRational {
+    let mut v = BigRational::zero();
+    for (m, c) in p.terms() {
+        let mut term = c.clone();
+        for &(var, e) in m.pairs() {
+            term *= num_traits::pow(xt[var as usize].clone(), e as usize);
+        }
+        v += term;
+    }
+    v
+}
+
+fn exact(v: f64) -> BigRational {
+    BigRational::from_float(v).expect("finite")
+}
+
+/// Checks `piece` against every obstacle of `scene` at `n` times; `Err` names the
+/// first obstacle and time where a constraint is not strictly positive.
+pub fn check_piece(scene: &Scene, piece: &Piece, delta: &RiskLevel, n: usize) -> Result<OracleStats, String> {
+    let one_minus = 1.0 - delta.to_f64();
+    let one_minus_q = BigRational::one() - delta.rational();
+    let mut st = OracleStats::default();
+    for j in 0..n {
+        let t = if j + 1 == n { piece.t1 } else { piece.t0 + (piece.t1 - piece.t0) * j as f64 / (n - 1) as f64 };
+        let mut xt: Vec<f64> = piece.coeffs.iter().map(|c| c.iter().rev().fold(0.0, |acc, &k| acc * t + k)).collect();
+        xt.push(t);
+        let tq = exact(t);
+        let mut xq: Option<Vec<BigRational>> = None;
+        for o in &scene.obstacles {
+            st.evaluations += 1;
+            let (m, ma) = f64_terms(&o.contour.mean, &xt);
+            let (s, sa) = f64_terms(&o.contour.second, &xt);
+            let g1 = m * m - one_minus * s;
+            let g1a = 2.0 * ma * ma + one_minus * sa;
+            let mean_sure = m.abs() > F64_TRUST * ma;
+            let g1_sure = g1.abs() > F64_TRUST * g1a;
+            let (mean_neg, g1_pos) = if mean_sure && g1_sure {
+                (m < 0.0, g1 > 0.0)
+            } else {
+                st.exact += 1;
+                let xq = xq.get_or_insert_with(|| {
+                    let mut v: Vec<BigRational> = piece
+                        .coeffs
+                        .iter()
+                        .map(|c| c.iter().rev().fold(BigRational::zero(), |acc, &k| acc * &tq + exact(k)))
+                        .collect();
+                    v.push(tq.clone());
+                    v
+                });
+                let m = exact_terms(&o.contour.mean, xq);
+                let s = exact_terms(&o.contour.second, xq);
+                let g1 = &m * &m - &one_minus_q * &s;
+                (m.is_negative(), g1.is_positive())
+            };
+            if !(mean_neg && g1_pos) {
+                return Err(format!(
+                    "{}: obstacle {} at t = {t} (x = {:?}): E[P] = {m:e}, E[P]² − (1−Δ)E[P²] = {g1:e} (must be < 0 and > 0)",
+                    scene.name,
+                    o.id,
+                    &xt[..xt.len() - 1]
+                ));
+            }
+        }
+    }
+    Ok(st)
+}
+
+/// [`check_piece`] on every piece of a trajectory, with [`TIMES_PER_PIECE`] times.
+pub fn check_trajectory(scene: &Scene, pieces: &[Piece], delta: &RiskLevel) -> Result<OracleStats, String> {
+    let mut total = OracleStats::default();
+    for pc in pieces {
+        let s = check_piece(scene, pc, delta, TIMES_PER_PIECE)?;
+        total.evaluations += s.evaluations;
+        total.exact += s.exact;
+    }
+    Ok(total)
+}

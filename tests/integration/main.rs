@@ -1,0 +1,19 @@
+//! The integration tests, as one binary (one link of the dependency graph).
+//!
+//! Sizes: the differential and random-segment tests run small by default (the quick
+//! tier, `scripts/quick.sh`); `RISKPLAN_TEST_TIER=full` (set by `scripts/test.sh`, which
+//! CI runs) gives them their full sizes. See `common::tier`.
+
+mod common;
+
+mod certify_differential;
+mod certify_exact;
+mod certify_scenes;
+#[cfg(feature = "cli")]
+mod cli_core;
+#[cfg(feature = "cli")]
+mod cli_plan;
+mod plan_scenes;
+#[cfg(feature = "service")]
+mod proto_examples;
+mod reference_scenes;
