@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Regenerates the contour figures of docs/figures/ from the reference scenes.
+# Regenerates the figures of docs/figures/ from the reference scenes in scenes/.
 # Usage: scripts/figures.sh [path/to/riskplan]   (default: cargo run --release)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-S=${RISKPLAN_REFERENCE_SCENES:-../shared/reference/scenes}
+S=scenes
 if [ $# -ge 1 ]; then RP=("$1"); else cargo build --release --quiet; RP=(target/release/riskplan); fi
 mkdir -p docs/figures
 "${RP[@]}" contour --scene "$S/illustrative-1.json" --delta 0.2 0.1 0.07 0.05 --mc 20000 \

@@ -1,24 +1,23 @@
 #!/usr/bin/env bash
-# The whole test suite: formatting, lints, the math core alone (no zenoh/tokio),
-# every Rust test of every feature, then the Python client's tests against the real
-# server binary. Run from anywhere; needs scripts/setup-debian.sh once.
+# The full tier (what CI runs): formatting, clippy once, a build of the math core
+# alone (no zenoh, tokio, clap or plotters), every Rust test once at full sizes, then
+# the Python client's tests against the real server binary built by that same test
+# run. Run from anywhere; needs scripts/setup-debian.sh once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1}   # small SDPs are faster single-threaded
+export RISKPLAN_TEST_TIER=full
 TARGET=${CARGO_TARGET_DIR:-target}
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
-echo "== cargo clippy (core, no default features)"
-cargo clippy --no-default-features --all-targets -- -D warnings
-echo "== cargo clippy (all features)"
-cargo clippy --all-targets -- -D warnings
-echo "== core tests without the service layer"
-cargo test --no-default-features --lib
-echo "== all Rust tests"
-cargo test
-echo "== Python client tests (against the real server)"
-cargo build --release --bin riskplan
+echo "== cargo clippy (all targets, all features)"
+cargo clippy --all-targets --all-features -- -D warnings
+echo "== the math core builds alone (no service, no CLI)"
+cargo check --no-default-features --lib
+echo "== every Rust test: unit, property, integration (full sizes), doc tests"
+cargo test --all-features
+echo "== Python client tests (against the server binary of the test build)"
 VENV=${RISKPLAN_VENV:-${TMPDIR:-/tmp}/riskplan-venv}
 [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
 "$VENV/bin/pip" install -q -e './clients/python[plot,test]'
-RISKPLAN_BIN="$TARGET/release/riskplan" "$VENV/bin/python" -m pytest clients/python/tests -q
+RISKPLAN_BIN="$TARGET/debug/riskplan" RISKPLAN_REQUIRE_SERVER=1 "$VENV/bin/python" -m pytest clients/python/tests -q

@@ -135,4 +135,50 @@ mod tests {
         let expect = cons.cantelli.eval(&[x1, x2, t, BigRational::from_integer(0.into())]);
         assert_eq!(composed, expect);
     }
+
+    /// Composition at many local times τ on a piece whose interval is not [0, 1]:
+    /// the restricted constraint at τ equals the constraint at the piece's position
+    /// and *absolute* time t = t0 + (t1 − t0)·τ (the obstacle moves with t, so
+    /// mixing up τ and t changes the value), exactly; the interval restriction
+    /// encloses it.
+    #[test]
+    fn composition_uses_absolute_time_at_every_local_time() {
+        let c = disk();
+        assert!(c.is_dynamic());
+        let coeffs = vec![vec![-1.0, 0.3, 0.2], vec![0.7, -0.9]];
+        let (t0, t1) = (0.3, 1.7);
+        let piece = PieceRef { t0, t1, coeffs: &coeffs };
+        let delta = BigRational::new(1.into(), 10.into());
+        let ex = restrict_exact(&c, piece, &delta);
+        let iv = restrict_interval(&c, piece, &delta);
+        let cons = c.constraints(&delta);
+        let q = |v: f64| BigRational::from_float(v).unwrap();
+        // dyadic τ, exact in f64 as well, so the interval evaluation sees the same τ
+        for k in 0..=256 {
+            let tau = BigRational::new(k.into(), 256.into());
+            let t = q(t0) + (q(t1) - q(t0)) * &tau;
+            let x: Vec<BigRational> = coeffs
+                .iter()
+                .map(|cs| cs.iter().rev().fold(BigRational::from_integer(0.into()), |acc, &v| acc * &t + q(v)))
+                .collect();
+            let point = [x[0].clone(), x[1].clone(), t.clone(), BigRational::from_integer(0.into())];
+            for (name, composed, interval, g) in
+                [("cantelli", &ex.cantelli, &iv.cantelli, &cons.cantelli), ("mean", &ex.mean, &iv.mean, &cons.mean)]
+            {
+                let want = g.eval(&point);
+                assert_eq!(composed.eval(&tau), want, "{name} at τ = {tau}");
+                let tf = crate::poly::rational_to_f64(&tau);
+                let enclosure = interval.eval(&crate::poly::Interval::point(tf));
+                assert!(
+                    q(enclosure.lo) <= want && want <= q(enclosure.hi),
+                    "{name} at τ = {tau}: {want} not in {enclosure:?}"
+                );
+            }
+            // local time is not absolute time: the constraint at (x, τ) differs
+            if k == 128 {
+                let wrong = [x[0].clone(), x[1].clone(), tau.clone(), BigRational::from_integer(0.into())];
+                assert_ne!(cons.cantelli.eval(&wrong), ex.cantelli.eval(&tau));
+            }
+        }
+    }
 }

@@ -270,15 +270,19 @@ fn prepared_update_b_and_q() {
     prep.update_b(&b).unwrap();
     let s2 = prep.solve().unwrap();
     assert!((s2.obj_primal - 6.0).abs() < 1e-6, "{}", s2.obj_primal);
-    let mut fresh = m.clone();
-    fresh.add_eq(&[], 0.0).unwrap(); // same problem plus an empty row, solved from scratch
-                                     // q: minimise Q00 + 4 Q11 with Q01 = 3: 2·sqrt(4)·3 = 12
+    // q: minimise Q00 + 4 Q11 with Q01 = 3: 2·sqrt(4)·3 = 12
     let mut q = vec![0.0; prep.num_vars()];
     q[g.var(0, 0).index()] = 1.0;
     q[g.var(1, 1).index()] = 4.0;
     prep.update_q(&q).unwrap();
     let s3 = prep.solve().unwrap();
     assert!((s3.obj_primal - 12.0).abs() < 1e-6, "{}", s3.obj_primal);
+    // the same updates on a freshly prepared problem, in the other order, give the same optimum
+    let mut again = m.prepare(&SdpSettings::default()).unwrap();
+    again.update_q(&q).unwrap();
+    again.update_b(&b).unwrap();
+    let s4 = again.solve().unwrap();
+    assert!((s4.obj_primal - s3.obj_primal).abs() < 1e-6, "{} vs {}", s4.obj_primal, s3.obj_primal);
     assert!(matches!(prep.update_b(&[1.0]), Err(SdpError::BadConeSize(_))));
     assert!(matches!(prep.update_q(&vec![f64::NAN; prep.num_vars()]), Err(SdpError::NonFinite(_))));
 }

@@ -52,3 +52,59 @@ pub fn check_workspace(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> Wor
     }
     WorkspaceStatus { status, witness: None }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LO: [f64; 2] = [0.0, 0.0];
+    const HI: [f64; 2] = [1.0, 1.0];
+
+    fn check(t0: f64, t1: f64, coeffs: Vec<Vec<f64>>) -> (WorkspaceStatus, Vec<Vec<f64>>) {
+        let s = check_workspace(&LO, &HI, PieceRef { t0, t1, coeffs: &coeffs });
+        (s, coeffs)
+    }
+
+    fn at(coeffs: &[Vec<f64>], t: f64) -> Vec<f64> {
+        coeffs.iter().map(|c| c.iter().rev().fold(0.0, |acc, &k| acc * t + k)).collect()
+    }
+
+    fn outside(x: &[f64]) -> bool {
+        x.iter().zip(LO.iter().zip(&HI)).any(|(v, (lo, hi))| v < lo || v > hi)
+    }
+
+    #[test]
+    fn straight_pieces_inside_on_the_boundary_and_leaving() {
+        // corner to corner, on [2, 4]: start and goal on the box are allowed
+        let seg = |a: [f64; 2], b: [f64; 2]| {
+            let p = crate::scene::Piece::segment(&a, &b, 2.0, 4.0);
+            check(2.0, 4.0, p.coeffs)
+        };
+        assert_eq!(seg([0.0, 0.0], [1.0, 1.0]).0.status, Status::Safe);
+        assert_eq!(seg([0.2, 0.9], [0.8, 0.1]).0.status, Status::Safe);
+        // leaves through x1 = 1 at t = 3
+        let (s, c) = seg([0.5, 0.5], [1.5, 0.5]);
+        assert_eq!(s.status, Status::Unsafe);
+        let w = s.witness.expect("a witness");
+        assert!((3.0..=4.0).contains(&w.t) && w.value < 0.0, "{w:?}");
+        assert!(outside(&at(&c, w.t)), "the witness {w:?} is inside");
+        // leaves through x2 = 0 right after the start
+        let (s, c) = seg([0.5, 0.0], [0.6, -0.5]);
+        assert_eq!(s.status, Status::Unsafe);
+        assert!(outside(&at(&c, s.witness.unwrap().t)));
+    }
+
+    #[test]
+    fn curved_pieces_leaving_between_inside_endpoints() {
+        // x1(t) = 0.5 + 3t(1 − t): both ends at 0.5, 1.25 at t = 1/2
+        let (s, c) = check(0.0, 1.0, vec![vec![0.5, 3.0, -3.0], vec![0.5]]);
+        assert_eq!(s.status, Status::Unsafe);
+        let w = s.witness.expect("a witness");
+        assert!(outside(&at(&c, w.t)), "the witness {w:?} is inside");
+        // x1(t) = 0.5 + t(1 − t) stays in [0.5, 0.75]; its Bernstein hull proves it
+        assert_eq!(check(0.0, 1.0, vec![vec![0.5, 1.0, -1.0], vec![0.5]]).0.status, Status::Safe);
+        // x1(t) = 2.4t(1 − t) stays in [0, 0.6], but its Bernstein hull reaches 1.2:
+        // not proven inside, so never safe
+        assert_eq!(check(0.0, 1.0, vec![vec![0.0, 2.4, -2.4], vec![0.5]]).0.status, Status::Undecided);
+    }
+}

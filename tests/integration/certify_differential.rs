@@ -52,6 +52,9 @@ fn run(cases: usize, seed: u64) -> (BTreeMap<(&'static str, &'static str), usize
                 assert!(!p.eval(&tau).is_positive(), "{name}: witness τ={} has p > 0: {}", w.tau, c.recipe);
             }
         }
+        if e.is_safe() {
+            *counts.entry(("sos on exact-safe", kind(&s))).or_insert(0) += 1;
+        }
         let both_decide = !matches!(e, Verdict::Undecided(_)) && !matches!(s, Verdict::Undecided(_));
         if both_decide {
             assert_eq!(e.is_safe(), s.is_safe(), "methods disagree: exact {e:?}, sos {s:?}: {}", c.recipe);
@@ -87,4 +90,17 @@ fn sos_and_exact_never_disagree_and_never_certify_a_negative_polynomial() {
         counts.get(&("sos", "safe")).copied().unwrap_or(0) > cases / 10,
         "SOS certifies too little to be a meaningful comparison"
     );
+    // The stated share: SOS proves at least SOS_SHARE_OF_EXACT of the polynomials the
+    // exact checker proves positive (84 % was measured on 100 000 cases; what it misses
+    // are near-tangent cases within its acceptance threshold, docs/design.md §5.6).
+    let exact_safe = counts.get(&("exact", "safe")).copied().unwrap_or(0);
+    let both_safe = counts.get(&("sos on exact-safe", "safe")).copied().unwrap_or(0);
+    println!("  sos certifies {both_safe} of the {exact_safe} that exact certifies");
+    assert!(
+        both_safe as f64 >= SOS_SHARE_OF_EXACT * exact_safe as f64,
+        "SOS certified only {both_safe} of the {exact_safe} polynomials exact certified (< {SOS_SHARE_OF_EXACT})"
+    );
 }
+
+/// The share of the exact checker's safe verdicts that the SOS certifier must match.
+const SOS_SHARE_OF_EXACT: f64 = 0.80;

@@ -17,3 +17,5 @@ mod plan_scenes;
 #[cfg(feature = "service")]
 mod proto_examples;
 mod reference_scenes;
+#[cfg(all(feature = "service", feature = "cli"))]
+mod service_shutdown;

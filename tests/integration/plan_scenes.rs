@@ -2,6 +2,7 @@
 //! methods and audited by Monte Carlo; the conformance harness runs every planner.
 
 use crate::common;
+use crate::common::oracle;
 
 use riskplan::app::PlanRequest;
 use riskplan::plan::testing::conformance;
@@ -23,6 +24,8 @@ fn plan(name: &str, seed: u64) -> (Arc<Scene>, Trajectory) {
     let (_, out) = request.run(s.clone(), None).unwrap();
     let t = out.trajectory.unwrap_or_else(|| panic!("{name}: no plan: {:?} {:?}", out.status, out.stats));
     assert!(out.certified);
+    // every certified piece, checked at 1000 times by the independent oracle
+    oracle::check_trajectory(&s, &t.pieces, &s.risk).unwrap_or_else(|e| panic!("{name}: a planned piece: {e}"));
     (s, t)
 }
 

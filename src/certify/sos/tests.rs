@@ -160,12 +160,18 @@ fn non_finite_is_undecided() {
         };
         assert_eq!(recheck(&p, &cert), Verdict::Undecided(Undecided::NonFinite));
     }
-    // huge and tiny coefficients: no panic, and no false Safe
-    let _ = run(&points(&[f64::MAX, -f64::MAX, f64::MAX]));
-    let _ = run(&points(&[f64::MAX, f64::MAX, f64::MAX]));
+    // huge and tiny coefficients: no panic, no false Safe, and positive polynomials
+    // (c·(1 − τ + τ²), c·(1 + τ + τ²), c·(1 + τ²) with c > 0) never called unsafe
     assert!(!run(&points(&[-f64::MAX, f64::MAX, -f64::MAX])).verdict.is_safe());
-    let _ = run(&points(&[5e-324, -5e-324, 5e-324]));
-    let _ = run(&points(&[1e-300, 0.0, 1e-300]));
+    for c in [
+        [f64::MAX, -f64::MAX, f64::MAX],
+        [f64::MAX, f64::MAX, f64::MAX],
+        [5e-324, -5e-324, 5e-324],
+        [1e-300, 0.0, 1e-300],
+    ] {
+        let v = run(&points(&c)).verdict;
+        assert!(!v.is_unsafe(), "{c:?} is positive on [0, 1], got {v:?}");
+    }
 }
 
 #[test]
@@ -194,7 +200,10 @@ fn recheck_rejects_bad_certificates() {
         Verdict::Safe { margin } => assert!(margin <= 1e-3, "{margin}"),
         v => panic!("{v:?}"),
     }
-    c.gamma += 0.01; // now beyond what the residual bound can hide
+    c.gamma += 0.01; // now beyond what the residual bound can hide: never a larger margin
+    if let Verdict::Safe { margin } = recheck(&p, &c) {
+        assert!(margin <= 1e-3, "a tampered γ raised the margin to {margin}");
+    }
     let mut c = cert.clone();
     c.q0.iter_mut().flatten().for_each(|v| *v *= 3.0);
     assert!(!recheck(&p, &c).is_safe());

@@ -1,0 +1,127 @@
+//! A SIGTERM while a long plan runs ends the service promptly: shutdown cancels the
+//! running plans (their cancellation flags are registered with the server) instead
+//! of waiting for their time limits.
+
+use crate::common;
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+/// How soon the server must be gone after SIGTERM.
+const SHUTDOWN_LIMIT: Duration = Duration::from_secs(2);
+
+/// A scene without a plan: the goal sits inside rings of obstacles (each ring a
+/// degree-8 polynomial, so edge checks are not free); RRT-SOS searches until its
+/// iteration limit or time limit — tens of seconds.
+fn enclosed_goal_scene() -> serde_json::Value {
+    let obstacles: Vec<_> = (0..6)
+        .map(|i| serde_json::json!({"id": format!("ring{i}"), "poly": format!("w{i} - (x1^2 + x2^2 - 0.25)^4")}))
+        .collect();
+    let params: serde_json::Map<String, serde_json::Value> = (0..6)
+        .map(|i| {
+            (
+                format!("w{i}"),
+                serde_json::json!({"dist": "uniform", "low": 0.0001 * (1.0 + 0.01 * i as f64), "high": 0.00012}),
+            )
+        })
+        .collect();
+    serde_json::json!({
+        "format": "riskplan-scene/1", "name": "enclosed", "dim": 2,
+        "workspace": {"lower": [-1, -1], "upper": [1, 1]}, "horizon": [0, 1], "risk": 0.1,
+        "params": params, "obstacles": obstacles, "start": [0.9, 0.9], "goal": [0, 0]
+    })
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+struct KillOnDrop(Child);
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn client(endpoint: &str, args: &[&str]) -> std::process::Command {
+    let mut c = common::bin();
+    c.args(["client", "--endpoint", endpoint, "--json"]).args(args);
+    c
+}
+
+#[test]
+fn sigterm_during_a_long_plan_ends_the_service_within_2_s() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = dir.path().join("scenes");
+    std::fs::create_dir(&scenes).unwrap();
+    std::fs::write(scenes.join("enclosed.json"), enclosed_goal_scene().to_string()).unwrap();
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let mut server = KillOnDrop(
+        common::bin()
+            .args(["serve", "--listen", &endpoint, "--workers", "1", "--max-plan-seconds", "60"])
+            .arg("--data")
+            .arg(dir.path().join("data"))
+            .arg("--preload")
+            .arg(&scenes)
+            .env("OPENBLAS_NUM_THREADS", "1")
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start riskplan serve"),
+    );
+    let (tx, rx) = mpsc::channel();
+    let stderr = server.0.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let ready = Instant::now();
+    loop {
+        let line = rx.recv_timeout(Duration::from_secs(30)).expect("the server did not start within 30 s");
+        if line.contains("riskplan: listening on") {
+            break;
+        }
+        assert!(ready.elapsed() < Duration::from_secs(30), "no ready line");
+    }
+    let _plan = KillOnDrop(
+        client(&endpoint, &["--timeout", "60", "plan", "--scene", "enclosed", "--time-limit", "50"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    // wait until the plan is running on the worker
+    let running = Instant::now();
+    loop {
+        let out = client(&endpoint, &["status"]).output().unwrap();
+        let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+        if status["queue"]["running"].as_u64() == Some(1) {
+            break;
+        }
+        assert!(running.elapsed() < Duration::from_secs(20), "the plan never started: {status}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(server.0.try_wait().unwrap().is_none(), "the server ended by itself");
+    let sent = Instant::now();
+    let kill = std::process::Command::new("kill").args(["-TERM", &server.0.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    loop {
+        if let Some(st) = server.0.try_wait().unwrap() {
+            let took = sent.elapsed();
+            assert!(took < SHUTDOWN_LIMIT, "the server took {took:?} to stop after SIGTERM");
+            assert!(st.success(), "the server exited with {st}");
+            break;
+        }
+        assert!(sent.elapsed() < Duration::from_secs(30), "the server is still running 30 s after SIGTERM");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // and it got there by cancelling the plan, not by abandoning it
+    let log: Vec<String> = rx.try_iter().collect();
+    assert!(
+        log.iter().any(|l| l.contains("shutting down") && l.contains("cancelled=1")),
+        "no record of the cancelled plan in the log: {log:?}"
+    );
+}
