@@ -1,5 +1,12 @@
 """Fixtures: the real `riskplan serve` binary on a free 127.0.0.1 port, a client, the
-reference scenes, the golden examples and JSON Schemas of proto/."""
+reference scenes (scenes/ of the repository), the golden examples and JSON Schemas of
+proto/.
+
+The server binary: $RISKPLAN_BIN, else target/release/riskplan, else
+target/debug/riskplan (under $CARGO_TARGET_DIR first when it is set). With
+RISKPLAN_REQUIRE_SERVER=1 (scripts/test.sh, CI), or when $RISKPLAN_BIN is set, a missing or
+broken binary fails the whole run at once; otherwise (a developer running the offline
+tests) the tests needing a server are skipped, and the summary says why."""
 from __future__ import annotations
 
 import json
@@ -13,7 +20,7 @@ import threading
 import time
 import uuid
 from pathlib import Path
-from typing import List, Optional
+from typing import List, Optional, Tuple
 
 import pytest
 
@@ -23,33 +30,106 @@ REPO = Path(__file__).resolve().parents[3]
 PROTO = REPO / "proto"
 SCHEMAS = PROTO / "schemas"
 EXAMPLES = PROTO / "examples"
-SCENES = Path(os.environ.get("RISKPLAN_SCENES", REPO.parent / "shared" / "reference" / "scenes"))
-if not SCENES.is_dir():
-    SCENES = Path("/work/shared/reference/scenes")
+# The reference scenes live in the repository; $RISKPLAN_SCENES may point elsewhere.
+SCENES = Path(os.environ.get("RISKPLAN_SCENES") or REPO / "scenes")
 
 START_LIMIT_S = 30.0
 READY_LINE = "riskplan: listening on"
 
 
+def require_server() -> bool:
+    """RISKPLAN_REQUIRE_SERVER=1 (or any value but empty and 0): no server, no run."""
+    return os.environ.get("RISKPLAN_REQUIRE_SERVER", "").strip() not in ("", "0")
+
+
 def riskplan_bin() -> Optional[Path]:
-    """$RISKPLAN_BIN, else target/release/riskplan, else target/debug/riskplan."""
+    """$RISKPLAN_BIN, else target/release/riskplan, else target/debug/riskplan (under
+    $CARGO_TARGET_DIR, then under the repository)."""
     env = os.environ.get("RISKPLAN_BIN")
     if env:
         return Path(env)
-    for p in (REPO / "target" / "release" / "riskplan", REPO / "target" / "debug" / "riskplan"):
+    for p in _bin_candidates():
         if p.is_file() and os.access(p, os.X_OK):
             return p
     return None
 
 
-def has_serve(binary: Optional[Path]) -> bool:
-    if binary is None or not binary.is_file():
-        return False
+def _bin_candidates() -> List[Path]:
+    targets = [Path(os.environ["CARGO_TARGET_DIR"])] if os.environ.get("CARGO_TARGET_DIR") else []
+    targets.append(REPO / "target")
+    return [t / kind / "riskplan" for t in targets for kind in ("release", "debug")]
+
+
+def serve_problem(binary: Optional[Path]) -> Optional[str]:
+    """Why ``binary`` cannot serve (None: it can): missing, not executable, or
+    `serve --help` fails."""
+    if binary is None:
+        where = ", ".join(map(str, _bin_candidates()))
+        return f"$RISKPLAN_BIN is not set and none of {where} is an executable file"
+    if not binary.is_file():
+        return f"{binary} is not a file"
+    if not os.access(binary, os.X_OK):
+        return f"{binary} is not executable"
     try:
-        r = subprocess.run([str(binary), "serve", "--help"], capture_output=True, timeout=20)
-    except (OSError, subprocess.TimeoutExpired):
-        return False
-    return r.returncode == 0
+        r = subprocess.run([str(binary), "serve", "--help"], capture_output=True, text=True, errors="replace",
+                           timeout=20)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        return f"`{binary} serve --help` did not run: {e}"
+    if r.returncode != 0:
+        return f"`{binary} serve --help` exited with {r.returncode}: {(r.stderr or r.stdout).strip()[-500:]}"
+    return None
+
+
+def has_serve(binary: Optional[Path]) -> bool:
+    return serve_problem(binary) is None
+
+
+_SERVER_CHECK: Optional[Tuple[Optional[Path], Optional[str]]] = None
+
+
+def server_check() -> Tuple[Optional[Path], Optional[str]]:
+    """(binary, problem) for this run, computed once."""
+    global _SERVER_CHECK
+    if _SERVER_CHECK is None:
+        b = riskplan_bin()
+        _SERVER_CHECK = (b, serve_problem(b))
+    return _SERVER_CHECK
+
+
+def server_is_required() -> bool:
+    """A missing server fails the run: RISKPLAN_REQUIRE_SERVER=1, or $RISKPLAN_BIN is set
+    (asking for a binary that does not work is an error, not a reason to skip)."""
+    return require_server() or bool(os.environ.get("RISKPLAN_BIN"))
+
+
+def pytest_sessionstart(session):
+    if not SCENES.is_dir() or not any(SCENES.glob("*.json")):
+        pytest.exit(f"no reference scenes: {SCENES} is not a directory holding *.json "
+                    f"(scenes/ of the repository, or $RISKPLAN_SCENES)", returncode=1)
+    binary, problem = server_check()
+    if problem is not None and server_is_required():
+        why = "RISKPLAN_REQUIRE_SERVER is set" if require_server() else "$RISKPLAN_BIN is set"
+        pytest.exit(f"no working riskplan server binary ({why}): {problem}", returncode=1)
+
+
+def pytest_report_header(config):
+    binary, problem = server_check()
+    if problem is None:
+        return [f"riskplan server: {binary}", f"reference scenes: {SCENES}"]
+    return [f"riskplan server: NONE ({problem}): tests needing a server are SKIPPED "
+            "(set RISKPLAN_REQUIRE_SERVER=1 to make this an error)", f"reference scenes: {SCENES}"]
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    binary, problem = server_check()
+    if problem is None:
+        return
+    skipped = [r for r in terminalreporter.stats.get("skipped", []) if NO_SERVER in str(r.longrepr)]
+    if skipped:
+        terminalreporter.write_sep("=", "riskplan server missing", yellow=True, bold=True)
+        terminalreporter.write_line(f"{len(skipped)} tests needing a server were SKIPPED: {problem}")
+        terminalreporter.write_line("Build it (cargo build --release) or set $RISKPLAN_BIN; "
+                                    "RISKPLAN_REQUIRE_SERVER=1 makes a missing server fail the run.")
 
 
 def free_port() -> int:
@@ -128,11 +208,16 @@ class Server:
         return riskplan.Client(self.endpoint, timeout=timeout)
 
 
+NO_SERVER = "no riskplan binary with `serve`"
+
+
 @pytest.fixture(scope="session")
 def binary() -> Path:
-    b = riskplan_bin()
-    if not has_serve(b):
-        pytest.skip(f"no riskplan binary with `serve` (looked at $RISKPLAN_BIN, target/release, target/debug: {b})")
+    b, problem = server_check()
+    if problem is not None:
+        if server_is_required():  # normally stopped in pytest_sessionstart already
+            pytest.fail(f"{NO_SERVER}: {problem}", pytrace=False)
+        pytest.skip(f"{NO_SERVER}: {problem}")
     return b
 
 

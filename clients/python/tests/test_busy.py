@@ -18,6 +18,7 @@ def tiny(binary, tmp_path_factory):
     s.stop()
 
 
+@pytest.mark.slow  # a 4 s plan occupies the only worker
 def test_busy_when_the_only_worker_is_planning(tiny, ring_scene):
     with tiny.client() as c:
         st = c.status()

@@ -39,6 +39,84 @@ def test_exactly_one_reply_and_json_replies(client, name3):
     assert client.last_replies == 1
 
 
+def test_every_query_gets_exactly_one_reply_from_one_server(client, scene3, ring_scene, unique):
+    """"Every query gets exactly one reply": each kind of query the client sends
+    (apply, get, plan, verify, risk, status, echo), answered with a success or with an
+    error, gets one reply, from the one server the client is connected to. (Puts and
+    deletes are fire and forget: no reply at all.) More than one reply raises
+    DuplicateReplyError in the client, so the calls below fail on a duplicate too."""
+    info = client._session.info
+    servers = [str(z) for z in [*info.peers_zid(), *info.routers_zid()]]
+    assert len(servers) == 1, servers
+    name, ring, missing = unique(), unique("ring"), unique("missing")
+    seen = []
+
+    def once(what, fn, *args, error=None, **kwargs):
+        if error is None:
+            out = fn(*args, **kwargs)
+        else:
+            with pytest.raises(error):
+                fn(*args, **kwargs)
+            out = None
+        assert client.last_replies == 1, (what, client.last_replies)
+        assert client.last_repliers == servers, (what, client.last_repliers, servers)
+        seen.append(what)
+        return out
+
+    rev = once("apply scene", client.apply, name, scene=scene3)
+    once("apply changes", client.apply, name, changes=[
+        {"op": "put", "id": "pole", "poly": "r^2 - (x1 - 0.5)^2 - (x2 + 0.5)^2",
+         "params": {"r": {"dist": "uniform", "low": 0.05, "high": 0.1}}}])
+    assert once("get", client.get_scene, name)["revision"] == rev + 1
+    plan = once("plan", client.plan, name, time_limit=20)
+    assert once("verify trajectory", client.verify, name, trajectory=plan)["safe"] is True
+    once("verify segment", client.verify, name, segment=([-1, -1], [1, 1]))
+    once("risk points", client.risk, name, [[0.0, 0.0], [1.0, 1.0]])
+    once("risk grid", client.risk_grid, name, [-1, -1], [1, 1], 5)
+    once("status", client.status)
+    assert once("echo", client.query, "riskplan/echo", {"ping": [1, 2]}) == {"ping": [1, 2]}
+    # error replies
+    once("get unknown", client.get_scene, missing, error=riskplan.UnknownSceneError)
+    once("plan unknown", client.plan, missing, time_limit=1, error=riskplan.UnknownSceneError)
+    once("apply bad change", client.apply, name, changes=[{"op": "delete", "id": "nope"}],
+         error=riskplan.InvalidRequestError)
+    once("apply bad scene", client.apply, name, scene=dict(scene3, colour="blue"), error=riskplan.InvalidSceneError)
+    once("verify bad method", client.verify, name, segment=([-1, -1], [1, 1]), method="bogus",
+         error=riskplan.InvalidRequestError)
+    once("risk wrong dimension", client.risk, name, [[0.0, 0.0, 0.0]], error=riskplan.InvalidRequestError)
+    once("plan unsupported encoding", client.query, f"riskplan/scenes/{name}/plan", {}, encoding="application/xml",
+         error=riskplan.UnsupportedEncodingError)
+    once("apply ring", client.apply, ring, scene=ring_scene)
+    once("plan no plan", client.plan, ring, time_limit=0.5, error=riskplan.NoPlanError)
+    assert len(seen) == 19
+
+
+def test_two_servers_on_one_network_are_two_replies(binary, tmp_path):
+    """The check above can fail: a second server meshed with the first (--connect) also
+    serves riskplan/**, so each query gets two replies, and the client refuses them."""
+    a = Server(binary, tmp_path / "a").start()
+    b = None
+    try:
+        b = Server(binary, tmp_path / "b", extra=["--connect", a.endpoint]).start()
+        with a.client(timeout=5) as c:
+            def both_answer():
+                try:
+                    c.status()
+                except riskplan.DuplicateReplyError:
+                    return True
+                return False
+
+            wait_for(both_answer, what="the second server to answer through the first")
+            assert c.last_replies == 2 and len(set(c.last_repliers)) == 2, c.last_repliers
+            with pytest.raises(riskplan.DuplicateReplyError) as ei:
+                c.query("riskplan/echo", {"ping": 1})
+            assert ei.value.count == 2
+    finally:
+        if b is not None:
+            b.kill()
+        a.kill()
+
+
 def test_unsupported_encoding_error_is_json(client, name3):
     with pytest.raises(riskplan.UnsupportedEncodingError):
         client.query(f"riskplan/scenes/{name3}/plan", {}, encoding="application/xml")

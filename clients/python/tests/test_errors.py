@@ -288,6 +288,7 @@ def test_no_plan_endpoints_are_fine(client, ring_scene, unique):
 
 # -- client-side: timeout and no_reply ------------------------------------------------------
 
+@pytest.mark.slow  # waits 3 s for the abandoned plan to finish
 def test_timeout_is_a_riskplan_error(client, ring_scene, unique):
     name = unique()
     client.apply(name, scene=ring_scene)

@@ -8,6 +8,7 @@ import subprocess
 import sys
 import threading
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -91,8 +92,21 @@ def test_schemas_reject_invalid_payloads(message, payload):
 def test_scene_schema_accepts_every_reference_scene():
     from conftest import SCENES
 
-    for p in sorted(SCENES.glob("*.json")):
+    paths = sorted(SCENES.glob("*.json"))
+    assert paths, f"no reference scenes in {SCENES}"
+    for p in paths:
         validate("apply_request", {"scene": json.loads(p.read_text())})
+
+
+def test_reference_scenes_come_from_the_repository():
+    """conftest reads scenes/ of the repository (unless $RISKPLAN_SCENES says otherwise)."""
+    import os
+
+    from conftest import SCENES
+
+    if not os.environ.get("RISKPLAN_SCENES"):
+        assert SCENES == REPO / "scenes"
+    assert (SCENES / "illustrative-3.json").is_file()
 
 
 def test_scene_schema_rejects_unknown_top_level_fields():
@@ -149,6 +163,66 @@ def test_timeout_and_no_reply_classes():
     assert riskplan.QueryTimeoutError().code == "timeout"
     assert riskplan.NoReplyError().code == "no_reply"
     assert issubclass(riskplan.BusyError, riskplan.RiskplanError)
+    assert issubclass(riskplan.DuplicateReplyError, riskplan.RiskplanError)
+    assert riskplan.DuplicateReplyError(count=2).code == "duplicate_reply"
+    assert riskplan.DuplicateReplyError(count=2).count == 2
+
+
+# -- one reply per query: the client's selection, without Zenoh --------------------------
+
+def _fake_ok(obj):
+    data = json.dumps(obj).encode()
+    return SimpleNamespace(ok=SimpleNamespace(payload=SimpleNamespace(to_bytes=lambda: data),
+                                              encoding="application/json"), err=None)
+
+
+def _fake_err(text, encoding="application/json"):
+    data = text.encode()
+    return SimpleNamespace(ok=None, err=SimpleNamespace(payload=SimpleNamespace(to_bytes=lambda: data),
+                                                        encoding=encoding))
+
+
+BUSY = json.dumps({"code": "busy", "message": "full", "field": None})
+
+
+def test_one_reply_is_selected():
+    from riskplan.client import one_reply
+
+    r = _fake_ok({"a": 1})
+    assert one_reply("k", [r]) is r
+    e = _fake_err(BUSY)
+    assert one_reply("k", [e]) is e
+    # Zenoh's local Timeout next to a real reply is not a second reply
+    assert one_reply("k", [r, _fake_err("Timeout", "zenoh/string")]) is r
+    assert one_reply("k", [_fake_err("Timeout", "zenoh/string"), e]) is e
+
+
+@pytest.mark.parametrize("replies", [
+    [_fake_ok({"a": 1}), _fake_ok({"a": 1})],
+    [_fake_ok({"a": 1}), _fake_ok({"a": 2})],
+    [_fake_ok({"a": 1}), _fake_err(BUSY)],
+    [_fake_err(BUSY), _fake_ok({"a": 1})],
+    [_fake_err(BUSY), _fake_err(BUSY)],
+    [_fake_ok({"a": 1}), _fake_err("Timeout", "zenoh/string"), _fake_ok({"a": 1})],
+], ids=["ok-ok-same", "ok-ok-different", "ok-err", "err-ok", "err-err", "ok-timeout-ok"])
+def test_several_replies_are_an_error(replies):
+    from riskplan.client import one_reply
+
+    with pytest.raises(riskplan.DuplicateReplyError) as ei:
+        one_reply("riskplan/status", replies)
+    e = ei.value
+    assert isinstance(e, riskplan.RiskplanError) and e.code == "duplicate_reply"
+    assert e.count == len([r for r in replies if r.ok is not None or b"Timeout" not in r.err.payload.to_bytes()])
+    assert "riskplan/status" in e.message
+
+
+def test_no_reply_and_only_a_timeout():
+    from riskplan.client import one_reply
+
+    with pytest.raises(riskplan.NoReplyError):
+        one_reply("k", [])
+    with pytest.raises(riskplan.QueryTimeoutError):
+        one_reply("k", [_fake_err("Timeout", "zenoh/string")])
 
 
 def test_client_refuses_key_expression_specials():
@@ -192,11 +266,24 @@ def fake():
     def weird(q):
         q.reply_err("not json", encoding=zenoh.Encoding.TEXT_PLAIN)
 
+    def twice(q):
+        ok(q)
+        ok(q)
+
+    def ok_then_busy(q):
+        ok(q)
+        busy(q)
+
     qs = [
         session.declare_queryable("fake/ok", ok),
         session.declare_queryable("fake/busy", busy),
         session.declare_queryable("fake/weird", weird),
         session.declare_queryable("fake/hang", lambda q: held.append(q)),
+        session.declare_queryable("fake/twice", twice),
+        session.declare_queryable("fake/ok-then-busy", ok_then_busy),
+        # a second queryable on fake/ok2 next to the first: two "servers" of one key
+        session.declare_queryable("fake/ok2", ok),
+        session.declare_queryable("fake/ok2", ok),
     ]
     yield f"tcp/127.0.0.1:{port}"
     del held[:]
@@ -242,3 +329,13 @@ def test_fake_nothing_serves_gives_no_reply(fake):
             c.query("fake/absent", {})
         assert ei.value.code == "no_reply"
         assert time.monotonic() - t < 2
+
+
+@pytest.mark.parametrize("key,replies", [("fake/twice", 2), ("fake/ok-then-busy", 2), ("fake/ok2", 2)])
+def test_fake_several_replies_raise(fake, key, replies):
+    with riskplan.Client(fake, timeout=5) as c:
+        with pytest.raises(riskplan.DuplicateReplyError) as ei:
+            c.query(key, {"a": 1})
+        assert ei.value.count == replies and c.last_replies == replies
+        # the next query on a well-behaved key is fine again
+        assert c.query("fake/ok", {"a": 1})["echo"] == {"a": 1} and c.last_replies == 1

@@ -1,6 +1,12 @@
 """Durability: every acknowledged update survives `kill -9` and a restart on the same
-data directory, with its revision."""
+data directory, with its revision: after the last acknowledgement, and in the middle of
+a stream of applies."""
 from __future__ import annotations
+
+import json
+import threading
+import time
+from typing import List, Optional, Tuple
 
 import pytest
 
@@ -80,3 +86,125 @@ def test_obstacle_puts_followed_by_an_ack_survive(binary, tmp_path):
             assert {o["id"] for o in got["scene"]["obstacles"]} == {"disk", "extra", "more"}
     finally:
         srv.kill()
+
+
+# -- kill -9 while applies are in flight ------------------------------------------------------
+
+STREAM_ROUNDS = 5       # kill, restart, stream again: five kills at different points
+STREAM_ACKS = 25        # acknowledged applies per round before the kill
+
+
+def disk_at(step: int) -> str:
+    """illustrative-3's disk moved right by step × 1e-4: one polynomial per step."""
+    return f"w^2 - (x1 - {step * 1e-4:.4f})^2 - x2^2"
+
+
+def disk_of(reply: dict) -> str:
+    (disk,) = [o for o in reply["scene"]["obstacles"] if o["id"] == "disk"]
+    return disk["poly"]
+
+
+class ApplyStream(threading.Thread):
+    """Applies one update after another to scene ``name``, without pause, until an apply
+    fails (the server was killed). Step ``i`` moves the disk to ``disk_at(i)``: an
+    obstacle change for even ``i``, the whole scene for odd ``i``. ``sent`` holds the
+    polynomial of every apply sent, in order (appended before it is sent), ``acked``
+    (revision, polynomial) of every apply acknowledged (appended when the reply came)."""
+
+    def __init__(self, endpoint: str, name: str, scene: dict, first: int):
+        super().__init__(daemon=True)
+        self.endpoint, self.name, self.scene, self.first = endpoint, name, scene, first
+        self.sent: List[str] = []
+        self.acked: List[Tuple[int, str]] = []
+        self.error: Optional[Exception] = None
+
+    def run(self) -> None:
+        try:
+            with riskplan.Client(self.endpoint, timeout=10) as c:
+                step = self.first
+                while True:
+                    poly = disk_at(step)
+                    if step % 2:
+                        whole = json.loads(json.dumps(self.scene))
+                        whole["obstacles"] = [dict(o, poly=poly) if o["id"] == "disk" else o
+                                              for o in whole["obstacles"]]
+                        request = dict(scene=whole)
+                    else:
+                        request = dict(changes=[{"op": "put", "id": "disk", "poly": poly}])
+                    self.sent.append(poly)
+                    rev = c.apply(self.name, **request)
+                    self.acked.append((rev, poly))
+                    step += 1
+        except Exception as e:  # the test looks at it
+            self.error = e
+
+
+def test_kill_9_during_a_stream_of_applies(binary, tmp_path):
+    """SIGKILL while an apply stream is still sending, then a restart on the same data
+    directory: the scene is at the last acknowledged revision with its content, or at
+    the next one (the apply in flight, persisted but not acknowledged) with that
+    content; never older, never a revision with another revision's content."""
+    data = tmp_path / "data"
+    data.mkdir()
+    scene = load_scene("illustrative-3")
+    srv = Server(binary, data).start()
+    streams: List[ApplyStream] = []
+    try:
+        with srv.client() as c:
+            rev = c.apply("stream", scene=scene)
+            poly = disk_of(c.get_scene("stream"))
+        assert poly == scene["obstacles"][0]["poly"]
+        step = 1
+        for round_ in range(STREAM_ROUNDS):
+            stream = ApplyStream(srv.endpoint, "stream", scene, first=step)
+            streams.append(stream)
+            stream.start()
+            wait_for(lambda: len(stream.acked) >= STREAM_ACKS + round_ or not stream.is_alive(), limit=120,
+                     what=f"{STREAM_ACKS + round_} acknowledged applies")
+            # then the moment an apply is on its way (sent, not acknowledged yet); its
+            # reply may still win the race with the signal: both outcomes are checked below
+            deadline = time.monotonic() + 10
+            while len(stream.sent) == len(stream.acked) and stream.is_alive() and time.monotonic() < deadline:
+                time.sleep(0)
+            assert stream.is_alive(), f"the stream stopped before the kill: {stream.error!r}"
+            assert len(stream.sent) > len(stream.acked), "no apply on its way to kill"
+            srv.kill()  # SIGKILL, with the stream still sending
+            stream.join(timeout=60)
+            assert not stream.is_alive(), "the stream did not notice the server's death"
+            assert isinstance(stream.error, riskplan.RiskplanError), repr(stream.error)
+            sent, acked = list(stream.sent), list(stream.acked)
+            # the stream is sequential: one revision per apply, in order, and exactly one
+            # apply sent and not acknowledged (the one that met the kill)
+            assert [r for r, _ in acked] == list(range(rev + 1, rev + 1 + len(acked))), (rev, acked)
+            assert [p for _, p in acked] == sent[:len(acked)]
+            assert len(sent) == len(acked) + 1, (len(sent), len(acked))
+            last_rev, last_poly = acked[-1]
+            pending_poly = sent[-1]
+
+            srv.port = free_port()  # a fresh port (the stream's session is gone with it); same data dir
+            srv.endpoint = f"tcp/127.0.0.1:{srv.port}"
+            srv.start()
+            with srv.client() as c:
+                got = c.get_scene("stream")
+                rev, poly = got["revision"], disk_of(got)
+                assert rev >= last_rev, f"acknowledged revision {last_rev} lost: the scene is at {rev}"
+                if rev == last_rev:
+                    assert poly == last_poly, (rev, poly, last_poly)
+                else:
+                    assert rev == last_rev + 1, (rev, last_rev)
+                    assert poly == pending_poly, (rev, poly, pending_poly)
+                assert poly in sent[len(acked) - 1:], (poly, sent[len(acked) - 1:])  # not older than the last ack
+                for k in ("params", "workspace", "start", "goal", "dim", "risk"):
+                    assert got["scene"][k] == scene[k], k
+                assert [o["id"] for o in got["scene"]["obstacles"]] == ["disk"]
+                st = {s["name"]: s["revision"] for s in c.status()["scenes"]}
+                assert st["stream"] == rev
+            step += len(sent)
+        with srv.client() as c:
+            # revisions go on from the restored one, and the scene still serves
+            assert c.apply("stream", changes=[{"op": "put", "id": "disk", "poly": disk_at(step)}]) == rev + 1
+            assert c.verify("stream", segment=([-1, -1], [1, 1]))["revision"] == rev + 1
+    finally:
+        srv.kill()
+        for s in streams:
+            s.join(timeout=15)

@@ -64,7 +64,9 @@ def test_put_scene_reference_scene(client, scene3, unique):
 def test_every_reference_scene_is_accepted(client, unique):
     from conftest import SCENES
 
-    for p in sorted(SCENES.glob("*.json")):
+    paths = sorted(SCENES.glob("*.json"))
+    assert paths, f"no reference scenes in {SCENES}"
+    for p in paths:
         name = unique(p.stem)
         rev = client.apply(name, scene=load_scene(p.stem))
         assert client.get_scene(name)["revision"] == rev

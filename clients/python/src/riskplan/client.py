@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import warnings
 from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -12,6 +11,7 @@ import zenoh
 
 from .errors import (
     ConnectError,
+    DuplicateReplyError,
     InvalidSceneNameError,
     NoReplyError,
     QueryTimeoutError,
@@ -87,11 +87,42 @@ def _decode_err(err: zenoh.ReplyError) -> RiskplanError:
     return RiskplanError(f"error reply ({err.encoding}): {text}", code="unknown")
 
 
+def one_reply(key: str, replies: Sequence[Any]) -> Any:
+    """The one reply to a query on ``key`` among ``replies`` (``zenoh.Reply`` objects, or
+    anything with ``ok`` and ``err`` the same way), in arrival order.
+
+    Zenoh's local ``Timeout`` error reply is not a reply of a server: it is ignored next
+    to a real reply, and raised as :class:`QueryTimeoutError` when nothing else came.
+    Raises :class:`NoReplyError` for no reply at all and :class:`DuplicateReplyError`
+    for more than one real reply (success or error): the protocol promises exactly one.
+    Returns the reply (its ``ok`` is the sample, or its ``err`` the error reply)."""
+    if not replies:
+        raise NoReplyError(f"no reply to the query on {key}: no server serves it (absent, or it died meanwhile)")
+    real = [r for r in replies if r.ok is not None or not isinstance(_decode_err(r.err), QueryTimeoutError)]
+    if len(real) > 1:
+        kinds = ", ".join("ok" if r.ok is not None else "error" for r in real)
+        raise DuplicateReplyError(f"{len(real)} replies ({kinds}) to one query on {key}, where the protocol "
+                                  "promises exactly one: several servers serve this key, or a server answered twice",
+                                  count=len(real))
+    if real:
+        return real[0]
+    raise _decode_err(replies[0].err)
+
+
+def _replier(reply: Any) -> Optional[str]:
+    """The Zenoh id of the session that sent ``reply`` (None: not known)."""
+    rid = getattr(reply, "replier_id", None)
+    return None if rid is None else str(getattr(rid, "zid", rid))
+
+
 class Client:
     """A connection to a riskplan server.
 
     After each query, ``last_replies`` holds the number of replies received (the
-    protocol promises exactly one) and ``last_encoding`` the encoding of the reply used.
+    protocol promises exactly one: more than one real reply raises
+    :class:`DuplicateReplyError`), ``last_repliers`` the Zenoh ids of their senders
+    (``None`` where Zenoh gives none, e.g. a local timeout) and ``last_encoding`` the
+    encoding of the reply used.
 
     ``endpoint``: a Zenoh locator (``tcp/127.0.0.1:7447``) or a list of them. The
     session runs in client mode with multicast scouting off, so it talks only to the
@@ -114,6 +145,7 @@ class Client:
         except zenoh.ZError as e:
             raise ConnectError(f"cannot open a Zenoh session to {endpoint}: {e}") from None
         self.last_replies = 0
+        self.last_repliers: List[Optional[str]] = []
         self.last_encoding: Optional[str] = None
 
     # -- lifecycle -----------------------------------------------------------------
@@ -144,7 +176,7 @@ class Client:
         ``str``/``bytes`` as they are) and the given encoding (``None``: no encoding).
         Returns the decoded JSON reply; raises a :class:`RiskplanError` subclass for an
         error reply, :class:`QueryTimeoutError` on timeout, :class:`NoReplyError` when
-        nothing answered."""
+        nothing answered, :class:`DuplicateReplyError` when more than one reply came."""
         kwargs: Dict[str, Any] = dict(
             consolidation=zenoh.ConsolidationMode.NONE,
             target=zenoh.QueryTarget.BEST_MATCHING,
@@ -158,25 +190,14 @@ class Client:
             kwargs["encoding"] = enc
         replies = list(self._session.get(key, **kwargs))
         self.last_replies = len(replies)
+        self.last_repliers = [_replier(r) for r in replies]
         self.last_encoding = None
-        if not replies:
-            raise NoReplyError(f"no reply to the query on {key}: no server serves it (absent, or it died meanwhile)")
-        oks = [r.ok for r in replies if r.ok is not None]
-        errs = [_decode_err(r.err) for r in replies if r.ok is None]
-        real_errs = [e for e in errs if not isinstance(e, QueryTimeoutError)]
-        if len(oks) + len(real_errs) > 1:
-            warnings.warn(f"{len(oks) + len(real_errs)} replies to one query on {key} (expected one); using the first",
-                          RuntimeWarning, stacklevel=2)
-        # the first real reply, in arrival order
-        for r in replies:
-            if r.ok is not None:
-                self.last_encoding = str(r.ok.encoding)
-                return _decode_ok(r.ok)
-            e = _decode_err(r.err)
-            if not isinstance(e, QueryTimeoutError):
-                self.last_encoding = str(r.err.encoding)
-                raise e
-        raise errs[0]
+        r = one_reply(key, replies)
+        if r.ok is not None:
+            self.last_encoding = str(r.ok.encoding)
+            return _decode_ok(r.ok)
+        self.last_encoding = str(r.err.encoding)
+        raise _decode_err(r.err)
 
     def put(self, key: str, payload: Any, *, encoding: Union[None, str, zenoh.Encoding] = JSON) -> None:
         """A ``put`` on ``key`` (fire and forget)."""

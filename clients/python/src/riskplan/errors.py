@@ -3,9 +3,10 @@
 Every error is a :class:`RiskplanError` carrying ``code``, ``message`` and ``field``.
 Server errors (``reply_err`` with a JSON ``{"code", "message", "field"}`` payload) map to
 one subclass per documented code (proto/README.md, "Error codes"); an unknown code gives
-a plain :class:`RiskplanError`. Two codes are client-side: ``timeout`` (the query timed
-out: the server is hung or slower than the timeout) and ``no_reply`` (the query ended
-with no reply at all: no server, or the server died while handling it).
+a plain :class:`RiskplanError`. Three codes are client-side: ``timeout`` (the query timed
+out: the server is hung or slower than the timeout), ``no_reply`` (the query ended
+with no reply at all: no server, or the server died while handling it) and
+``duplicate_reply`` (more than one reply to one query: the protocol promises exactly one).
 """
 from __future__ import annotations
 
@@ -133,6 +134,20 @@ class NoReplyError(RiskplanError, ConnectionError):
     code = "no_reply"
 
 
+class DuplicateReplyError(RiskplanError):
+    """More than one reply (success or error) to one query, where the protocol promises
+    exactly one: two servers serve the same key on this Zenoh network, or a server
+    answered twice. No reply is used. ``code == "duplicate_reply"``; ``count`` is the
+    number of replies."""
+
+    code = "duplicate_reply"
+
+    def __init__(self, message: str = "", code: Optional[str] = None, field: Optional[str] = None,
+                 count: Optional[int] = None):
+        super().__init__(message, code=code, field=field)
+        self.count = count
+
+
 class ConnectError(RiskplanError, ConnectionError):
     """The Zenoh session could not be opened (nothing listens on the endpoint)."""
 
@@ -158,6 +173,7 @@ ERRORS_BY_CODE: Dict[str, Type[RiskplanError]] = {
         InternalError,
         QueryTimeoutError,
         NoReplyError,
+        DuplicateReplyError,
         ConnectError,
     )
 }
