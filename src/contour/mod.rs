@@ -145,7 +145,8 @@ impl RiskContour {
     }
 
     /// `D`: the largest total degree in (x, t) of E[P] (docs/design.md §3.3);
-    /// `deg g2 = D`, `deg g1 ≤ 2D`.
+    /// `deg g2 = D`, while `deg g1 ≤ 2·deg P`, which can exceed `2D` when the top-degree
+    /// part of P averages out (E[P²] keeps it).
     pub fn degree(&self) -> u32 {
         self.mean.degree()
     }
