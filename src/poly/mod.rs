@@ -14,8 +14,14 @@ mod ring;
 mod univariate;
 
 pub use interval::Interval;
-pub use parse::{parse, PolyError, VarResolver, MAX_EXPONENT};
-pub use ring::{f64_shortest_decimal, f64_to_rational, parse_decimal, rational_to_f64, Ring};
+pub use parse::{
+    parse, parse_with_budget, PolyError, VarResolver, MAX_EXPONENT, MAX_NESTING, MAX_PARSE_DEGREE, MAX_PARSE_TERMS,
+    MAX_PARSE_WORK,
+};
+pub use ring::{
+    f64_shortest_decimal, f64_to_rational, parse_decimal, rational_to_f64, Ring, MAX_DECIMAL_DIGITS,
+    MAX_DECIMAL_EXPONENT,
+};
 pub use univariate::UPoly;
 
 use num_rational::BigRational;

@@ -24,6 +24,28 @@ use thiserror::Error;
 /// paper have degree ≤ 5, and contours double that.
 pub const MAX_EXPONENT: u32 = 32;
 
+/// Deepest nesting of parentheses and unary signs. The parser recurses once per
+/// level, so this bounds its stack use (2000 nested parentheses would overflow a
+/// worker thread's stack); written polynomials need a handful of levels.
+pub const MAX_NESTING: usize = 64;
+
+/// Largest total degree of any subexpression while parsing and expanding. Checked
+/// *before* a product or power is formed, so nested powers such as `((x+1)^32)^32`
+/// are refused without being expanded. Scenes allow degree 8 in (x, t) and 8 per
+/// parameter after expansion (`scene::MAX_OBSTACLE_DEGREE`); intermediate results may
+/// be larger before terms cancel, hence the margin.
+pub const MAX_PARSE_DEGREE: u32 = 64;
+
+/// Most terms of any intermediate polynomial while parsing (a scene obstacle may
+/// have at most `scene::MAX_TERMS` = 2000 after expansion).
+pub const MAX_PARSE_TERMS: usize = 10_000;
+
+/// Budget of term-by-term products for one polynomial text: a product of polynomials
+/// with `a` and `b` terms costs `a·b` (about 2 µs each in exact arithmetic), so half a
+/// second at most; every polynomial of the paper needs under a thousand. A caller that
+/// parses many texts shares one budget among them with [`parse_with_budget`].
+pub const MAX_PARSE_WORK: usize = 250_000;
+
 /// A parse or resolution error in polynomial text, with its 1-based column.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum PolyError {
@@ -59,8 +81,25 @@ pub enum PolyError {
         /// The exponent written.
         exp: String,
     },
-    /// A malformed number literal.
-    #[error("column {col}: malformed number '{text}'")]
+    /// Parentheses or signs nested deeper than [`MAX_NESTING`].
+    #[error("column {col}: nesting deeper than the limit {MAX_NESTING}")]
+    TooDeep {
+        /// 1-based column.
+        col: usize,
+    },
+    /// Expansion beyond [`MAX_PARSE_DEGREE`], [`MAX_PARSE_TERMS`] or [`MAX_PARSE_WORK`].
+    #[error("column {col}: expanding the polynomial exceeds the limit of {limit} ({what})")]
+    TooLarge {
+        /// 1-based column of the operator.
+        col: usize,
+        /// Which limit (`degree`, `terms` or `work`).
+        what: &'static str,
+        /// The limit.
+        limit: usize,
+    },
+    /// A malformed number literal (or one beyond `MAX_DECIMAL_DIGITS` digits or an
+    /// exponent beyond ±`MAX_DECIMAL_EXPONENT`).
+    #[error("column {col}: malformed or too large number '{text}'")]
     BadNumber {
         /// 1-based column.
         col: usize,
@@ -84,6 +123,12 @@ struct Parser<'a, 'r> {
     toks: Vec<(Tok, usize)>,
     pos: usize,
     resolve: &'r mut VarResolver<'a>,
+    /// Current nesting of parentheses and signs.
+    depth: usize,
+    /// Term products still allowed.
+    budget: usize,
+    /// The budget at the start (for the error message).
+    budget_start: usize,
 }
 
 fn describe(t: &Tok) -> String {
@@ -172,12 +217,14 @@ impl Parser<'_, '_> {
         loop {
             match self.peek().0 {
                 Tok::Op('+') => {
-                    self.next();
-                    acc = acc.add(&self.term()?);
+                    let col = self.next().1;
+                    let rhs = self.term()?;
+                    acc = self.checked_terms(acc.add(&rhs), col)?;
                 }
                 Tok::Op('-') => {
-                    self.next();
-                    acc = acc.sub(&self.term()?);
+                    let col = self.next().1;
+                    let rhs = self.term()?;
+                    acc = self.checked_terms(acc.sub(&rhs), col)?;
                 }
                 _ => return Ok(acc),
             }
@@ -189,8 +236,9 @@ impl Parser<'_, '_> {
         loop {
             match self.peek().0 {
                 Tok::Op('*') => {
-                    self.next();
-                    acc = acc.mul(&self.unary()?);
+                    let col = self.next().1;
+                    let rhs = self.unary()?;
+                    acc = self.checked_mul(&acc, &rhs, col)?;
                 }
                 Tok::Op('/') => {
                     let col = self.next().1;
@@ -206,18 +254,49 @@ impl Parser<'_, '_> {
         }
     }
 
+    /// Signs are read in a loop (no recursion), but count towards the nesting limit.
     fn unary(&mut self) -> Result<Poly<BigRational>, PolyError> {
-        match self.peek().0 {
-            Tok::Op('-') => {
-                self.next();
-                Ok(self.unary()?.neg())
+        let mut negate = false;
+        let mut signs = 0;
+        while let (Tok::Op(c @ ('-' | '+')), col) = self.peek().clone() {
+            signs += 1;
+            if self.depth + signs > MAX_NESTING {
+                return Err(PolyError::TooDeep { col });
             }
-            Tok::Op('+') => {
-                self.next();
-                self.unary()
-            }
-            _ => self.power(),
+            negate ^= c == '-';
+            self.next();
         }
+        self.depth += signs;
+        let p = self.power();
+        self.depth -= signs;
+        let p = p?;
+        Ok(if negate { p.neg() } else { p })
+    }
+
+    /// `a·b`, refused before it is formed when it would exceed the degree, terms or
+    /// work limits.
+    fn checked_mul(
+        &mut self,
+        a: &Poly<BigRational>,
+        b: &Poly<BigRational>,
+        col: usize,
+    ) -> Result<Poly<BigRational>, PolyError> {
+        if a.degree() as u64 + b.degree() as u64 > MAX_PARSE_DEGREE as u64 {
+            return Err(PolyError::TooLarge { col, what: "degree", limit: MAX_PARSE_DEGREE as usize });
+        }
+        let cost = a.len().saturating_mul(b.len());
+        if cost > self.budget {
+            return Err(PolyError::TooLarge { col, what: "work", limit: self.budget_start });
+        }
+        self.budget -= cost;
+        self.checked_terms(a.mul(b), col)
+    }
+
+    fn checked_terms(&self, p: Poly<BigRational>, col: usize) -> Result<Poly<BigRational>, PolyError> {
+        if p.len() > MAX_PARSE_TERMS {
+            return Err(PolyError::TooLarge { col, what: "terms", limit: MAX_PARSE_TERMS });
+        }
+        Ok(p)
     }
 
     fn power(&mut self) -> Result<Poly<BigRational>, PolyError> {
@@ -236,7 +315,15 @@ impl Parser<'_, '_> {
                 if self.peek().0 == Tok::Op('^') {
                     return Err(self.unexpected("an operator other than a second '^' (write (a^b)^c)"));
                 }
-                Ok(base.pow(e))
+                if base.degree() as u64 * e as u64 > MAX_PARSE_DEGREE as u64 {
+                    return Err(PolyError::TooLarge { col, what: "degree", limit: MAX_PARSE_DEGREE as usize });
+                }
+                // repeated multiplication, each step within the limits
+                let mut acc = Poly::constant(BigRational::from_integer(1.into()));
+                for _ in 0..e {
+                    acc = self.checked_mul(&acc, &base, col)?;
+                }
+                Ok(acc)
             }
             other => Err(PolyError::Unexpected {
                 col,
@@ -260,8 +347,14 @@ impl Parser<'_, '_> {
                 Ok(Poly::var(v))
             }
             Tok::Op('(') => {
+                if self.depth >= MAX_NESTING {
+                    return Err(PolyError::TooDeep { col });
+                }
                 self.next();
-                let inner = self.expr()?;
+                self.depth += 1;
+                let inner = self.expr();
+                self.depth -= 1;
+                let inner = inner?;
                 if self.peek().0 != Tok::Op(')') {
                     return Err(self.unexpected("')' or an operator"));
                 }
@@ -273,11 +366,26 @@ impl Parser<'_, '_> {
     }
 }
 
-/// Parses polynomial text; `resolve` maps each identifier to a variable.
+/// Parses polynomial text; `resolve` maps each identifier to a variable. Expansion
+/// may spend at most [`MAX_PARSE_WORK`] term products.
 pub fn parse(text: &str, resolve: &mut VarResolver<'_>) -> Result<Poly<BigRational>, PolyError> {
+    let mut budget = MAX_PARSE_WORK;
+    parse_with_budget(text, resolve, &mut budget)
+}
+
+/// [`parse`] with a work budget shared by several texts (a scene's obstacles): the
+/// products spent are taken from `budget`, and the text is refused (`TooLarge`,
+/// `work`) when it would need more than is left.
+pub fn parse_with_budget(
+    text: &str,
+    resolve: &mut VarResolver<'_>,
+    budget: &mut usize,
+) -> Result<Poly<BigRational>, PolyError> {
     let toks = lex(text)?;
-    let mut p = Parser { toks, pos: 0, resolve };
-    let out = p.expr()?;
+    let mut p = Parser { toks, pos: 0, resolve, depth: 0, budget: *budget, budget_start: *budget };
+    let out = p.expr();
+    *budget = p.budget;
+    let out = out?;
     if p.peek().0 != Tok::End {
         return Err(p.unexpected("an operator ('+', '-', '*', '/', '^') or end of text"));
     }

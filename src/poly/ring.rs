@@ -149,9 +149,21 @@ pub fn f64_to_rational(f: f64) -> Option<BigRational> {
     BigRational::from_float(f)
 }
 
+/// Largest decimal exponent magnitude [`parse_decimal`] accepts: every finite `f64`
+/// (|exponent| ≤ 324) fits, and nothing larger is a physical quantity. A bound, because
+/// `1e4000` read exactly is a 4000-digit integer that every later exact operation
+/// (moments, contours) pays for.
+pub const MAX_DECIMAL_EXPONENT: u64 = 400;
+
+/// Most digits (integer and fraction part together) [`parse_decimal`] accepts: far
+/// more than any measured quantity carries, few enough that exact arithmetic on them
+/// stays cheap.
+pub const MAX_DECIMAL_DIGITS: usize = 400;
+
 /// Parses decimal text exactly: `"0.3"` is 3/10, `"1e-3"` is 1/1000, `"-2.5E2"` is -250.
 ///
-/// Returns `None` when the text is not a decimal number. This is the policy of
+/// Returns `None` when the text is not a decimal number, or when it has more than
+/// [`MAX_DECIMAL_DIGITS`] digits or an exponent beyond ±[`MAX_DECIMAL_EXPONENT`]. This is the policy of
 /// docs/design.md §1.4: scene numbers are exact rationals, not binary floats.
 pub fn parse_decimal(s: &str) -> Option<BigRational> {
     let s = s.trim();
@@ -176,8 +188,8 @@ pub fn parse_decimal(s: &str) -> Option<BigRational> {
     if !int_part.bytes().all(|b| b.is_ascii_digit()) || !frac_part.bytes().all(|b| b.is_ascii_digit()) {
         return None;
     }
-    // Exponents this large cannot come from a sensible scene; refuse rather than allocate.
-    if exp.unsigned_abs() > 4000 {
+    // Sizes that cannot come from a sensible scene: refuse rather than allocate.
+    if exp.unsigned_abs() > MAX_DECIMAL_EXPONENT || int_part.len() + frac_part.len() > MAX_DECIMAL_DIGITS {
         return None;
     }
     let digits = format!("{int_part}{frac_part}");

@@ -130,3 +130,45 @@ proptest! {
         prop_assert_eq!(u.eval(&tq), a.eval(&vals));
     }
 }
+
+/// Hostile polynomial text gets a typed error, bounded in stack and work: deep
+/// nesting, long sign chains, nested powers and wide expansions are refused before
+/// they are built; oversized numbers are malformed.
+#[test]
+fn hostile_text_is_refused_within_limits() {
+    let deep = format!("{}x1{}", "(".repeat(2000), ")".repeat(2000));
+    assert!(matches!(perr(&deep), PolyError::TooDeep { .. }), "{:?}", perr(&deep));
+    let signs = format!("{}x1", "-".repeat(10_000));
+    assert!(matches!(perr(&signs), PolyError::TooDeep { .. }));
+    // at the limit itself, nesting is fine
+    let ok = format!("{}x1{}", "(".repeat(MAX_NESTING), ")".repeat(MAX_NESTING));
+    assert_eq!(p(&ok), p("x1"));
+    assert_eq!(p(&format!("{}x1", "-".repeat(MAX_NESTING))), p("x1"));
+    // nested powers: degree 32 768 is refused before expansion
+    let e = perr("(((x1+1)^32)^32)^32");
+    assert!(matches!(e, PolyError::TooLarge { what: "degree", .. }), "{e:?}");
+    let e = perr("x1^30*x2^30*t^30");
+    assert!(matches!(e, PolyError::TooLarge { what: "degree", .. }), "{e:?}");
+    // wide expansions: too many terms or too much work
+    let e = perr("(x1+x2+t+w+1)^32");
+    assert!(matches!(e, PolyError::TooLarge { what: "terms" | "work", .. }), "{e:?}");
+    let e = perr(&vec!["(x1+x2+t+w+1)^4*(x1+x2+t+w+1)^4"; 60].join("+"));
+    assert!(matches!(e, PolyError::TooLarge { what: "work", .. }), "{e:?}");
+    // a shared budget runs out across texts
+    let t = table();
+    let mut budget = 10_000;
+    let mut resolve = |n: &str| t.get(n).ok_or_else(|| n.to_string());
+    assert!(parse_with_budget("(x1+x2+t+w+1)^4", &mut resolve, &mut budget).is_ok());
+    assert!(budget < 10_000);
+    let mut runs = 0;
+    while parse_with_budget("(x1+x2+t+w+1)^4", &mut resolve, &mut budget).is_ok() {
+        runs += 1;
+        assert!(runs < 100, "the budget never ran out");
+    }
+    // numbers beyond the exact-size limits
+    assert!(matches!(perr("1e4000*x1"), PolyError::BadNumber { .. }));
+    assert!(matches!(perr(&format!("{}*x1", "9".repeat(MAX_DECIMAL_DIGITS + 1))), PolyError::BadNumber { .. }));
+    assert_eq!(p("1e400*x1 - 1e400*x1"), Poly::zero());
+    // what the paper writes is far inside every limit
+    assert_eq!(p("(x1 + x2 + t + w + 1)^8").len(), 495);
+}

@@ -19,7 +19,7 @@ pub use trajectory::{
 use crate::contour::{ContourError, Layout, RiskContour, RiskLevel, RiskLevelError};
 use crate::mc::McModel;
 use crate::moments::{Distribution, MomentError};
-use crate::poly::{parse, rational_to_f64, QPoly, Var, VarTable};
+use crate::poly::{parse_with_budget, rational_to_f64, QPoly, Var, VarTable};
 use num_rational::BigRational;
 use num_traits::Signed;
 use std::collections::BTreeMap;
@@ -33,8 +33,19 @@ pub const MAX_DIM: usize = 8;
 pub const MAX_OBSTACLE_DEGREE: u32 = 8;
 /// Largest degree of an obstacle polynomial in one parameter (moments to twice this).
 pub const MAX_PARAM_DEGREE: u32 = 8;
-/// Largest number of terms of an obstacle polynomial after expansion.
-pub const MAX_TERMS: usize = 2000;
+/// Largest number of terms of an obstacle polynomial after expansion. Building E[P²]
+/// costs one exact product per pair of terms (`terms²`): 462 terms took 0.4 s; the
+/// 1287 terms of `(x1+x2+x3+t+w+1)^8` took 2.3 s.
+pub const MAX_TERMS: usize = 500;
+/// Budget of the whole scene's contour construction, Σ over obstacles of `terms²`
+/// (the products that E[P²] needs): measured at about 2 µs a product, so at most about
+/// two seconds of exact arithmetic, and a scene cannot hold a server's worker for
+/// minutes. The paper's largest scene needs under 2 000.
+pub const MAX_CONTOUR_WORK: usize = 1_000_000;
+/// Budget of term products for expanding all of a scene's obstacle texts together
+/// (`poly::parse_with_budget`); with [`MAX_CONTOUR_WORK`] it bounds the exact
+/// arithmetic a scene can ask for, however many obstacles it lists.
+pub const MAX_SCENE_PARSE_WORK: usize = 1_000_000;
 /// Largest number of obstacles in a scene.
 pub const MAX_OBSTACLES: usize = 512;
 
@@ -388,6 +399,8 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
     }
     let layout = Layout { dim };
     let mut seen = BTreeMap::new();
+    let mut work = 0usize;
+    let mut parse_budget = MAX_SCENE_PARSE_WORK;
     let mut out = Vec::new();
     for (i, o) in file.obstacles.iter().enumerate() {
         if o.id.trim().is_empty() {
@@ -406,13 +419,23 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
                 }
             })
         };
-        let poly = parse(&o.poly, &mut resolve).map_err(|e| SceneError { path: path.clone(), kind: e.into() })?;
+        let poly = parse_with_budget(&o.poly, &mut resolve, &mut parse_budget)
+            .map_err(|e| SceneError { path: path.clone(), kind: e.into() })?;
         let deg_xt = poly.degree_in_vars(|v| !layout.is_param(v));
         if deg_xt > MAX_OBSTACLE_DEGREE {
             return Err(err(path, format!("degree {deg_xt} in (x, t) exceeds the limit {MAX_OBSTACLE_DEGREE}")));
         }
         if poly.len() > MAX_TERMS {
             return Err(err(path, format!("{} terms after expansion exceed the limit {MAX_TERMS}", poly.len())));
+        }
+        work += poly.len() * poly.len();
+        if work > MAX_CONTOUR_WORK {
+            return Err(err(
+                path,
+                format!(
+                    "the contours of the obstacles up to this one need {work} exact term products (Σ terms²), over the limit {MAX_CONTOUR_WORK}"
+                ),
+            ));
         }
         for v in poly.vars().into_iter().filter(|&v| layout.is_param(v)) {
             let d = poly.degree_in(v);

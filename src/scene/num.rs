@@ -1,7 +1,7 @@
 //! Exact numbers in scene files: a JSON number (read through its shortest decimal
 //! text, so `0.3` is 3/10) or a string holding a decimal or a fraction (`"37/300"`).
 
-use crate::poly::{f64_shortest_decimal, parse_decimal, rational_to_f64};
+use crate::poly::{f64_shortest_decimal, parse_decimal, rational_to_f64, MAX_DECIMAL_DIGITS, MAX_DECIMAL_EXPONENT};
 use num_rational::BigRational;
 use serde::de::{self, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -50,7 +50,12 @@ impl Visitor<'_> for NumVisitor {
         f64_shortest_decimal(v).map(Num).ok_or_else(|| E::custom("the number must be finite"))
     }
     fn visit_str<E: de::Error>(self, v: &str) -> Result<Num, E> {
-        parse_num_text(v).map(Num).ok_or_else(|| E::custom(format!("'{v}' is not a decimal number or a fraction p/q")))
+        parse_num_text(v).map(Num).ok_or_else(|| {
+            E::custom(format!(
+                "'{v}' is not a decimal number or a fraction p/q within the exact-number limits \
+                 ({MAX_DECIMAL_DIGITS} digits, exponent ±{MAX_DECIMAL_EXPONENT})"
+            ))
+        })
     }
 }
 

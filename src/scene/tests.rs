@@ -116,3 +116,71 @@ fn shared_parameter_is_one_random_variable() {
     assert_eq!(h[0][0], h[0][1]);
     assert!(h[0][0] > 400 && h[0][0] < 600);
 }
+
+/// Valid-looking scenes that would cost seconds to minutes of exact arithmetic are
+/// refused with an error naming the field and the limit.
+#[test]
+fn costly_scenes_are_refused_by_named_limits() {
+    let refused = |edit: &dyn Fn(&mut serde_json::Value), field: &str, words: &str| {
+        let mut v = base();
+        edit(&mut v);
+        let Err(e) = load(&v) else { panic!("{field}: the scene was accepted") };
+        assert!(e.path.starts_with(field), "{field}: {e}");
+        assert!(e.to_string().contains(words), "{field}: {e}");
+    };
+    // 300 atoms with unrelated rational weights (took 18 s to expand)
+    refused(
+        &|v| {
+            let n = 300;
+            let weights: Vec<String> = (0..n).map(|i| format!("1/{}", 2 * n + i)).collect();
+            v["params"]["w"] = serde_json::json!({"dist": "discrete", "values": vec![0.35; n], "weights": weights});
+        },
+        "params.w.values",
+        "at most 64 values",
+    );
+    // 60 atoms, but weights with ever new prime denominators
+    refused(
+        &|v| {
+            let primes: Vec<u64> =
+                (1_000_000u64..).filter(|n| (2..*n).take_while(|d| d * d <= *n).all(|d| n % d != 0)).take(60).collect();
+            let mut w: Vec<String> = primes.iter().map(|p| format!("1/{p}")).collect();
+            w.push("1".into());
+            let n = w.len();
+            v["params"]["w"] = serde_json::json!({"dist": "discrete", "values": vec![0.35; n], "weights": w});
+        },
+        "params.w.weights",
+        "common denominator",
+    );
+    refused(
+        &|v| v["params"]["w"] = serde_json::json!({"dist": "beta", "alpha": "1e4000", "beta": 2}),
+        "params.w",
+        "exact-number limits",
+    );
+    refused(
+        &|v| v["params"]["w"] = serde_json::json!({"dist": "moments", "raw": vec![0.1; 100]}),
+        "params.w.raw",
+        "at most 64 raw moments",
+    );
+    // 1287 terms: over MAX_TERMS (took 2.3 s to build)
+    refused(
+        &|v| {
+            v["params"]["w2"] = serde_json::json!({"dist": "uniform", "low": 0, "high": 1});
+            v["obstacles"][0]["poly"] = "0.00001*(x1+x2+t+w+w2+1)^8 - 1".into();
+        },
+        "obstacles[0].poly",
+        "terms after expansion exceed the limit",
+    );
+    // many mid-sized obstacles: over the scene's contour budget
+    refused(
+        &|v| {
+            let obs: Vec<_> = (0..12)
+                .map(|i| serde_json::json!({"id": format!("o{i}"), "poly": format!("0.00001*(x1+x2+t+w+{})^8 - 1", i + 1)}))
+                .collect();
+            v["obstacles"] = serde_json::json!(obs);
+        },
+        "obstacles[",
+        "exact term products",
+    );
+    // nested powers in an obstacle
+    refused(&|v| v["obstacles"][0]["poly"] = "(((x1+1)^32)^32)^32".into(), "obstacles[0].poly", "degree");
+}

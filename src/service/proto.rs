@@ -15,6 +15,13 @@ pub const MAX_PAYLOAD_BYTES: usize = 1 << 20;
 pub const MAX_RISK_POINTS: usize = 100_000;
 /// Largest grid side in one risk query.
 pub const MAX_GRID_SIDE: usize = 500;
+/// Most bytes a bincode message may make the decoder allocate. Bincode reads a length
+/// before the data it announces; without a limit a 10-byte message claiming a string of
+/// 2^40 bytes aborts the process on the allocation. A request is at most
+/// [`MAX_PAYLOAD_BYTES`] on the wire, and its decoded form is at most a few dozen times
+/// larger (every small number becomes 8 bytes, every list 24 more), so 64 MiB leaves room
+/// for every genuine message, requests and the larger replies a client decodes alike.
+pub const MAX_DECODE_ALLOCATION: usize = 64 << 20;
 /// The bincode encoding name.
 pub const BINCODE: &str = "application/bincode";
 
@@ -367,7 +374,10 @@ impl Codec {
                     (e.into_inner().to_string(), (p != ".").then_some(p))
                 })
             }
-            Codec::Bincode => match bincode::serde::decode_from_slice(bytes, bincode::config::standard()) {
+            Codec::Bincode => match bincode::serde::decode_from_slice(
+                bytes,
+                bincode::config::standard().with_limit::<MAX_DECODE_ALLOCATION>(),
+            ) {
                 Ok((v, n)) if n == bytes.len() => Ok(v),
                 Ok((_, n)) => Err((format!("{} trailing bytes after the message", bytes.len() - n), None)),
                 Err(e) => Err((e.to_string(), None)),

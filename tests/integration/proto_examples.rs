@@ -60,3 +60,43 @@ fn every_example_round_trips() {
     }
     assert!(n >= 30, "only {n} examples");
 }
+
+/// Bincode messages that announce huge lengths are errors, not allocations: the
+/// 10-byte message that aborted the server (a string of 2^40 bytes claimed) and one
+/// claiming 2^63 (which made the handler panic) decode into every request type as
+/// `Err`, as do random short messages.
+#[test]
+fn bincode_length_claims_are_bounded() {
+    let claim_2_40: &[u8] = &[0x01, 0xfd, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00];
+    let claim_2_63: &[u8] = &[0x01, 0xfd, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80];
+    let mut inputs: Vec<Vec<u8>> = vec![claim_2_40.to_vec(), claim_2_63.to_vec()];
+    let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+    for n in 0..2000 {
+        let len = 1 + n % 40;
+        inputs.push(
+            (0..len)
+                .map(|_| {
+                    x ^= x << 13;
+                    x ^= x >> 7;
+                    x ^= x << 17;
+                    // mostly the bytes that make varints claim large lengths
+                    if x % 3 == 0 {
+                        0xfd
+                    } else {
+                        (x >> 24) as u8
+                    }
+                })
+                .collect(),
+        );
+    }
+    for bytes in &inputs {
+        let _ = Codec::Bincode.decode::<VerifyRequest>(bytes);
+        let _ = Codec::Bincode.decode::<ApplyRequest>(bytes);
+        let _ = Codec::Bincode.decode::<PlanRequest>(bytes);
+        let _ = Codec::Bincode.decode::<RiskRequest>(bytes);
+    }
+    for bytes in [claim_2_40, claim_2_63] {
+        assert!(Codec::Bincode.decode::<VerifyRequest>(bytes).is_err());
+        assert!(Codec::Bincode.decode::<ApplyRequest>(bytes).is_err());
+    }
+}

@@ -150,7 +150,7 @@ DEFS = {
         "description": "an obstacle id, unique in its scene (it is also a key-expression chunk in riskplan/scenes/<scene>/obstacles/<id>, so it should avoid / * $ ? #)",
     },
     "scene": {
-        "description": "a scene, scene format v1 (docs/formats.md); unknown top-level fields are errors. Limits: dim <= 8, degree <= 8 in (x, t) and per parameter, <= 2000 terms per obstacle, <= 512 obstacles.",
+        "description": "a scene, scene format v1 (docs/formats.md); unknown top-level fields are errors. Limits: dim <= 8, degree <= 8 in (x, t) and per parameter, <= 500 terms per obstacle, <= 512 obstacles, and the expansion and contour-work limits of docs/formats.md §1.7.",
         "type": "object",
         "required": ["format", "name", "dim", "workspace", "horizon", "risk", "obstacles"],
         "additionalProperties": False,
