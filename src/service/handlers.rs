@@ -109,7 +109,12 @@ pub fn verify_request(entry: &Entry, req: &VerifyRequest) -> Result<VerifyReply,
     let delta = delta_of(req.delta)?.unwrap_or_else(|| scene.risk.clone());
     let method = method_of(req.method.as_deref(), "method")?;
     let r = verify(scene, &traj, &delta, method, &Default::default());
-    Ok(VerifyReply { safe: r.safe, method: r.method, risk: r.risk, pieces: r.pieces, revision: entry.revision })
+    let pieces = if req.summary.unwrap_or(false) {
+        r.pieces.into_iter().filter(|p| !p.safe).take(1).collect()
+    } else {
+        r.pieces
+    };
+    Ok(VerifyReply { safe: r.safe, method: r.method, risk: r.risk, pieces, revision: entry.revision })
 }
 
 /// Cantelli bounds at points or on a grid (floating point, for displays).
@@ -138,7 +143,9 @@ pub fn risk(entry: &Entry, req: &RiskRequest) -> Result<RiskReply, ServiceError>
             let n = g.n as usize;
             if n > MAX_GRID_SIDE {
                 return Err(ServiceError::LimitExceeded {
-                    message: format!("grid side {n} exceeds the limit of {MAX_GRID_SIDE}"),
+                    message: format!(
+                        "grid side {n} exceeds the limit of {MAX_GRID_SIDE} ({MAX_GRID_SIDE}² points ≤ {MAX_RISK_POINTS})"
+                    ),
                     field: Some("grid.n".into()),
                 });
             }

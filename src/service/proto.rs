@@ -13,8 +13,12 @@ use std::collections::BTreeMap;
 pub const MAX_PAYLOAD_BYTES: usize = 1 << 20;
 /// Largest number of points in one risk query.
 pub const MAX_RISK_POINTS: usize = 100_000;
-/// Largest grid side in one risk query.
-pub const MAX_GRID_SIDE: usize = 500;
+/// Largest grid side in one risk query: a side-`n` grid has `n²` points, so that the
+/// point limit holds (316² = 99 856 ≤ 100 000).
+pub const MAX_GRID_SIDE: usize = 316;
+/// Largest encoded reply. A larger reply is the error `limit_exceeded` (with what to
+/// ask for instead), never silence: Zenoh would fail to deliver it.
+pub const MAX_REPLY_BYTES: usize = 8 << 20;
 /// Most bytes a bincode message may make the decoder allocate. Bincode reads a length
 /// before the data it announces; without a limit a 10-byte message claiming a string of
 /// 2^40 bytes aborts the process on the allocation. A request is at most
@@ -185,6 +189,10 @@ pub struct VerifyRequest {
     /// Δ (default: the scene's).
     #[serde(default)]
     pub delta: Option<f64>,
+    /// `true`: the reply's `pieces` holds only the first piece that is not safe (none
+    /// when the trajectory is safe), not a report of every piece.
+    #[serde(default)]
+    pub summary: Option<bool>,
 }
 
 /// `verify_reply`: the `riskplan verify` report and the revision.

@@ -253,6 +253,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         cfg.queue
     );
     info!(listen = %cfg.listen.join(","), "serving");
+    let puts = spawn_put_worker(state.clone());
     let shutdown = shutdown_signal();
     tokio::pin!(shutdown);
     loop {
@@ -264,13 +265,14 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
             },
             s = subscriber.recv_async() => match s {
                 Ok(sample) => {
-                    let st = state.clone();
                     let key = sample.key_expr().as_str().to_string();
-                    let kind = sample.kind();
-                    let bytes = sample.payload().to_bytes().into_owned();
-                    // Puts are applied in arrival order: wait for each before the next.
-                    let r = tokio::task::spawn_blocking(move || handle_put(&st, &key, kind, &bytes)).await;
-                    if let Err(e) = r { warn!("put handler failed: {e}"); }
+                    let put = (key, sample.kind(), sample.payload().to_bytes().into_owned());
+                    // Never wait here: the put worker applies puts in arrival order; when
+                    // its queue is full the put is dropped (puts have no reply) and counted.
+                    if let Err(e) = puts.try_send(put) {
+                        state.count("put", false);
+                        warn!(key = %e.into_inner().0, "put dropped: {PUT_QUEUE} puts are already waiting");
+                    }
                 }
                 Err(_) => break,
             },
@@ -280,6 +282,26 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
     info!(cancelled, "shutting down");
     let _ = session.close().await;
     Ok(())
+}
+
+/// Puts and deletes waiting for the put worker before new ones are dropped.
+pub const PUT_QUEUE: usize = 256;
+
+type PutMsg = (String, SampleKind, Vec<u8>);
+
+/// The put worker: applies puts and deletes one after another, in arrival order, on
+/// a blocking thread, so that the loop receiving messages never waits for one.
+fn spawn_put_worker(state: Arc<State>) -> tokio::sync::mpsc::Sender<PutMsg> {
+    let (tx, mut rx) = tokio::sync::mpsc::channel::<PutMsg>(PUT_QUEUE);
+    tokio::spawn(async move {
+        while let Some((key, kind, bytes)) = rx.recv().await {
+            let st = state.clone();
+            if let Err(e) = tokio::task::spawn_blocking(move || handle_put(&st, &key, kind, &bytes)).await {
+                warn!("put handler failed: {e}");
+            }
+        }
+    });
+    tx
 }
 
 async fn shutdown_signal() {
@@ -363,7 +385,23 @@ async fn handle_query(state: Arc<State>, query: Query) {
             Some(c) if bytes.len() > MAX_PAYLOAD_BYTES => {
                 (c, Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES)))
             }
-            Some(c) => (c, dispatch(&state, &kind, &scene, c, bytes).await),
+            Some(c) => (
+                c,
+                dispatch(&state, &kind, &scene, c, bytes).await.and_then(|(payload, rev)| {
+                    if payload.len() > MAX_REPLY_BYTES {
+                        Err(ServiceError::LimitExceeded {
+                            message: format!(
+                            "the reply would be {} bytes, over the limit of {MAX_REPLY_BYTES}: ask for fewer points, \
+                             a smaller grid, or a verify summary (\"summary\": true)",
+                            payload.len()
+                        ),
+                            field: None,
+                        })
+                    } else {
+                        Ok((payload, rev))
+                    }
+                }),
+            ),
         };
         let ok = result.is_ok();
         state.count(&kind, ok);

@@ -117,7 +117,7 @@ def test_limit_points_at_the_limit_is_fine(client, name3):
 
 
 def test_limit_exceeded_grid_side(client, name3):
-    expect(riskplan.LimitExceededError, client.risk_grid, name3, [-1, -1], [1, 1], 501)
+    expect(riskplan.LimitExceededError, client.risk_grid, name3, [-1, -1], [1, 1], 317)
 
 
 def test_limit_exceeded_scene_dimension(client, scene3, unique):

@@ -12,6 +12,10 @@ import pytest
 
 import riskplan
 
+import threading
+
+from conftest import Server, load_scene
+
 BINCODE = "application/bincode"
 STATUS_LIMIT_S = 1.0   # status must answer well within this after each hostile message
 
@@ -99,3 +103,91 @@ def test_costly_distributions_and_contours_are_invalid_scenes(client, scene3, un
             client.apply(name, scene=s)
         assert time.monotonic() - t < 5.0
         assert_alive(client)
+
+
+def test_reply_size_is_bounded_by_a_typed_error(client, unique):
+    """A reply over the size limit is `limit_exceeded` naming what to ask instead, never
+    silence; a grid side beyond √(point limit) is refused before any work."""
+    name = unique()
+    client.apply(name, scene=load_scene("example-d1-cluttered-2d"))
+    with pytest.raises(riskplan.LimitExceededError):
+        client.risk_grid(name, [0, 0], [5, 5], 500)       # 250 000 points: over the point limit
+    t = time.monotonic()
+    with pytest.raises(riskplan.LimitExceededError) as ei:
+        client.risk_grid(name, [0, 0], [5, 5], 316, timeout=60)   # 99 856 points × 8 obstacles: too large a reply
+    assert "summary" in ei.value.message or "fewer points" in ei.value.message
+    assert client.last_replies == 1
+    assert time.monotonic() - t < 30
+    assert_alive(client)
+    _, _, bounds = client.risk_grid(name, [0, 0], [5, 5], 100)
+    assert bounds.shape == (100, 100)
+
+
+def test_verify_summary_keeps_only_the_first_unsafe_piece(client, scene3, unique):
+    name = unique()
+    client.apply(name, scene=scene3)
+    plan = client.plan(name, time_limit=10)
+    full = client.verify(name, trajectory=plan)
+    short = client.verify(name, trajectory=plan, summary=True)
+    assert full["safe"] and short["safe"] and short["pieces"] == [] and len(full["pieces"]) >= 2
+    bad = client.verify(name, segment=([-1, -1], [1, 1]), summary=True)
+    assert not bad["safe"] and len(bad["pieces"]) == 1 and not bad["pieces"][0]["safe"]
+
+
+def slow_scene(scene3: dict, obstacles: int = 4) -> dict:
+    """A valid scene whose contours take about a second to build (462-term obstacles)."""
+    s = json.loads(json.dumps(scene3))
+    s["params"]["v"] = {"dist": "normal", "mean": 0, "std": 1}
+    s["obstacles"] = [{"id": f"o{i}", "poly": f"0.00001*(x1+x2+t+w+v+{i + 1})^6 - 1"} for i in range(obstacles)]
+    return s
+
+
+def status_times(client, seconds: float):
+    """Round-trip times of `status` queries sent back to back for `seconds`."""
+    times = []
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        t = time.monotonic()
+        client.status(timeout=5)
+        times.append(time.monotonic() - t)
+    return times
+
+
+def test_slow_puts_do_not_hold_the_receive_loop(client, scene3, unique):
+    name = unique()
+    client.put(f"riskplan/scenes/{name}", slow_scene(scene3))
+    times = status_times(client, 1.0)
+    assert max(times) < 0.1, f"status took {max(times):.3f} s while a put was being applied"
+    wait_for_scene = time.monotonic() + 20
+    while True:
+        try:
+            client.get_scene(name)
+            break
+        except riskplan.UnknownSceneError:
+            assert time.monotonic() < wait_for_scene, "the slow scene never arrived"
+            time.sleep(0.05)
+
+
+def test_status_and_echo_answer_while_every_worker_is_busy(binary, tmp_path, scene3, ring_scene):
+    srv = Server(binary, tmp_path / "data", extra=["--workers", "1", "--queue", "4"]).start()
+    try:
+        with srv.client() as c:
+            c.apply("ring", scene=ring_scene)
+            # an unreachable goal: the one worker plans until the time limit
+            blocker = threading.Thread(
+                target=lambda: pytest.raises(riskplan.RiskplanError, c.plan, "ring", time_limit=4, timeout=30),
+                daemon=True)
+            with srv.client() as c2:
+                blocker.start()
+                deadline = time.monotonic() + 10
+                while c2.status()["queue"]["running"] < 1:
+                    assert time.monotonic() < deadline, "the plan never started"
+                    time.sleep(0.02)
+                times = status_times(c2, 1.0)
+                assert max(times) < 0.1, f"status took {max(times):.3f} s with every worker busy"
+                t = time.monotonic()
+                assert c2.query("riskplan/echo", {"ping": 1}) == {"ping": 1}
+                assert time.monotonic() - t < 0.1
+                blocker.join(timeout=30)
+    finally:
+        srv.kill()

@@ -422,6 +422,7 @@ MESSAGES = {
             },
             "method": ref("method"),
             "delta": ref("delta"),
+            "summary": {"type": "boolean", "description": "true: `pieces` in the reply holds only the first piece that is not safe (none when safe)"},
         },
         "oneOf": [{"required": ["trajectory"]}, {"required": ["segment"]}],
     },
@@ -452,7 +453,7 @@ MESSAGES = {
                 "properties": {
                     "lower": VECTOR,
                     "upper": VECTOR,
-                    "n": {"type": "integer", "minimum": 2, "maximum": 500, "description": "points per side (grid side <= 500)"},
+                    "n": {"type": "integer", "minimum": 2, "maximum": 316, "description": "points per side (grid side <= 316, so that n^2 <= 100 000 points)"},
                 },
             },
             "time": {"type": "number"},

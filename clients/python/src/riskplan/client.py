@@ -291,11 +291,13 @@ class Client:
 
     def verify(self, name: str, trajectory: Union[None, Json, Trajectory] = None,
                segment: Union[None, Json, Sequence] = None, method: Optional[str] = None,
-               delta: Optional[float] = None, *, timeout: Optional[float] = None) -> Json:
+               delta: Optional[float] = None, *, summary: Optional[bool] = None,
+               timeout: Optional[float] = None) -> Json:
         """Verifies a trajectory (a :class:`Plan`, a plan_reply dict or a trajectory v1
         dict) or one straight segment (``{"from", "to", "t0"?, "t1"?}`` or a tuple
         ``(from, to[, t0, t1])``) against scene ``name``. Returns the ``verify_reply``
-        (``{"safe", "method", "risk", "pieces", "revision"}``)."""
+        (``{"safe", "method", "risk", "pieces", "revision"}``). ``summary=True``: ``pieces``
+        holds only the first piece that is not safe (none when safe)."""
         if (trajectory is None) == (segment is None):
             raise ValueError("verify needs exactly one of trajectory= and segment=")
         request: Json = {}
@@ -327,6 +329,8 @@ class Client:
             request["method"] = method
         if delta is not None:
             request["delta"] = float(delta)
+        if summary is not None:
+            request["summary"] = bool(summary)
         return self.query(scene_key(name, "verify"), request, timeout=timeout)
 
     # -- risk ----------------------------------------------------------------------
