@@ -165,11 +165,11 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
         }
         ClientCommand::Apply { scene, file, changes } => {
             let req = match (file, changes) {
-                (Some(f), None) => ApplyRequest { scene: Some(EmbeddedJson(read_json(&f)?)), changes: None },
+                (Some(f), None) => ApplyRequest { scene: Some(EmbeddedJson(read_json(&f)?)), ..Default::default() },
                 (None, Some(c)) => {
                     let ch: Vec<Change> = serde_json::from_value(read_json(&c)?)
                         .map_err(|e| CliError(format!("{}: {e}", c.display())))?;
-                    ApplyRequest { scene: None, changes: Some(ch) }
+                    ApplyRequest { changes: Some(ch), ..Default::default() }
                 }
                 _ => return Err(CliError("give --file or --changes".into())),
             };
@@ -232,7 +232,7 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
         ClientCommand::Risk { scene, point, time } => {
             show(
                 &client
-                    .risk(&scene, &RiskRequest { points: Some(vec![point]), grid: None, time })
+                    .risk(&scene, &RiskRequest { points: Some(vec![point]), time, ..Default::default() })
                     .await
                     .map_err(err)?,
             )?;

@@ -40,9 +40,13 @@ pub struct ServeArgs {
     /// Jobs that may wait for a worker before queries are answered "busy".
     #[arg(long, default_value_t = 64)]
     queue: usize,
-    /// Cap on a plan request's time limit, in seconds.
+    /// Cap on a plan request's time limit, in seconds (queue time included).
     #[arg(long, default_value_t = 60.0)]
     max_plan_seconds: f64,
+    /// Cap and default of the deadline of apply, verify and risk requests (their
+    /// `deadline_ms`), in seconds from arrival, queue time included.
+    #[arg(long, default_value_t = 60.0)]
+    max_job_seconds: f64,
     /// Log as JSON lines instead of human-readable text.
     #[arg(long)]
     log_json: bool,
@@ -80,6 +84,9 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
     if !(a.max_plan_seconds > 0.0 && a.max_plan_seconds.is_finite()) {
         return Err(CliError("--max-plan-seconds must be positive".into()));
     }
+    if !(a.max_job_seconds > 0.0 && a.max_job_seconds.is_finite()) {
+        return Err(CliError("--max-job-seconds must be positive".into()));
+    }
     let preload = match &a.preload {
         Some(dir) => {
             let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
@@ -100,6 +107,7 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
         workers,
         queue: a.queue,
         max_plan_seconds: a.max_plan_seconds,
+        max_job_seconds: a.max_job_seconds,
         listen,
     };
     let rt = tokio::runtime::Builder::new_multi_thread()

@@ -64,6 +64,9 @@ pub enum ServiceError {
     /// Queue full.
     #[error("the job queue is full ({0} jobs): try again later")]
     Busy(usize),
+    /// The request's deadline passed (in the queue or during the work).
+    #[error("deadline exceeded: {0}")]
+    DeadlineExceeded(String),
     /// Our bug.
     #[error("internal error: {0}")]
     Internal(String),
@@ -87,6 +90,7 @@ impl ServiceError {
             ServiceError::Plan(_) => "invalid_request",
             ServiceError::NoPlan(_) => "no_plan",
             ServiceError::Busy(_) => "busy",
+            ServiceError::DeadlineExceeded(_) => "deadline_exceeded",
             ServiceError::Internal(_) => "internal",
         }
     }

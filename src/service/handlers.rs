@@ -9,11 +9,11 @@ use super::registry::Entry;
 use crate::app::{self, PlannerKind};
 use crate::contour::RiskLevel;
 use crate::scene::{Piece, Trajectory, TRAJECTORY_FORMAT};
-use crate::verify::{verify, Method};
+use crate::verify::{verify_until, Method};
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 fn delta_of(d: Option<f64>) -> Result<Option<RiskLevel>, ServiceError> {
     d.map(|d| RiskLevel::from_f64(d).map_err(|e| invalid("delta", e.to_string()))).transpose()
@@ -59,9 +59,16 @@ pub fn plan(
     entry: &Entry,
     req: &PlanRequest,
     cap: Duration,
+    arrival: Instant,
     cancel: Arc<AtomicBool>,
 ) -> Result<PlanReply, ServiceError> {
-    let request = plan_request(req, cap)?;
+    let mut request = plan_request(req, cap)?;
+    // the time limit counts from the request's arrival: queue time is spent from it
+    let left = (arrival + request.time_limit).saturating_duration_since(Instant::now());
+    if left.is_zero() {
+        return Err(ServiceError::DeadlineExceeded("the plan's time limit passed while it waited for a worker".into()));
+    }
+    request.time_limit = left;
     let (problem, out) = request.run(entry.scene.clone(), Some(cancel))?;
     let Some(traj) = out.trajectory else {
         return Err(ServiceError::NoPlan(app::no_plan_reason(&out, request.time_limit)));
@@ -79,7 +86,7 @@ pub fn plan(
 }
 
 /// Verifies a trajectory or one segment.
-pub fn verify_request(entry: &Entry, req: &VerifyRequest) -> Result<VerifyReply, ServiceError> {
+pub fn verify_request(entry: &Entry, req: &VerifyRequest, deadline: Instant) -> Result<VerifyReply, ServiceError> {
     let scene = &entry.scene;
     let traj = match (&req.trajectory, &req.segment) {
         (Some(t), None) => {
@@ -108,7 +115,8 @@ pub fn verify_request(entry: &Entry, req: &VerifyRequest) -> Result<VerifyReply,
     })?;
     let delta = delta_of(req.delta)?.unwrap_or_else(|| scene.risk.clone());
     let method = method_of(req.method.as_deref(), "method")?;
-    let r = verify(scene, &traj, &delta, method, &Default::default());
+    let r = verify_until(scene, &traj, &delta, method, &Default::default(), &|| Instant::now() >= deadline)
+        .map_err(|_| ServiceError::DeadlineExceeded(format!("verifying {} pieces", traj.pieces.len())))?;
     let pieces = if req.summary.unwrap_or(false) {
         r.pieces.into_iter().filter(|p| !p.safe).take(1).collect()
     } else {
@@ -118,7 +126,7 @@ pub fn verify_request(entry: &Entry, req: &VerifyRequest) -> Result<VerifyReply,
 }
 
 /// Cantelli bounds at points or on a grid (floating point, for displays).
-pub fn risk(entry: &Entry, req: &RiskRequest) -> Result<RiskReply, ServiceError> {
+pub fn risk(entry: &Entry, req: &RiskRequest, deadline: Instant) -> Result<RiskReply, ServiceError> {
     let scene = &entry.scene;
     let t = req.time.unwrap_or(scene.horizon.0);
     if !t.is_finite() {
@@ -171,6 +179,9 @@ pub fn risk(entry: &Entry, req: &RiskRequest) -> Result<RiskReply, ServiceError>
     let mut per: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     let mut bounds = vec![0.0f64; points.len()];
     for o in &scene.obstacles {
+        if Instant::now() >= deadline {
+            return Err(ServiceError::DeadlineExceeded(format!("risk at {} points", points.len())));
+        }
         let v: Vec<f64> = points
             .iter()
             .map(|p| {

@@ -65,6 +65,11 @@ pub struct ApplyRequest {
     /// Obstacle changes, applied in order.
     #[serde(default)]
     pub changes: Option<Vec<Change>>,
+    /// How long the server may take, in milliseconds from the request's arrival,
+    /// queue time included (default and cap: the server's `--max-job-seconds`). Past it
+    /// the reply is the error `deadline_exceeded`.
+    #[serde(default)]
+    pub deadline_ms: Option<u64>,
 }
 
 /// One change of an `apply_request`.
@@ -193,6 +198,11 @@ pub struct VerifyRequest {
     /// when the trajectory is safe), not a report of every piece.
     #[serde(default)]
     pub summary: Option<bool>,
+    /// How long the server may take, in milliseconds from the request's arrival,
+    /// queue time included (default and cap: the server's `--max-job-seconds`). Past it
+    /// the reply is the error `deadline_exceeded`.
+    #[serde(default)]
+    pub deadline_ms: Option<u64>,
 }
 
 /// `verify_reply`: the `riskplan verify` report and the revision.
@@ -235,6 +245,11 @@ pub struct RiskRequest {
     /// Time (default: horizon start).
     #[serde(default)]
     pub time: Option<f64>,
+    /// How long the server may take, in milliseconds from the request's arrival,
+    /// queue time included (default and cap: the server's `--max-job-seconds`). Past it
+    /// the reply is the error `deadline_exceeded`.
+    #[serde(default)]
+    pub deadline_ms: Option<u64>,
 }
 
 /// `risk_reply`.

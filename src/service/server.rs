@@ -34,6 +34,8 @@ pub struct ServerConfig {
     pub queue: usize,
     /// Cap on a plan's time limit, seconds.
     pub max_plan_seconds: f64,
+    /// Cap (and default) of the deadline of apply, verify and risk jobs, seconds.
+    pub max_job_seconds: f64,
     /// Endpoints printed in the ready line.
     pub listen: Vec<String>,
 }
@@ -59,10 +61,12 @@ impl Jobs {
         }
     }
 
-    /// Runs `f` on a blocking thread, or answers `busy` at once when full. A panic
-    /// in `f` becomes an `internal` error.
+    /// Runs `f` on a blocking thread, or answers `busy` at once when full. A job
+    /// still waiting for a worker at `deadline` is dropped with `deadline_exceeded`
+    /// (its work never starts). A panic in `f` becomes an `internal` error.
     pub async fn run<T: Send + 'static>(
         &self,
+        deadline: Instant,
         f: impl FnOnce() -> Result<T, ServiceError> + Send + 'static,
     ) -> Result<T, ServiceError> {
         let limit = self.workers + self.capacity;
@@ -71,7 +75,13 @@ impl Jobs {
             self.admitted.fetch_sub(1, Ordering::SeqCst);
             return Err(ServiceError::Busy(limit));
         }
-        let permit = self.sem.clone().acquire_owned().await;
+        let permit = match tokio::time::timeout_at(deadline.into(), self.sem.clone().acquire_owned()).await {
+            Ok(p) if Instant::now() < deadline => p,
+            _ => {
+                self.admitted.fetch_sub(1, Ordering::SeqCst);
+                return Err(ServiceError::DeadlineExceeded("the request waited for a worker past its deadline".into()));
+            }
+        };
         self.running.fetch_add(1, Ordering::SeqCst);
         let r = tokio::task::spawn_blocking(move || std::panic::catch_unwind(AssertUnwindSafe(f))).await;
         self.running.fetch_sub(1, Ordering::SeqCst);
@@ -164,6 +174,7 @@ pub struct State {
     started: Instant,
     counters: Mutex<BTreeMap<String, Counter>>,
     max_plan_seconds: Duration,
+    max_job_seconds: Duration,
     /// Cancellation flags of running plans.
     pub cancels: Cancels,
 }
@@ -236,6 +247,8 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         counters: Mutex::new(BTreeMap::new()),
         max_plan_seconds: Duration::try_from_secs_f64(cfg.max_plan_seconds)
             .map_err(|e| format!("--max-plan-seconds {}: {e}", cfg.max_plan_seconds))?,
+        max_job_seconds: Duration::try_from_secs_f64(cfg.max_job_seconds)
+            .map_err(|e| format!("--max-job-seconds {}: {e}", cfg.max_job_seconds))?,
         cancels: Cancels::default(),
     });
     let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
@@ -387,7 +400,7 @@ async fn handle_query(state: Arc<State>, query: Query) {
             }
             Some(c) => (
                 c,
-                dispatch(&state, &kind, &scene, c, bytes).await.and_then(|(payload, rev)| {
+                dispatch(&state, &kind, &scene, c, bytes, t0).await.and_then(|(payload, rev)| {
                     if payload.len() > MAX_REPLY_BYTES {
                         Err(ServiceError::LimitExceeded {
                             message: format!(
@@ -438,7 +451,13 @@ async fn dispatch(
     scene: &str,
     codec: Codec,
     bytes: Vec<u8>,
+    arrival: Instant,
 ) -> Result<(Vec<u8>, Option<u64>), ServiceError> {
+    // apply, verify and risk: the request's deadline, capped (and defaulted) by the server's
+    let deadline = |ms: Option<u64>| {
+        let d = ms.map_or(state.max_job_seconds, |ms| Duration::from_millis(ms).min(state.max_job_seconds));
+        arrival + d
+    };
     match kind {
         "status" => Ok((codec.encode(&state.status()), None)),
         // The bare round trip of the load benchmark: the payload back, no work, no pool.
@@ -453,7 +472,7 @@ async fn dispatch(
             let name = scene.to_string();
             let rev = state
                 .jobs
-                .run(move || match (req.scene, req.changes) {
+                .run(deadline(req.deadline_ms), move || match (req.scene, req.changes) {
                     (Some(EmbeddedJson(json)), None) => st.registry.put_scene(&name, json),
                     (None, Some(ch)) => st.registry.apply_changes(&name, &ch),
                     _ => Err(super::error::invalid("scene", "give exactly one of scene and changes")),
@@ -469,7 +488,9 @@ async fn dispatch(
             let guard = state.cancels.register();
             let cancel = guard.flag.clone();
             let rev = entry.revision;
-            let reply = state.jobs.run(move || handlers::plan(&entry, &req, cap, cancel)).await;
+            // the queue wait counts against the plan's time limit (handlers::plan); a plan
+            // can never wait longer than the cap
+            let reply = state.jobs.run(arrival + cap, move || handlers::plan(&entry, &req, cap, arrival, cancel)).await;
             drop(guard);
             let reply = reply?;
             Ok((codec.encode(&reply), Some(rev)))
@@ -478,14 +499,16 @@ async fn dispatch(
             let req: VerifyRequest = codec.decode(&bytes).map_err(malformed)?;
             let entry = state.registry.get(scene)?;
             let rev = entry.revision;
-            let reply = state.jobs.run(move || handlers::verify_request(&entry, &req)).await?;
+            let until = deadline(req.deadline_ms);
+            let reply = state.jobs.run(until, move || handlers::verify_request(&entry, &req, until)).await?;
             Ok((codec.encode(&reply), Some(rev)))
         }
         "risk" => {
             let req: RiskRequest = codec.decode(&bytes).map_err(malformed)?;
             let entry = state.registry.get(scene)?;
             let rev = entry.revision;
-            let reply = state.jobs.run(move || handlers::risk(&entry, &req)).await?;
+            let until = deadline(req.deadline_ms);
+            let reply = state.jobs.run(until, move || handlers::risk(&entry, &req, until)).await?;
             Ok((codec.encode(&reply), Some(rev)))
         }
         _ => Err(ServiceError::InvalidRequest { message: "unknown key: use riskplan/status, riskplan/scenes/<scene> or riskplan/scenes/<scene>/{apply,plan,verify,risk}".into(), field: None }),

@@ -288,21 +288,47 @@ pub fn verify(
     method: Method,
     settings: &sos::SosSettings,
 ) -> VerifyReport {
+    match verify_until(scene, traj, delta, method, settings, &|| false) {
+        Ok(r) => r,
+        Err(Interrupted) => unreachable!("never interrupted"),
+    }
+}
+
+/// `verify` stopped by its caller (a deadline or a cancellation): no verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Interrupted;
+
+/// [`verify`] that asks `stop` before each piece and obstacle and gives up with
+/// [`Interrupted`] as soon as it says yes (a service deadline). One check of one piece
+/// against one obstacle is the largest step between two questions.
+pub fn verify_until(
+    scene: &Scene,
+    traj: &Trajectory,
+    delta: &RiskLevel,
+    method: Method,
+    settings: &sos::SosSettings,
+    stop: &dyn Fn() -> bool,
+) -> Result<VerifyReport, Interrupted> {
     let mut pieces = Vec::with_capacity(traj.pieces.len());
     for pc in &traj.pieces {
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
         let workspace = check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr);
-        let obstacles: Vec<ObstacleReport> =
-            scene.obstacles.iter().map(|o| verify_obstacle(o, pr, delta, method, settings)).collect();
+        let mut obstacles = Vec::with_capacity(scene.obstacles.len());
+        for o in &scene.obstacles {
+            if stop() {
+                return Err(Interrupted);
+            }
+            obstacles.push(verify_obstacle(o, pr, delta, method, settings));
+        }
         let safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
         pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
     }
-    VerifyReport {
+    Ok(VerifyReport {
         safe: pieces.iter().all(|p| p.safe),
         method: method.as_str().to_string(),
         risk: delta.to_f64(),
         pieces,
-    }
+    })
 }
 
 /// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,

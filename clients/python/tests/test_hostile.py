@@ -191,3 +191,47 @@ def test_status_and_echo_answer_while_every_worker_is_busy(binary, tmp_path, sce
                 blocker.join(timeout=30)
     finally:
         srv.kill()
+
+
+def long_trajectory(pieces: int = 3000) -> dict:
+    """`pieces` contiguous pieces of one degree-8 polynomial path (coefficients in
+    absolute time, so neighbouring pieces meet exactly) inside illustrative-3's box."""
+    c = [[-0.9, 1.6, 0, 0, 0, 0, 0, 0, 0.05], [-0.9, 1.6, 0, 0, 0, 0, 0, 0, -0.05]]
+    return {"format": "riskplan-trajectory/1",
+            "pieces": [{"t0": k / pieces, "t1": (k + 1) / pieces, "coeffs": c} for k in range(pieces)]}
+
+
+def test_verify_stops_at_its_deadline(client, name3):
+    t = time.monotonic()
+    with pytest.raises(riskplan.DeadlineExceededError):
+        client.verify(name3, trajectory=long_trajectory(), method="sos", deadline_ms=300, timeout=60)
+    took = time.monotonic() - t
+    assert took < 1.0, f"verify answered {took:.2f} s after a 0.3 s deadline"
+    assert client.last_replies == 1
+    assert_alive(client)
+    # without a deadline the same request is answered (the server's cap is far away)
+    short = {"format": "riskplan-trajectory/1", "pieces": long_trajectory(30)["pieces"]}
+    assert "safe" in client.verify(name3, trajectory=short, summary=True, deadline_ms=30_000)
+
+
+def test_a_job_waiting_past_its_deadline_is_dropped(binary, tmp_path, scene3, ring_scene):
+    srv = Server(binary, tmp_path / "data", extra=["--workers", "1", "--queue", "4"]).start()
+    try:
+        with srv.client() as c, srv.client() as c2:
+            c.apply("ring", scene=ring_scene)
+            c.apply("s3", scene=scene3)
+            blocker = threading.Thread(
+                target=lambda: pytest.raises(riskplan.RiskplanError, c.plan, "ring", time_limit=3, timeout=30),
+                daemon=True)
+            blocker.start()
+            deadline = time.monotonic() + 10
+            while c2.status()["queue"]["running"] < 1:
+                assert time.monotonic() < deadline, "the plan never started"
+                time.sleep(0.02)
+            t = time.monotonic()
+            with pytest.raises(riskplan.DeadlineExceededError):
+                c2.verify("s3", segment=([-1, -1], [1, 1]), deadline_ms=200)
+            assert time.monotonic() - t < 1.0
+            blocker.join(timeout=30)
+    finally:
+        srv.kill()

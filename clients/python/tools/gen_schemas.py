@@ -54,8 +54,11 @@ ERROR_CODES = [
     "unsafe_endpoint",
     "no_plan",
     "busy",
+    "deadline_exceeded",
     "internal",
 ]
+
+DEADLINE_MS = {"type": "integer", "minimum": 0, "description": "milliseconds from the request's arrival (queue time included) within which the server must answer, else the error deadline_exceeded; default and cap: the server's --max-job-seconds"}
 
 # ---------------------------------------------------------------------------------
 # Shared definitions
@@ -342,7 +345,8 @@ MESSAGES = {
         "additionalProperties": False,
         "properties": {
             "scene": ref("scene"),
-            "changes": {"type": "array", "items": {"oneOf": [CHANGE_PUT, CHANGE_DELETE]}},
+            "changes": {"type": "array", "maxItems": 512, "items": {"oneOf": [CHANGE_PUT, CHANGE_DELETE]}},
+            "deadline_ms": DEADLINE_MS,
         },
         "oneOf": [{"required": ["scene"]}, {"required": ["changes"]}],
     },
@@ -423,6 +427,7 @@ MESSAGES = {
             "method": ref("method"),
             "delta": ref("delta"),
             "summary": {"type": "boolean", "description": "true: `pieces` in the reply holds only the first piece that is not safe (none when safe)"},
+            "deadline_ms": DEADLINE_MS,
         },
         "oneOf": [{"required": ["trajectory"]}, {"required": ["segment"]}],
     },
@@ -457,6 +462,7 @@ MESSAGES = {
                 },
             },
             "time": {"type": "number"},
+            "deadline_ms": DEADLINE_MS,
         },
         "oneOf": [{"required": ["points"]}, {"required": ["grid"]}],
     },

@@ -10,6 +10,7 @@ from .client import Client, scene_key
 from .errors import (
     ERRORS_BY_CODE,
     BusyError,
+    DeadlineExceededError,
     ConnectError,
     DuplicateReplyError,
     InternalError,
@@ -53,6 +54,7 @@ __all__ = [
     "UnsafeEndpointError",
     "NoPlanError",
     "BusyError",
+    "DeadlineExceededError",
     "InternalError",
     "QueryTimeoutError",
     "NoReplyError",

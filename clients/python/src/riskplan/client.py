@@ -292,12 +292,13 @@ class Client:
     def verify(self, name: str, trajectory: Union[None, Json, Trajectory] = None,
                segment: Union[None, Json, Sequence] = None, method: Optional[str] = None,
                delta: Optional[float] = None, *, summary: Optional[bool] = None,
-               timeout: Optional[float] = None) -> Json:
+               deadline_ms: Optional[int] = None, timeout: Optional[float] = None) -> Json:
         """Verifies a trajectory (a :class:`Plan`, a plan_reply dict or a trajectory v1
         dict) or one straight segment (``{"from", "to", "t0"?, "t1"?}`` or a tuple
         ``(from, to[, t0, t1])``) against scene ``name``. Returns the ``verify_reply``
         (``{"safe", "method", "risk", "pieces", "revision"}``). ``summary=True``: ``pieces``
-        holds only the first piece that is not safe (none when safe)."""
+        holds only the first piece that is not safe (none when safe). ``deadline_ms``: the
+        server answers ``deadline_exceeded`` rather than work past it."""
         if (trajectory is None) == (segment is None):
             raise ValueError("verify needs exactly one of trajectory= and segment=")
         request: Json = {}
@@ -331,6 +332,8 @@ class Client:
             request["delta"] = float(delta)
         if summary is not None:
             request["summary"] = bool(summary)
+        if deadline_ms is not None:
+            request["deadline_ms"] = int(deadline_ms)
         return self.query(scene_key(name, "verify"), request, timeout=timeout)
 
     # -- risk ----------------------------------------------------------------------

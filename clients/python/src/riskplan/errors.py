@@ -114,6 +114,13 @@ class BusyError(RiskplanError):
     code = "busy"
 
 
+class DeadlineExceededError(RiskplanError, TimeoutError):
+    """The request's deadline (``deadline_ms``, or the plan's time limit) passed on the
+    server, in the queue or during the work: nothing was decided."""
+
+    code = "deadline_exceeded"
+
+
 class InternalError(RiskplanError):
     """A bug on the server's side (a caught panic)."""
 
@@ -170,6 +177,7 @@ ERRORS_BY_CODE: Dict[str, Type[RiskplanError]] = {
         UnsafeEndpointError,
         NoPlanError,
         BusyError,
+        DeadlineExceededError,
         InternalError,
         QueryTimeoutError,
         NoReplyError,
