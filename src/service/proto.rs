@@ -335,6 +335,9 @@ pub struct StatusReply {
     pub queue: QueueStatus,
     /// Per request kind.
     pub requests: BTreeMap<String, Counter>,
+    /// Problems met loading the stored scenes (quarantined files), for operators.
+    #[serde(default)]
+    pub problems: Vec<String>,
 }
 
 /// `error`: the payload of every `reply_err`.

@@ -34,7 +34,18 @@ pub struct Registry {
     /// Contours shared between revisions.
     pub cache: ContourCache,
     store: Store,
+    /// For names without a live scene: the revision the next creation must exceed
+    /// (a tombstone's last revision, or the epoch floor of a quarantined file).
+    /// The flag says whether the name was deleted by a client (a tombstone).
+    history: Mutex<BTreeMap<String, (u64, bool)>>,
+    /// What went wrong while loading the stored scenes (shown by `status`).
+    problems: Mutex<Vec<String>>,
 }
+
+/// Revisions of a name created again after its file was lost start above
+/// `epoch · EPOCH_STRIDE`, above every revision handed out in earlier runs (which
+/// would need 2³² updates of one scene in one run to reach it).
+pub const EPOCH_STRIDE: u64 = 1 << 32;
 
 /// Scene names: 1–128 of `A–Z a–z 0–9 _ - .` (no key-expression specials), not starting with '.'.
 pub fn valid_scene_name(name: &str) -> bool {
@@ -57,26 +68,62 @@ fn internal(e: impl std::fmt::Display) -> ServiceError {
 }
 
 impl Registry {
-    /// Loads every stored scene; returns the problems met (unreadable or invalid files).
+    /// Loads every stored scene. Files that cannot be read, and scenes that no longer
+    /// validate, are quarantined and reported (returned, and kept for `status`).
     pub fn open(store: Store) -> (Registry, Vec<String>) {
         let reg = Registry {
             scenes: RwLock::new(BTreeMap::new()),
             writers: Mutex::new(BTreeMap::new()),
             cache: ContourCache::default(),
             store,
+            history: Mutex::new(BTreeMap::new()),
+            problems: Mutex::new(Vec::new()),
         };
-        let (stored, mut problems) = reg.store.load_all();
-        for s in stored {
+        let loaded = reg.store.load_all();
+        let floor = reg.store.epoch().saturating_mul(EPOCH_STRIDE);
+        let mut problems = Vec::new();
+        let mut history = BTreeMap::new();
+        for (name, rev) in loaded.tombstones {
+            history.insert(name, (rev, true));
+        }
+        for (name, why) in loaded.quarantined {
+            problems.push(format!("quarantined stored scene '{name}': {why}"));
+            history.insert(name, (floor, false));
+        }
+        for s in loaded.scenes {
             match reg.build(&s.scene) {
                 Ok(scene) => {
                     if let Ok(mut m) = reg.scenes.write() {
                         m.insert(s.name.clone(), Entry { scene: Arc::new(scene), revision: s.revision, json: s.scene });
                     }
                 }
-                Err(e) => problems.push(format!("stored scene '{}': {e}", s.name)),
+                Err(e) => {
+                    let moved = reg.store.quarantine(&s.name);
+                    problems
+                        .push(format!("quarantined stored scene '{}' (revision {}): {e}; {moved}", s.name, s.revision));
+                    history.insert(s.name, (floor.max(s.revision), false));
+                }
             }
         }
+        if let Ok(mut h) = reg.history.lock() {
+            *h = history;
+        }
+        if let Ok(mut p) = reg.problems.lock() {
+            p.clone_from(&problems);
+        }
         (reg, problems)
+    }
+
+    /// Whether `name` has a live scene or was deleted by a client (a tombstone):
+    /// preloading must not bring back a scene a client deleted. A quarantined name is
+    /// not known: preloading restores it, at a revision above the lost one's.
+    pub fn known(&self, name: &str) -> bool {
+        self.get(name).is_ok() || self.history.lock().is_ok_and(|h| h.get(name).is_some_and(|&(_, deleted)| deleted))
+    }
+
+    /// The problems met while loading (quarantined files).
+    pub fn problems(&self) -> Vec<String> {
+        self.problems.lock().map(|p| p.clone()).unwrap_or_default()
     }
 
     /// Runs `f` holding the write lock of scene `name`. The lock is dropped from the
@@ -142,7 +189,10 @@ impl Registry {
             o.insert("name".into(), serde_json::Value::String(name.to_string()));
         }
         let scene = self.build(&json)?;
-        let revision = current.map_or(1, |e| e.revision + 1);
+        let revision = match &current {
+            Some(e) => e.revision + 1,
+            None => self.history.lock().map_err(internal)?.get(name).map_or(0, |&(rev, _)| rev) + 1,
+        };
         self.store.save(name, revision, &json).map_err(|e| internal(format!("cannot persist scene '{name}': {e}")))?;
         let mut m = self.scenes.write().map_err(internal)?;
         m.insert(name.to_string(), Entry { scene: Arc::new(scene), revision, json });
@@ -214,10 +264,11 @@ impl Registry {
     pub fn delete_scene(&self, name: &str) -> Result<(), ServiceError> {
         check_name(name)?;
         self.with_write_lock(name, || {
-            if !self.scenes.read().map_err(internal)?.contains_key(name) {
+            let Some(revision) = self.scenes.read().map_err(internal)?.get(name).map(|e| e.revision) else {
                 return Err(ServiceError::UnknownScene(name.to_string()));
-            }
-            self.store.remove(name).map_err(|e| internal(format!("cannot remove scene '{name}': {e}")))?;
+            };
+            self.store.remove(name, revision).map_err(|e| internal(format!("cannot remove scene '{name}': {e}")))?;
+            self.history.lock().map_err(internal)?.insert(name.to_string(), (revision, true));
             let mut m = self.scenes.write().map_err(internal)?;
             m.remove(name);
             self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));

@@ -204,6 +204,7 @@ impl State {
             cache: CacheStatus { entries: entries as u64, hits, misses },
             queue: self.jobs.status(),
             requests: self.counters.lock().map(|c| c.clone()).unwrap_or_default(),
+            problems: self.registry.problems(),
         }
     }
 }
@@ -228,7 +229,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
     }
     for path in &cfg.preload {
         let name = path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
-        if registry.get(&name).is_ok() {
+        if registry.known(&name) {
             continue;
         }
         let loaded = std::fs::read_to_string(path)

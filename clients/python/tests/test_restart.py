@@ -208,3 +208,59 @@ def test_kill_9_during_a_stream_of_applies(binary, tmp_path):
         srv.kill()
         for s in streams:
             s.join(timeout=15)
+
+
+# -- restores: revisions never go back or repeat ----------------------------------------------
+
+def test_a_deleted_scene_stays_deleted_and_its_revisions_go_on(binary, tmp_path):
+    """A delete is an acknowledged update: it survives a restart even when --preload
+    lists the scene, and the name created again continues after its last revision."""
+    data, pre = tmp_path / "data", tmp_path / "preload"
+    pre.mkdir()
+    scene = load_scene("illustrative-3")
+    (pre / "s.json").write_text(json.dumps(scene))
+    srv = Server(binary, data, extra=["--preload", str(pre)]).start()
+    try:
+        with srv.client() as c:
+            assert c.get_scene("s")["revision"] == 1          # preloaded
+            last = c.apply("s", changes=[{"op": "put", "id": "disk", "poly": disk_at(1)}])
+            c.delete_scene("s")
+            wait_for(lambda: "s" not in {x["name"] for x in c.status()["scenes"]}, what="the delete")
+        srv.kill()
+        srv.start()
+        with srv.client() as c:
+            with pytest.raises(riskplan.UnknownSceneError):
+                c.get_scene("s")
+            again = c.apply("s", scene=scene)
+            assert again == last + 1, (again, last)
+    finally:
+        srv.kill()
+
+
+def test_a_corrupt_file_is_quarantined_reported_and_its_name_restarts_above(binary, tmp_path):
+    data, pre = tmp_path / "data", tmp_path / "preload"
+    pre.mkdir()
+    scene = load_scene("illustrative-3")
+    srv = Server(binary, data).start()
+    try:
+        with srv.client() as c:
+            rev = 0
+            for step in range(3):
+                rev = c.apply("c", scene=scene) if step == 0 else c.apply(
+                    "c", changes=[{"op": "put", "id": "disk", "poly": disk_at(step)}])
+        srv.kill()
+        stored = data / "scenes" / "c.json"
+        stored.write_bytes(stored.read_bytes()[:40])       # torn by something other than us
+        (pre / "c.json").write_text(json.dumps(scene))
+        srv.extra = srv.extra + ["--preload", str(pre)]
+        srv.start()
+        with srv.client() as c:
+            st = c.status()
+            assert any("'c'" in p and "quarantine" in p for p in st["problems"]), st["problems"]
+            assert not stored.exists() or json.loads(stored.read_text())["revision"] > rev
+            assert list((data / "quarantine").iterdir()), "the bad file was not kept for inspection"
+            back = c.get_scene("c")                          # preloaded again, at a new revision
+            assert back["revision"] > rev, (back["revision"], rev)
+            assert c.apply("c", changes=[{"op": "put", "id": "disk", "poly": disk_at(9)}]) == back["revision"] + 1
+    finally:
+        srv.kill()

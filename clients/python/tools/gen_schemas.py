@@ -508,6 +508,7 @@ MESSAGES = {
                 "properties": {"depth": U64, "running": U64, "workers": U64, "capacity": U64},
             },
             "requests": {"type": "object", "description": "per request kind (e.g. put)", "additionalProperties": ref("counter")},
+            "problems": {"type": "array", "items": {"type": "string"}, "description": "problems met loading the stored scenes: files moved to <data>/quarantine/ and why"},
         },
     },
     "error": {
