@@ -235,3 +235,14 @@ def test_a_job_waiting_past_its_deadline_is_dropped(binary, tmp_path, scene3, ri
             blocker.join(timeout=30)
     finally:
         srv.kill()
+
+
+def test_an_apply_with_too_many_changes_is_refused_at_once(client, name3):
+    changes = [{"op": "put", "id": f"o{i}", "poly": "x1"} for i in range(20_000)]   # ~0.7 MB, under the payload limit
+    rev = client.get_scene(name3)["revision"]
+    t = time.monotonic()
+    with pytest.raises(riskplan.LimitExceededError) as ei:
+        client.apply(name3, changes=changes)
+    assert ei.value.field == "changes"
+    assert time.monotonic() - t < 2.0
+    assert client.get_scene(name3)["revision"] == rev
