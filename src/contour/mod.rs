@@ -221,17 +221,7 @@ impl RiskLevel {
     }
     /// Δ from text: a decimal (`0.1`, `1e-3`) or a fraction (`1/10`), exactly.
     pub fn parse(s: &str) -> Result<RiskLevel, RiskLevelError> {
-        let q = match s.split_once('/') {
-            Some((a, b)) => {
-                let (a, b) = (crate::poly::parse_decimal(a), crate::poly::parse_decimal(b));
-                match (a, b) {
-                    (Some(a), Some(b)) if !b.is_zero() => Some(a / b),
-                    _ => None,
-                }
-            }
-            None => crate::poly::parse_decimal(s),
-        };
-        let q = q.ok_or_else(|| RiskLevelError(format!("'{s}' (not a number)")))?;
+        let q = crate::poly::parse_num_text(s).ok_or_else(|| RiskLevelError(format!("'{s}' (not a number)")))?;
         RiskLevel::new(q).map_err(|_| RiskLevelError(s.to_string()))
     }
     /// The exact value.

@@ -19,7 +19,7 @@ pub use parse::{
     MAX_PARSE_WORK,
 };
 pub use ring::{
-    f64_shortest_decimal, f64_to_rational, parse_decimal, rational_to_f64, Ring, MAX_DECIMAL_DIGITS,
+    f64_shortest_decimal, f64_to_rational, parse_decimal, parse_num_text, rational_to_f64, Ring, MAX_DECIMAL_DIGITS,
     MAX_DECIMAL_EXPONENT,
 };
 pub use univariate::UPoly;

@@ -204,6 +204,21 @@ pub fn parse_decimal(s: &str) -> Option<BigRational> {
     Some(if neg { -value } else { value })
 }
 
+/// Parses `"p/q"` or decimal text exactly.
+pub fn parse_num_text(s: &str) -> Option<BigRational> {
+    match s.split_once('/') {
+        Some((a, b)) => {
+            let (a, b) = (parse_decimal(a)?, parse_decimal(b)?);
+            if num_traits::Zero::is_zero(&b) {
+                None
+            } else {
+                Some(a / b)
+            }
+        }
+        None => parse_decimal(s),
+    }
+}
+
 /// Exact rational from a JSON `f64`: the shortest decimal that round-trips to `f`
 /// (what `{}` prints), read exactly. For a number written in a scene as `0.3`, this is
 /// 3/10, the value the author meant, rather than the binary float nearest to it.

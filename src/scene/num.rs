@@ -1,7 +1,8 @@
 //! Exact numbers in scene files: a JSON number (read through its shortest decimal
 //! text, so `0.3` is 3/10) or a string holding a decimal or a fraction (`"37/300"`).
 
-use crate::poly::{f64_shortest_decimal, parse_decimal, rational_to_f64, MAX_DECIMAL_DIGITS, MAX_DECIMAL_EXPONENT};
+pub use crate::poly::parse_num_text;
+use crate::poly::{f64_shortest_decimal, rational_to_f64, MAX_DECIMAL_DIGITS, MAX_DECIMAL_EXPONENT};
 use num_rational::BigRational;
 use serde::de::{self, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -15,21 +16,6 @@ impl Num {
     /// The nearest `f64`.
     pub fn f64(&self) -> f64 {
         rational_to_f64(&self.0)
-    }
-}
-
-/// Parses `"p/q"` or decimal text exactly.
-pub fn parse_num_text(s: &str) -> Option<BigRational> {
-    match s.split_once('/') {
-        Some((a, b)) => {
-            let (a, b) = (parse_decimal(a)?, parse_decimal(b)?);
-            if num_traits::Zero::is_zero(&b) {
-                None
-            } else {
-                Some(a / b)
-            }
-        }
-        None => parse_decimal(s),
     }
 }
 

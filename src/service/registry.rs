@@ -118,7 +118,8 @@ impl Registry {
     /// preloading must not bring back a scene a client deleted. A quarantined name is
     /// not known: preloading restores it, at a revision above the lost one's.
     pub fn known(&self, name: &str) -> bool {
-        self.get(name).is_ok() || self.history.lock().is_ok_and(|h| h.get(name).is_some_and(|&(_, deleted)| deleted))
+        self.scenes.read().is_ok_and(|m| m.contains_key(name))
+            || self.history.lock().is_ok_and(|h| h.get(name).is_some_and(|&(_, deleted)| deleted))
     }
 
     /// The problems met while loading (quarantined files).

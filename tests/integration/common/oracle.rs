@@ -73,7 +73,7 @@ pub fn check_piece(scene: &Scene, piece: &Piece, delta: &RiskLevel, n: usize) ->
     let mut st = OracleStats::default();
     for j in 0..n {
         let t = if j + 1 == n { piece.t1 } else { piece.t0 + (piece.t1 - piece.t0) * j as f64 / (n - 1) as f64 };
-        let mut xt: Vec<f64> = piece.coeffs.iter().map(|c| c.iter().rev().fold(0.0, |acc, &k| acc * t + k)).collect();
+        let mut xt = piece.at(t);
         xt.push(t);
         let tq = exact(t);
         let mut xq: Option<Vec<BigRational>> = None;
