@@ -119,7 +119,16 @@ impl Client {
 
     /// Acknowledged update; returns the new revision once persisted.
     pub async fn apply(&self, name: &str, req: &ApplyRequest) -> Result<ApplyReply, ClientError> {
-        self.query(&format!("riskplan/scenes/{name}/apply"), Some(req), self.timeout).await
+        let mut req = req.clone();
+        req.deadline_ms = req.deadline_ms.or(Some(self.deadline_ms()));
+        self.query(&format!("riskplan/scenes/{name}/apply"), Some(&req), self.timeout).await
+    }
+
+    /// The deadline sent with apply, verify and risk requests that name none: the
+    /// query's timeout. Zenoh does not tell a server that a client gave up, so the
+    /// server drops the job when the client stops waiting, not later.
+    fn deadline_ms(&self) -> u64 {
+        u64::try_from(self.timeout.as_millis()).unwrap_or(u64::MAX).max(1)
     }
 
     /// Plans (the query's timeout covers the time limit).
@@ -130,12 +139,16 @@ impl Client {
 
     /// Verifies a trajectory or a segment.
     pub async fn verify(&self, name: &str, req: &VerifyRequest) -> Result<VerifyReply, ClientError> {
-        self.query(&format!("riskplan/scenes/{name}/verify"), Some(req), self.timeout).await
+        let mut req = req.clone();
+        req.deadline_ms = req.deadline_ms.or(Some(self.deadline_ms()));
+        self.query(&format!("riskplan/scenes/{name}/verify"), Some(&req), self.timeout).await
     }
 
     /// Risk bounds.
     pub async fn risk(&self, name: &str, req: &RiskRequest) -> Result<RiskReply, ClientError> {
-        self.query(&format!("riskplan/scenes/{name}/risk"), Some(req), self.timeout).await
+        let mut req = req.clone();
+        req.deadline_ms = req.deadline_ms.or(Some(self.deadline_ms()));
+        self.query(&format!("riskplan/scenes/{name}/risk"), Some(&req), self.timeout).await
     }
 
     /// The scene and its revision.

@@ -67,6 +67,9 @@ pub enum ServiceError {
     /// The request's deadline passed (in the queue or during the work).
     #[error("deadline exceeded: {0}")]
     DeadlineExceeded(String),
+    /// The server cannot take the request yet (it is loading its stored scenes).
+    #[error("unavailable: {0}")]
+    Unavailable(String),
     /// Our bug.
     #[error("internal error: {0}")]
     Internal(String),
@@ -91,6 +94,7 @@ impl ServiceError {
             ServiceError::NoPlan(_) => "no_plan",
             ServiceError::Busy(_) => "busy",
             ServiceError::DeadlineExceeded(_) => "deadline_exceeded",
+            ServiceError::Unavailable(_) => "unavailable",
             ServiceError::Internal(_) => "internal",
         }
     }

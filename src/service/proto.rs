@@ -325,6 +325,10 @@ pub struct Counter {
 /// `status_reply`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StatusReply {
+    /// `loading` until the stored scenes and `--preload` files are in (every request
+    /// but `status` and `echo` is then answered `unavailable`), `ready` after.
+    #[serde(default = "ready_state")]
+    pub state: String,
     /// Seconds since start.
     pub uptime_s: f64,
     /// Scenes.
@@ -338,6 +342,10 @@ pub struct StatusReply {
     /// Problems met loading the stored scenes (quarantined files), for operators.
     #[serde(default)]
     pub problems: Vec<String>,
+}
+
+fn ready_state() -> String {
+    "ready".into()
 }
 
 /// `error`: the payload of every `reply_err`.

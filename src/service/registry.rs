@@ -68,17 +68,31 @@ fn internal(e: impl std::fmt::Display) -> ServiceError {
 }
 
 impl Registry {
-    /// Loads every stored scene. Files that cannot be read, and scenes that no longer
-    /// validate, are quarantined and reported (returned, and kept for `status`).
+    /// Loads every stored scene ([`Registry::new`] then [`Registry::load`]).
     pub fn open(store: Store) -> (Registry, Vec<String>) {
-        let reg = Registry {
+        let reg = Registry::new(store);
+        let problems = reg.load();
+        (reg, problems)
+    }
+
+    /// An empty registry over `store`; [`Registry::load`] reads the stored scenes.
+    /// The server answers `status` (state "loading") between the two.
+    pub fn new(store: Store) -> Registry {
+        Registry {
             scenes: RwLock::new(BTreeMap::new()),
             writers: Mutex::new(BTreeMap::new()),
             cache: ContourCache::default(),
             store,
             history: Mutex::new(BTreeMap::new()),
             problems: Mutex::new(Vec::new()),
-        };
+        }
+    }
+
+    /// Loads every stored scene. Files that cannot be read, and scenes that no longer
+    /// validate, are quarantined and reported (returned, and kept for `status`).
+    /// Call it once, before any update.
+    pub fn load(&self) -> Vec<String> {
+        let reg = self;
         let loaded = reg.store.load_all();
         let floor = reg.store.epoch().saturating_mul(EPOCH_STRIDE);
         let mut problems = Vec::new();
@@ -111,7 +125,7 @@ impl Registry {
         if let Ok(mut p) = reg.problems.lock() {
             p.clone_from(&problems);
         }
-        (reg, problems)
+        problems
     }
 
     /// Whether `name` has a live scene or was deleted by a client (a tombstone):

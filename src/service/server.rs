@@ -177,6 +177,8 @@ pub struct State {
     max_job_seconds: Duration,
     /// Cancellation flags of running plans.
     pub cancels: Cancels,
+    /// Set once the stored scenes and the `--preload` files are in.
+    ready: AtomicBool,
 }
 
 impl State {
@@ -194,6 +196,7 @@ impl State {
     fn status(&self) -> StatusReply {
         let (entries, hits, misses) = self.registry.cache.stats();
         StatusReply {
+            state: if self.ready.load(Ordering::SeqCst) { "ready" } else { "loading" }.into(),
             uptime_s: self.started.elapsed().as_secs_f64(),
             scenes: self
                 .registry
@@ -223,26 +226,8 @@ fn encoding_of(c: Codec) -> Encoding {
 /// Runs the server until SIGINT or SIGTERM.
 pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
     let store = Store::open(&cfg.data).map_err(|e| format!("--data {}: {e}", cfg.data.display()))?;
-    let (registry, problems) = Registry::open(store);
-    for p in &problems {
-        warn!("{p}");
-    }
-    for path in &cfg.preload {
-        let name = path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
-        if registry.known(&name) {
-            continue;
-        }
-        let loaded = std::fs::read_to_string(path)
-            .map_err(|e| e.to_string())
-            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).map_err(|e| e.to_string()));
-        match loaded.map(|json| registry.put_scene(&name, json)) {
-            Ok(Ok(rev)) => info!(scene = %name, revision = rev, "preloaded {}", path.display()),
-            Ok(Err(e)) => warn!("--preload {}: {e}", path.display()),
-            Err(e) => warn!("--preload {}: {e}", path.display()),
-        }
-    }
     let state = Arc::new(State {
-        registry,
+        registry: Registry::new(store),
         jobs: Jobs::new(cfg.workers.max(1), cfg.queue),
         started: Instant::now(),
         counters: Mutex::new(BTreeMap::new()),
@@ -251,6 +236,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         max_job_seconds: Duration::try_from_secs_f64(cfg.max_job_seconds)
             .map_err(|e| format!("--max-job-seconds {}: {e}", cfg.max_job_seconds))?,
         cancels: Cancels::default(),
+        ready: AtomicBool::new(false),
     });
     let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
     let queryable =
@@ -260,14 +246,26 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         .await
         .map_err(|e| format!("cannot declare the subscriber: {e}"))?;
     eprintln!(
-        "riskplan: listening on {} ({} scenes, {} workers, queue {})",
+        "riskplan: listening on {} ({} workers, queue {}); loading stored scenes",
         cfg.listen.join(", "),
-        state.registry.list().len(),
         cfg.workers,
         cfg.queue
     );
-    info!(listen = %cfg.listen.join(","), "serving");
-    let puts = spawn_put_worker(state.clone());
+    info!(listen = %cfg.listen.join(","), "listening");
+    // Loading runs on a blocking thread while the loop below answers `status`
+    // ("loading") and `echo`; other requests get `unavailable` until it is done, and
+    // puts wait in the put worker's queue.
+    let loading = {
+        let st = state.clone();
+        let preload = cfg.preload.clone();
+        tokio::task::spawn_blocking(move || {
+            load_scenes(&st.registry, &preload);
+            st.ready.store(true, Ordering::SeqCst);
+            eprintln!("riskplan: ready ({} scenes)", st.registry.list().len());
+            info!(scenes = st.registry.list().len(), "ready");
+        })
+    };
+    let puts = spawn_put_worker(state.clone(), loading);
     let shutdown = shutdown_signal();
     tokio::pin!(shutdown);
     loop {
@@ -305,9 +303,13 @@ type PutMsg = (String, SampleKind, Vec<u8>);
 
 /// The put worker: applies puts and deletes one after another, in arrival order, on
 /// a blocking thread, so that the loop receiving messages never waits for one.
-fn spawn_put_worker(state: Arc<State>) -> tokio::sync::mpsc::Sender<PutMsg> {
+fn spawn_put_worker(state: Arc<State>, loading: tokio::task::JoinHandle<()>) -> tokio::sync::mpsc::Sender<PutMsg> {
     let (tx, mut rx) = tokio::sync::mpsc::channel::<PutMsg>(PUT_QUEUE);
     tokio::spawn(async move {
+        if let Err(e) = loading.await {
+            warn!("loading the stored scenes failed: {e}");
+            state.ready.store(true, Ordering::SeqCst);
+        }
         while let Some((key, kind, bytes)) = rx.recv().await {
             let st = state.clone();
             if let Err(e) = tokio::task::spawn_blocking(move || handle_put(&st, &key, kind, &bytes)).await {
@@ -316,6 +318,28 @@ fn spawn_put_worker(state: Arc<State>) -> tokio::sync::mpsc::Sender<PutMsg> {
         }
     });
     tx
+}
+
+/// Loads the stored scenes, then the `--preload` files whose names are neither live
+/// nor deleted by a client.
+fn load_scenes(registry: &Registry, preload: &[PathBuf]) {
+    for p in registry.load() {
+        warn!("{p}");
+    }
+    for path in preload {
+        let name = path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+        if registry.known(&name) {
+            continue;
+        }
+        let loaded = std::fs::read_to_string(path)
+            .map_err(|e| e.to_string())
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).map_err(|e| e.to_string()));
+        match loaded.map(|json| registry.put_scene(&name, json)) {
+            Ok(Ok(rev)) => info!(scene = %name, revision = rev, "preloaded {}", path.display()),
+            Ok(Err(e)) => warn!("--preload {}: {e}", path.display()),
+            Err(e) => warn!("--preload {}: {e}", path.display()),
+        }
+    }
 }
 
 async fn shutdown_signal() {
@@ -460,9 +484,15 @@ async fn dispatch(
         arrival + d
     };
     match kind {
-        "status" => Ok((codec.encode(&state.status()), None)),
+        "status" => return Ok((codec.encode(&state.status()), None)),
         // The bare round trip of the load benchmark: the payload back, no work, no pool.
-        "echo" => Ok((bytes, None)),
+        "echo" => return Ok((bytes, None)),
+        _ if !state.ready.load(Ordering::SeqCst) => {
+            return Err(ServiceError::Unavailable("the server is loading its stored scenes: try again shortly".into()))
+        }
+        _ => {}
+    }
+    match kind {
         "scene" => {
             let e = state.registry.get(scene)?;
             Ok((codec.encode(&SceneReply { name: scene.to_string(), revision: e.revision, scene: embedded(&e.json) }), Some(e.revision)))

@@ -80,7 +80,7 @@ fn sigterm_during_a_long_plan_ends_the_service_within_2_s() {
     let ready = Instant::now();
     loop {
         let line = rx.recv_timeout(Duration::from_secs(30)).expect("the server did not start within 30 s");
-        if line.contains("riskplan: listening on") {
+        if line.contains("riskplan: ready") {
             break;
         }
         assert!(ready.elapsed() < Duration::from_secs(30), "no ready line");

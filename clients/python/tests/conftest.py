@@ -34,7 +34,8 @@ EXAMPLES = PROTO / "examples"
 SCENES = Path(os.environ.get("RISKPLAN_SCENES") or REPO / "scenes")
 
 START_LIMIT_S = 30.0
-READY_LINE = "riskplan: listening on"
+READY_LINE = "riskplan: ready"          # printed once the stored scenes are in
+LISTENING_LINE = "riskplan: listening on"  # printed as soon as queries are received
 
 
 def require_server() -> bool:
@@ -150,13 +151,17 @@ class Server:
         self.proc: Optional[subprocess.Popen] = None
         self.lines: List[str] = []
         self._ready = threading.Event()
+        self._ready_line = READY_LINE
 
     @property
     def argv(self) -> List[str]:
         return [str(self.binary), "serve", "--listen", self.endpoint, "--data", str(self.data_dir), *self.extra]
 
-    def start(self, limit: float = START_LIMIT_S) -> "Server":
+    def start(self, limit: float = START_LIMIT_S, ready_line: str = READY_LINE) -> "Server":
+        """Starts the process and waits for `ready_line` on its stderr (by default the
+        line printed once the stored scenes are loaded)."""
         self.lines = []
+        self._ready_line = ready_line
         self._ready.clear()
         self.proc = subprocess.Popen(self.argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                      stderr=subprocess.PIPE, text=True, errors="replace")
@@ -168,7 +173,7 @@ class Server:
             if self._ready.wait(0.2):
                 return self
             # also accept a server that answers status without printing the line
-            if self._status_answers():
+            if ready_line == READY_LINE and self._status_answers():
                 return self
         self.kill()
         raise RuntimeError(f"riskplan serve not ready after {limit} s: {self.log()}")
@@ -176,14 +181,13 @@ class Server:
     def _drain(self, proc: subprocess.Popen) -> None:
         for line in proc.stderr:
             self.lines.append(line.rstrip("\n"))
-            if READY_LINE in line:
+            if self._ready_line in line:
                 self._ready.set()
 
     def _status_answers(self) -> bool:
         try:
             with riskplan.Client(self.endpoint, timeout=1.0) as c:
-                c.status()
-            return True
+                return c.status().get("state", "ready") == "ready"
         except riskplan.RiskplanError:
             return False
 

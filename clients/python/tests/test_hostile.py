@@ -246,3 +246,44 @@ def test_an_apply_with_too_many_changes_is_refused_at_once(client, name3):
     assert ei.value.field == "changes"
     assert time.monotonic() - t < 2.0
     assert client.get_scene(name3)["revision"] == rev
+
+
+PLAN_OVERRUN_S = 0.1   # issue: plans honour their time limit to within 100 ms
+
+
+@pytest.mark.parametrize("planner", ["rrt-sos", "mc-rrt"])
+@pytest.mark.parametrize("time_limit", [0.3, 1.0])
+def test_plans_honour_their_time_limit(client, ring_scene, unique, planner, time_limit):
+    """An impossible plan (the goal is enclosed) runs to its time limit and no further,
+    measured by the client, round trip included."""
+    name = unique()
+    client.apply(name, scene=ring_scene)
+    t = time.monotonic()
+    with pytest.raises(riskplan.NoPlanError):
+        client.plan(name, planner=planner, time_limit=time_limit, improve=True)
+    took = time.monotonic() - t
+    assert took < time_limit + PLAN_OVERRUN_S, f"a {time_limit} s plan took {took:.3f} s"
+
+
+def test_an_improving_plan_honours_its_time_limit(client, unique):
+    name = unique()
+    client.apply(name, scene=load_scene("example-d1-cluttered-2d"))
+    t = time.monotonic()
+    try:
+        client.plan(name, time_limit=0.5, improve=True)
+    except riskplan.NoPlanError:
+        pass
+    took = time.monotonic() - t
+    assert took < 0.5 + PLAN_OVERRUN_S, f"a 0.5 s plan took {took:.3f} s"
+
+
+def test_work_stops_when_the_client_gives_up(client, name3):
+    """Zenoh does not tell a server that a querier gave up; the clients send their
+    timeout as the deadline, so the server stops the job when the client stops waiting
+    (without it this verify would hold a worker for the server's 60 s cap)."""
+    t = time.monotonic()
+    with pytest.raises((riskplan.QueryTimeoutError, riskplan.DeadlineExceededError)):
+        client.verify(name3, trajectory=long_trajectory(), method="sos", timeout=0.3)
+    while client.status()["queue"]["running"] > 0:
+        assert time.monotonic() - t < 1.0, "the verify kept running after the client gave up"
+        time.sleep(0.02)

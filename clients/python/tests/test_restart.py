@@ -264,3 +264,39 @@ def test_a_corrupt_file_is_quarantined_reported_and_its_name_restarts_above(bina
             assert c.apply("c", changes=[{"op": "put", "id": "disk", "poly": disk_at(9)}]) == back["revision"] + 1
     finally:
         srv.kill()
+
+
+def test_status_says_loading_until_the_stored_scenes_are_in(binary, tmp_path, scene3):
+    """Readiness is visible: between `listening` and `ready` the server answers status
+    ("state": "loading") and echo at once, and every other query gets `unavailable`."""
+    from conftest import LISTENING_LINE
+    from test_hostile import slow_scene
+
+    data = tmp_path / "data"
+    srv = Server(binary, data).start()
+    try:
+        with srv.client(timeout=60) as c:
+            for k in range(4):   # about a second of contour building each at start
+                c.apply(f"slow{k}", scene=slow_scene(scene3))
+            c.apply("s3", scene=scene3)
+    finally:
+        srv.kill()
+    srv.start(ready_line=LISTENING_LINE)
+    try:
+        with srv.client() as c:
+            t = time.monotonic()
+            st = c.status(timeout=5)
+            assert time.monotonic() - t < 0.5
+            assert st["state"] == "loading", st
+            assert c.query("riskplan/echo", {"ping": 2}) == {"ping": 2}
+            with pytest.raises(riskplan.UnavailableError):
+                c.get_scene("s3")
+            with pytest.raises(riskplan.UnavailableError):
+                c.verify("s3", segment=([-1, -1], [1, 1]))
+            assert c.last_replies == 1
+            wait_for(lambda: c.status()["state"] == "ready", limit=60, what="state ready")
+            assert any("riskplan: ready (5 scenes)" in line for line in srv.lines), srv.log()
+            assert c.get_scene("s3")["revision"] >= 1
+            assert {s["name"] for s in c.status()["scenes"]} >= {"s3", "slow0", "slow3"}
+    finally:
+        srv.kill()

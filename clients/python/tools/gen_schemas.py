@@ -55,6 +55,7 @@ ERROR_CODES = [
     "no_plan",
     "busy",
     "deadline_exceeded",
+    "unavailable",
     "internal",
 ]
 
@@ -492,6 +493,7 @@ MESSAGES = {
         "type": "object",
         "required": ["uptime_s", "scenes", "cache", "queue", "requests"],
         "properties": {
+            "state": {"enum": ["loading", "ready"], "description": "loading until the stored scenes and --preload files are in (every request but status and echo is answered unavailable), ready after"},
             "uptime_s": {"type": "number", "minimum": 0},
             "scenes": {
                 "type": "array",

@@ -231,6 +231,7 @@ class Client:
         if (scene is None) == (changes is None):
             raise ValueError("apply needs exactly one of scene= and changes=")
         request = {"scene": scene} if scene is not None else {"changes": list(changes)}
+        request["deadline_ms"] = self._deadline_ms(timeout)
         reply = self.query(scene_key(name, "apply"), request, timeout=timeout)
         return int(reply["revision"])
 
@@ -257,6 +258,14 @@ class Client:
         return int(self.get_scene(name)["revision"])
 
     # -- planning ------------------------------------------------------------------
+
+    def _deadline_ms(self, timeout: Optional[float]) -> int:
+        """The deadline sent with apply, verify and risk requests that name none: the
+        query's timeout. Zenoh does not tell a server that a client gave up, so the
+        server drops the job when the client stops waiting for it, not later (it caps
+        the deadline at its own --max-job-seconds)."""
+        t = float(timeout if timeout is not None else self.timeout)
+        return max(1, int(t * 1000))
 
     def plan_timeout(self, time_limit: Optional[float]) -> float:
         """The query timeout used for a plan with this time limit: a bit longer than it."""
@@ -332,14 +341,16 @@ class Client:
             request["delta"] = float(delta)
         if summary is not None:
             request["summary"] = bool(summary)
-        if deadline_ms is not None:
-            request["deadline_ms"] = int(deadline_ms)
+        request["deadline_ms"] = int(deadline_ms) if deadline_ms is not None else self._deadline_ms(timeout)
         return self.query(scene_key(name, "verify"), request, timeout=timeout)
 
     # -- risk ----------------------------------------------------------------------
 
     def risk_query(self, name: str, request: Json, *, timeout: Optional[float] = None) -> Json:
-        """A raw ``risk_request``; returns the ``risk_reply`` dict."""
+        """A raw ``risk_request``; returns the ``risk_reply`` dict. Without a
+        ``deadline_ms`` in it, the query's timeout is sent as the deadline."""
+        if "deadline_ms" not in request:
+            request = {**request, "deadline_ms": self._deadline_ms(timeout)}
         return self.query(scene_key(name, "risk"), request, timeout=timeout)
 
     def risk(self, name: str, points: Union[np.ndarray, Sequence], time: Optional[float] = None,

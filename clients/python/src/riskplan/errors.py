@@ -121,6 +121,13 @@ class DeadlineExceededError(RiskplanError, TimeoutError):
     code = "deadline_exceeded"
 
 
+class UnavailableError(RiskplanError):
+    """The server cannot take requests yet: it is loading its stored scenes (its
+    ``status()["state"]`` is ``"loading"``). Safe to retry shortly."""
+
+    code = "unavailable"
+
+
 class InternalError(RiskplanError):
     """A bug on the server's side (a caught panic)."""
 
@@ -178,6 +185,7 @@ ERRORS_BY_CODE: Dict[str, Type[RiskplanError]] = {
         NoPlanError,
         BusyError,
         DeadlineExceededError,
+        UnavailableError,
         InternalError,
         QueryTimeoutError,
         NoReplyError,
