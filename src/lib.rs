@@ -27,13 +27,15 @@
 pub mod app;
 pub mod certify;
 pub mod contour;
+#[cfg(feature = "test-support")]
+pub mod fuzzing;
 pub mod mc;
 pub mod moments;
 pub mod plan;
 pub mod poly;
 pub mod scene;
 pub mod sdp;
-#[cfg(feature = "service")]
+#[cfg(feature = "proto")]
 pub mod service;
 pub mod verify;
 #[cfg(feature = "cli")]

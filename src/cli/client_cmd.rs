@@ -7,12 +7,20 @@ use riskplan::service::{Client, ClientError};
 use std::path::PathBuf;
 use std::time::Duration;
 
+/// The endpoint of `riskplan client` without --endpoint or --config.
+const DEFAULT_ENDPOINT: &str = "tcp/127.0.0.1:7447";
+
 /// Talk to a running server: put scenes, apply updates, plan, verify, query risk.
 #[derive(Args, Debug)]
 pub struct ClientArgs {
-    /// The server's endpoint.
-    #[arg(long, default_value = "tcp/127.0.0.1:7447", global = true)]
-    endpoint: String,
+    /// The server's endpoint (default tcp/127.0.0.1:7447; with --config, replaces the
+    /// configuration's connect endpoints).
+    #[arg(long, global = true)]
+    endpoint: Option<String>,
+    /// A Zenoh JSON5 client configuration, e.g. a role's configuration of the secure
+    /// deployment (deploy/secure: TLS, user and password).
+    #[arg(long, global = true)]
+    config: Option<PathBuf>,
     /// Query timeout in seconds (a plan adds its own time limit).
     #[arg(long, default_value_t = 30.0, global = true)]
     timeout: f64,
@@ -144,8 +152,20 @@ pub fn run(a: ClientArgs) -> Result<i32, CliError> {
         .map_err(|e| CliError(e.to_string()))?;
     rt.block_on(async move {
         let codec = if a.json { Codec::Json } else { Codec::Bincode };
-        let client =
-            Client::connect(&a.endpoint, Duration::from_secs_f64(a.timeout.max(0.1)), codec).await.map_err(err)?;
+        let timeout = Duration::from_secs_f64(a.timeout.max(0.1));
+        let client = match &a.config {
+            None => Client::connect(a.endpoint.as_deref().unwrap_or(DEFAULT_ENDPOINT), timeout, codec).await,
+            Some(path) => {
+                let mut cfg = zenoh::Config::from_file(path)
+                    .map_err(|e| CliError(format!("--config {}: {e}", path.display())))?;
+                if let Some(ep) = &a.endpoint {
+                    cfg.insert_json5("connect/endpoints", &serde_json::to_string(&[ep]).unwrap_or_default())
+                        .map_err(|e| CliError(format!("--endpoint {ep}: {e}")))?;
+                }
+                Client::connect_with(cfg, timeout, codec).await
+            }
+        }
+        .map_err(err)?;
         let code = exec(&client, a.command).await;
         client.close().await;
         code

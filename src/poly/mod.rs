@@ -15,8 +15,8 @@ mod univariate;
 
 pub use interval::Interval;
 pub use parse::{
-    parse, parse_with_budget, PolyError, VarResolver, MAX_EXPONENT, MAX_NESTING, MAX_PARSE_DEGREE, MAX_PARSE_TERMS,
-    MAX_PARSE_WORK,
+    parse, parse_with_budget, product_cost, PolyError, VarResolver, MAX_EXPONENT, MAX_NESTING, MAX_PARSE_DEGREE,
+    MAX_PARSE_TERMS, MAX_PARSE_WORK,
 };
 pub use ring::{
     f64_shortest_decimal, f64_to_rational, parse_decimal, parse_num_text, rational_to_f64, Ring, MAX_DECIMAL_DIGITS,

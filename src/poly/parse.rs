@@ -41,10 +41,27 @@ pub const MAX_PARSE_DEGREE: u32 = 64;
 pub const MAX_PARSE_TERMS: usize = 10_000;
 
 /// Budget of term-by-term products for one polynomial text: a product of polynomials
-/// with `a` and `b` terms costs `a·b` (about 2 µs each in exact arithmetic), so half a
-/// second at most; every polynomial of the paper needs under a thousand. A caller that
-/// parses many texts shares one budget among them with [`parse_with_budget`].
-pub const MAX_PARSE_WORK: usize = 250_000;
+/// with `a` and `b` terms costs `a·b` (about 2 µs each in exact arithmetic while the
+/// coefficients fit a machine word, and more, see [`product_cost`], when they do
+/// not), so a fifth of a second at most; every polynomial of the paper needs under a
+/// thousand. A caller that parses many texts shares one budget among them with
+/// [`parse_with_budget`].
+pub const MAX_PARSE_WORK: usize = 100_000;
+
+/// The work of the product of `a` and `b` in units of [`MAX_PARSE_WORK`]: `a·b` term
+/// products, each weighted by the size of the coefficients multiplied, `(la + lb)²/4`
+/// with `la`, `lb` the largest coefficient sizes in 64-bit words (numerator plus
+/// denominator); multiplying and reducing big rationals costs about that. Word-sized
+/// coefficients weigh 1.
+pub fn product_cost(a: &Poly<BigRational>, b: &Poly<BigRational>) -> usize {
+    fn words(p: &Poly<BigRational>) -> usize {
+        let bits = p.terms().map(|(_, c)| c.numer().bits() + c.denom().bits()).max().unwrap_or(0);
+        1 + (bits / 64) as usize
+    }
+    let (la, lb) = (words(a), words(b));
+    let weight = ((la + lb) * (la + lb)).div_ceil(4);
+    a.len().saturating_mul(b.len()).saturating_mul(weight)
+}
 
 /// A parse or resolution error in polynomial text, with its 1-based column.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -284,7 +301,7 @@ impl Parser<'_, '_> {
         if a.degree() as u64 + b.degree() as u64 > MAX_PARSE_DEGREE as u64 {
             return Err(PolyError::TooLarge { col, what: "degree", limit: MAX_PARSE_DEGREE as usize });
         }
-        let cost = a.len().saturating_mul(b.len());
+        let cost = product_cost(a, b);
         if cost > self.budget {
             return Err(PolyError::TooLarge { col, what: "work", limit: self.budget_start });
         }

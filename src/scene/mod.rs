@@ -39,13 +39,14 @@ pub const MAX_PARAM_DEGREE: u32 = 8;
 pub const MAX_TERMS: usize = 500;
 /// Budget of the whole scene's contour construction, Σ over obstacles of `terms²`
 /// (the products that E[P²] needs): measured at about 2 µs a product, so at most about
-/// two seconds of exact arithmetic, and a scene cannot hold a server's worker for
-/// minutes. The paper's largest scene needs under 2 000.
-pub const MAX_CONTOUR_WORK: usize = 1_000_000;
+/// half a second of exact arithmetic, and a scene cannot hold a server's worker for
+/// long (fuzzing counts an input that takes over a second as a hang). The paper's
+/// largest scene needs under 2 000.
+pub const MAX_CONTOUR_WORK: usize = 250_000;
 /// Budget of term products for expanding all of a scene's obstacle texts together
 /// (`poly::parse_with_budget`); with [`MAX_CONTOUR_WORK`] it bounds the exact
 /// arithmetic a scene can ask for, however many obstacles it lists.
-pub const MAX_SCENE_PARSE_WORK: usize = 1_000_000;
+pub const MAX_SCENE_PARSE_WORK: usize = 250_000;
 /// Largest number of obstacles in a scene.
 pub const MAX_OBSTACLES: usize = 512;
 

@@ -17,8 +17,9 @@ pub enum ClientError {
     /// The server answered with a typed error.
     #[error("{}: {}{}", .0.code, .0.message, .0.field.as_ref().map(|f| format!(" (field {f})")).unwrap_or_default())]
     Server(ErrorReply),
-    /// No reply at all: no server, or it died during the query.
-    #[error("no reply: is `riskplan serve` running and reachable?")]
+    /// No reply at all: no server, it died during the query, or access control denied
+    /// the query (Zenoh drops denied messages silently).
+    #[error("no reply: is `riskplan serve` running and reachable, and may this client's role send this query?")]
     NoReply,
     /// The query timed out.
     #[error("the query timed out")]
@@ -44,7 +45,13 @@ impl Client {
         c.insert_json5("mode", r#""client""#).map_err(z)?;
         c.insert_json5("connect/endpoints", &serde_json::to_string(&[endpoint]).unwrap_or_default()).map_err(z)?;
         c.insert_json5("scouting/multicast/enabled", "false").map_err(z)?;
-        let session = zenoh::open(c).await.map_err(z)?;
+        Client::connect_with(c, timeout, codec).await
+    }
+
+    /// Connects with a full Zenoh configuration (e.g. a role's configuration of the
+    /// secure deployment in `deploy/secure`: TLS, user and password).
+    pub async fn connect_with(config: zenoh::Config, timeout: Duration, codec: Codec) -> Result<Client, ClientError> {
+        let session = zenoh::open(config).await.map_err(|e| ClientError::Zenoh(e.to_string()))?;
         Ok(Client { session, codec, timeout })
     }
 

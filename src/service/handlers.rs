@@ -1,11 +1,12 @@
 //! The synchronous work behind each query (run on the blocking pool): plan, verify,
-//! risk. Inputs are checked here and turned into typed [`ServiceError`]s.
+//! risk, apply. Inputs are checked here and turned into typed [`ServiceError`]s.
 
 use super::error::{invalid, ServiceError};
 use super::proto::{
-    PlanReply, PlanRequest, RiskReply, RiskRequest, VerifyReply, VerifyRequest, MAX_GRID_SIDE, MAX_RISK_POINTS,
+    ApplyRequest, EmbeddedJson, PlanReply, PlanRequest, RiskReply, RiskRequest, VerifyReply, VerifyRequest,
+    MAX_GRID_SIDE, MAX_RISK_POINTS,
 };
-use super::registry::Entry;
+use super::registry::{Entry, Registry};
 use crate::app::{self, PlannerKind};
 use crate::contour::RiskLevel;
 use crate::scene::{Piece, Trajectory, TRAJECTORY_FORMAT};
@@ -52,6 +53,16 @@ fn plan_request(req: &PlanRequest, cap: Duration) -> Result<app::PlanRequest, Se
         improve: req.improve.unwrap_or(false),
         time_limit: time_limit.min(cap),
     })
+}
+
+/// Replaces scene `name` or applies changes to it (an `apply` request); returns the
+/// new revision.
+pub fn apply(registry: &Registry, name: &str, req: ApplyRequest) -> Result<u64, ServiceError> {
+    match (req.scene, req.changes) {
+        (Some(EmbeddedJson(json)), None) => registry.put_scene(name, json),
+        (None, Some(ch)) => registry.apply_changes(name, &ch),
+        _ => Err(invalid("scene", "give exactly one of scene and changes")),
+    }
 }
 
 /// Plans on a scene. `cap` bounds the time limit; `cancel` stops the planner early.

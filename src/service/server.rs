@@ -503,11 +503,7 @@ async fn dispatch(
             let name = scene.to_string();
             let rev = state
                 .jobs
-                .run(deadline(req.deadline_ms), move || match (req.scene, req.changes) {
-                    (Some(EmbeddedJson(json)), None) => st.registry.put_scene(&name, json),
-                    (None, Some(ch)) => st.registry.apply_changes(&name, &ch),
-                    _ => Err(super::error::invalid("scene", "give exactly one of scene and changes")),
-                })
+                .run(deadline(req.deadline_ms), move || handlers::apply(&st.registry, &name, req))
                 .await?;
             Ok((codec.encode(&ApplyReply { scene: scene.to_string(), revision: rev }), Some(rev)))
         }

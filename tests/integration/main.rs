@@ -13,6 +13,7 @@ mod certify_scenes;
 mod cli_core;
 #[cfg(feature = "cli")]
 mod cli_plan;
+mod fuzz_replay;
 mod plan_scenes;
 #[cfg(feature = "service")]
 mod proto_examples;

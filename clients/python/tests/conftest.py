@@ -142,12 +142,13 @@ def free_port() -> int:
 class Server:
     """One `riskplan serve` process listening on 127.0.0.1 only."""
 
-    def __init__(self, binary: Path, data_dir: Path, extra: Optional[List[str]] = None, port: Optional[int] = None):
+    def __init__(self, binary: Path, data_dir: Path, extra: Optional[List[str]] = None, port: Optional[int] = None,
+                 scheme: str = "tcp", host: str = "127.0.0.1"):
         self.binary = binary
         self.data_dir = Path(data_dir)
         self.extra = list(extra or []) + os.environ.get("RISKPLAN_SERVE_ARGS", "").split()
         self.port = port or free_port()
-        self.endpoint = f"tcp/127.0.0.1:{self.port}"
+        self.endpoint = f"{scheme}/{host}:{self.port}"
         self.proc: Optional[subprocess.Popen] = None
         self.lines: List[str] = []
         self._ready = threading.Event()
@@ -173,7 +174,7 @@ class Server:
             if self._ready.wait(0.2):
                 return self
             # also accept a server that answers status without printing the line
-            if ready_line == READY_LINE and self._status_answers():
+            if ready_line == READY_LINE and self.endpoint.startswith("tcp/") and self._status_answers():
                 return self
         self.kill()
         raise RuntimeError(f"riskplan serve not ready after {limit} s: {self.log()}")

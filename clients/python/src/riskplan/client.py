@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import math
 from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
 
@@ -97,7 +98,7 @@ def one_reply(key: str, replies: Sequence[Any]) -> Any:
     for more than one real reply (success or error): the protocol promises exactly one.
     Returns the reply (its ``ok`` is the sample, or its ``err`` the error reply)."""
     if not replies:
-        raise NoReplyError(f"no reply to the query on {key}: no server serves it (absent, or it died meanwhile)")
+        raise NoReplyError(f"no reply to the query on {key}: no server serves it (absent, or it died meanwhile), or access control denied it (a reader's apply)")
     real = [r for r in replies if r.ok is not None or not isinstance(_decode_err(r.err), QueryTimeoutError)]
     if len(real) > 1:
         kinds = ", ".join("ok" if r.ok is not None else "error" for r in real)
@@ -115,6 +116,9 @@ def _replier(reply: Any) -> Optional[str]:
     return None if rid is None else str(getattr(rid, "zid", rid))
 
 
+DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+
+
 class Client:
     """A connection to a riskplan server.
 
@@ -128,12 +132,29 @@ class Client:
     session runs in client mode with multicast scouting off, so it talks only to the
     endpoint(s) given. ``timeout``: seconds per query (plans use at least their time
     limit plus a margin). Use as a context manager, or call :meth:`close`.
+
+    ``config_file``: a Zenoh JSON5 configuration, e.g. a role's configuration of the
+    secure deployment (``deploy/secure``: TLS, user and password); ``endpoint``, when
+    given too, replaces its ``connect/endpoints``. ``config``: a ready ``zenoh.Config``
+    used as is.
     """
 
-    def __init__(self, endpoint: Union[str, Sequence[str]] = "tcp/127.0.0.1:7447", timeout: float = 30.0,
-                 *, config: Optional[zenoh.Config] = None):
-        self.endpoint = endpoint
+    def __init__(self, endpoint: Union[None, str, Sequence[str]] = None, timeout: float = 30.0,
+                 *, config: Optional[zenoh.Config] = None, config_file: Union[None, str, "os.PathLike[str]"] = None):
         self.timeout = float(timeout)
+        if config is not None and config_file is not None:
+            raise ValueError("give config= or config_file=, not both")
+        if config_file is not None:
+            try:
+                config = zenoh.Config.from_file(str(config_file))
+            except zenoh.ZError as e:
+                raise ConnectError(f"cannot read the Zenoh configuration {config_file}: {e}") from None
+            if endpoint is not None:
+                endpoints = [endpoint] if isinstance(endpoint, str) else list(endpoint)
+                config.insert_json5("connect/endpoints", json.dumps(endpoints))
+        if endpoint is None:
+            endpoint = DEFAULT_ENDPOINT if config is None else "(from the configuration)"
+        self.endpoint = endpoint
         if config is None:
             config = zenoh.Config()
             endpoints = [endpoint] if isinstance(endpoint, str) else list(endpoint)

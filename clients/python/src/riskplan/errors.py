@@ -143,7 +143,9 @@ class QueryTimeoutError(RiskplanError, TimeoutError):
 
 class NoReplyError(RiskplanError, ConnectionError):
     """The query ended with no reply at all: no server serves the key (absent, or it
-    died while handling the query). ``code == "no_reply"``. Safe to retry."""
+    died while handling the query), or the deployment's access control denied the
+    query (a reader's ``apply``: Zenoh drops denied messages silently, deploy/secure).
+    ``code == "no_reply"``. Safe to retry."""
 
     code = "no_reply"
 

@@ -1,0 +1,5 @@
+#![no_main]
+//! cargo-fuzz target: riskplan::fuzzing::request (see that function for what it checks).
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| riskplan::fuzzing::request(data));
