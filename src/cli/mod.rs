@@ -38,6 +38,8 @@ enum Command {
     #[cfg(feature = "service")]
     Serve(serve_cmd::ServeArgs),
     #[cfg(feature = "service")]
+    Router(serve_cmd::RouterArgs),
+    #[cfg(feature = "service")]
     Client(client_cmd::ClientArgs),
 }
 
@@ -58,6 +60,8 @@ pub fn run() -> i32 {
         Command::Bench(a) => bench_cmd::run(a),
         #[cfg(feature = "service")]
         Command::Serve(a) => serve_cmd::run(a),
+        #[cfg(feature = "service")]
+        Command::Router(a) => serve_cmd::run_router(a),
         #[cfg(feature = "service")]
         Command::Client(a) => client_cmd::run(a),
     };

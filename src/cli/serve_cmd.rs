@@ -21,7 +21,8 @@ pub struct ServeArgs {
     /// A Zenoh JSON5 configuration file (the flags below override it).
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Endpoints to listen on (default tcp/127.0.0.1:7447 without --config).
+    /// Endpoints to listen on (default tcp/127.0.0.1:7447 without --config, none with
+    /// --mode client).
     #[arg(long)]
     listen: Vec<String>,
     /// Endpoints to connect to (routers or peers).
@@ -50,16 +51,75 @@ pub struct ServeArgs {
     /// Log as JSON lines instead of human-readable text.
     #[arg(long)]
     log_json: bool,
+    /// Run as a replica of the primary on the same Zenoh network (deploy/cluster):
+    /// answer reads (status, scenes, plan, verify, risk) and follow the primary's
+    /// revisions; writes (puts, deletes, apply) go to the primary only.
+    #[arg(long)]
+    replica: bool,
+    /// Zenoh mode: "peer" (default without --config) or "client" (attach to a router
+    /// given by --connect, as the servers of deploy/cluster do).
+    #[arg(long, value_parser = ["peer", "client"])]
+    mode: Option<String>,
 }
 
-pub fn run(a: ServeArgs) -> Result<i32, CliError> {
+/// Run a Zenoh router for a cluster of servers and their clients (deploy/cluster):
+/// servers (a primary and replicas, `serve --mode client --connect <router>`) and
+/// clients connect to it; it routes each query to one server and every put to the
+/// primary. It holds no scenes and does no planning. Stops on SIGINT or SIGTERM.
+#[derive(Args, Debug)]
+pub struct RouterArgs {
+    /// A Zenoh JSON5 configuration file (the flags below override it).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Endpoints to listen on (default tcp/127.0.0.1:7446 without --config).
+    #[arg(long)]
+    listen: Vec<String>,
+}
+
+/// Runs `riskplan router`.
+pub fn run_router(a: RouterArgs) -> Result<i32, CliError> {
+    init_logging(false);
+    let z = |e: zenoh::Error| CliError(format!("zenoh configuration: {e}"));
+    let mut cfg = match &a.config {
+        Some(p) => zenoh::Config::from_file(p).map_err(|e| CliError(format!("--config {}: {e}", p.display())))?,
+        None => {
+            let mut c = zenoh::Config::default();
+            c.insert_json5("scouting/multicast/enabled", "false").map_err(z)?;
+            c
+        }
+    };
+    cfg.insert_json5("mode", r#""router""#).map_err(z)?;
+    let listen = if a.listen.is_empty() && a.config.is_none() { vec!["tcp/127.0.0.1:7446".into()] } else { a.listen };
+    if !listen.is_empty() {
+        cfg.insert_json5("listen/endpoints", &serde_json::to_string(&listen).unwrap_or_default()).map_err(z)?;
+    }
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| CliError(e.to_string()))?;
+    rt.block_on(async move {
+        let session = zenoh::open(cfg).await.map_err(|e| CliError(format!("cannot open the Zenoh router: {e}")))?;
+        eprintln!("riskplan: router listening on {}", listen.join(", "));
+        riskplan::service::server::shutdown_signal().await;
+        let _ = session.close().await;
+        Ok::<(), CliError>(())
+    })?;
+    Ok(0)
+}
+
+fn init_logging(json: bool) {
     let filter = tracing_subscriber::EnvFilter::try_from_env("RISKPLAN_LOG")
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn"));
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_writer(std::io::stderr);
-    let _ = if a.log_json { builder.json().try_init() } else { builder.try_init() };
+    let _ = if json { builder.json().try_init() } else { builder.try_init() };
+}
+
+pub fn run(a: ServeArgs) -> Result<i32, CliError> {
+    init_logging(a.log_json);
     let z = |e: zenoh::Error| CliError(format!("zenoh configuration: {e}"));
     let mut cfg = match &a.config {
         Some(p) => zenoh::Config::from_file(p).map_err(|e| CliError(format!("--config {}: {e}", p.display())))?,
@@ -70,13 +130,17 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
             c
         }
     };
-    let listen = if a.listen.is_empty() && a.config.is_none() {
+    // a client-mode server (attached to a router) listens on nothing by default
+    let listen = if a.listen.is_empty() && a.config.is_none() && a.mode.as_deref() != Some("client") {
         vec!["tcp/127.0.0.1:7447".to_string()]
     } else {
         a.listen.clone()
     };
     if !listen.is_empty() {
         cfg.insert_json5("listen/endpoints", &serde_json::to_string(&listen).unwrap_or_default()).map_err(z)?;
+    }
+    if let Some(m) = &a.mode {
+        cfg.insert_json5("mode", &format!("{m:?}")).map_err(z)?;
     }
     if !a.connect.is_empty() {
         cfg.insert_json5("connect/endpoints", &serde_json::to_string(&a.connect).unwrap_or_default()).map_err(z)?;
@@ -109,6 +173,7 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
         max_plan_seconds: a.max_plan_seconds,
         max_job_seconds: a.max_job_seconds,
         listen,
+        replica: a.replica,
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()

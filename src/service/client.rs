@@ -29,6 +29,21 @@ pub enum ClientError {
     Decode(String),
 }
 
+/// Pause before a read that got no reply at all is sent again.
+const RETRY_PAUSE: Duration = Duration::from_millis(50);
+
+/// The read queries of proto/README.md ("Roles"), which are repeated when no server
+/// replied: status, echo, a scene, and a scene's plan, verify and risk.
+fn is_read(key: &str) -> bool {
+    let parts: Vec<&str> = key.split('/').collect();
+    matches!(
+        parts.as_slice(),
+        ["riskplan", "status" | "echo"]
+            | ["riskplan", "scenes", _]
+            | ["riskplan", "scenes", _, "plan" | "verify" | "risk"]
+    )
+}
+
 /// A connection to a riskplan server (cheap to clone: the Zenoh session is shared).
 #[derive(Clone)]
 pub struct Client {
@@ -75,7 +90,17 @@ impl Client {
             get = get.payload(self.codec.encode(r)).encoding(enc);
         }
         let replies = get.await.map_err(|e| ClientError::Zenoh(e.to_string()))?;
-        let Ok(reply) = replies.recv_async().await else { return Err(ClientError::NoReply) };
+        let Ok(reply) = replies.recv_async().await else {
+            // No reply to a read: the server that took it died (or none is up yet).
+            // Reads are safe to repeat and another server of a cluster takes the next
+            // query (deploy/cluster); writes (apply) are never repeated.
+            let left = timeout.saturating_sub(RETRY_PAUSE);
+            if is_read(key) && !left.is_zero() {
+                tokio::time::sleep(RETRY_PAUSE).await;
+                return Box::pin(self.query(key, req, left)).await;
+            }
+            return Err(ClientError::NoReply);
+        };
         match reply.result() {
             Ok(sample) => {
                 let codec = Codec::from_encoding(&sample.encoding().to_string()).unwrap_or(self.codec);

@@ -329,6 +329,10 @@ pub struct StatusReply {
     /// but `status` and `echo` is then answered `unavailable`), `ready` after.
     #[serde(default = "ready_state")]
     pub state: String,
+    /// `primary` (takes writes; the only role of a single server) or `replica`
+    /// (follows a primary's revisions and answers reads: deploy/cluster).
+    #[serde(default = "primary_role")]
+    pub role: String,
     /// Seconds since start.
     pub uptime_s: f64,
     /// Scenes.
@@ -342,6 +346,35 @@ pub struct StatusReply {
     /// Problems met loading the stored scenes (quarantined files), for operators.
     #[serde(default)]
     pub problems: Vec<String>,
+}
+
+/// `riskplan/_replication/scenes/<scene>`: a primary's commit, as published to
+/// replicas (put) and as answered to a replica's catch-up query (get). Internal to
+/// a cluster (deploy/cluster); JSON only.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReplicationEntry {
+    /// Scene name.
+    pub name: String,
+    /// The revision, or the last live revision of a deleted scene.
+    pub revision: u64,
+    /// Whether the scene was deleted.
+    pub deleted: bool,
+    /// The scene file (absent when deleted).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<EmbeddedJson>,
+}
+
+/// `riskplan/_replication/index` (get): the version of every scene of the primary.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReplicationIndex {
+    /// `(name, revision, deleted)` of every live or deleted scene.
+    pub scenes: Vec<(String, u64, bool)>,
+}
+
+fn primary_role() -> String {
+    "primary".into()
 }
 
 fn ready_state() -> String {

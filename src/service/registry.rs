@@ -25,9 +25,47 @@ pub struct Entry {
     pub json: serde_json::Value,
 }
 
+/// A committed change of one scene, as replicas follow it: the scene at `revision`,
+/// or (`json` = `None`) its deletion after `revision`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Commit {
+    /// Scene name.
+    pub name: String,
+    /// The revision written, or the last live revision of a deleted scene.
+    pub revision: u64,
+    /// The scene file, `None` for a deletion.
+    pub json: Option<serde_json::Value>,
+}
+
+impl Commit {
+    /// The order of versions of one name: revisions, and at equal revision the
+    /// deletion after the scene it deleted.
+    pub fn version(&self) -> (u64, bool) {
+        (self.revision, self.json.is_none())
+    }
+}
+
+/// Called with every commit, in commit order per scene (under the scene's write lock).
+pub struct CommitListener(Box<dyn Fn(&Commit) + Send + Sync>);
+
+impl CommitListener {
+    /// Wraps `f`.
+    pub fn new(f: impl Fn(&Commit) + Send + Sync + 'static) -> CommitListener {
+        CommitListener(Box::new(f))
+    }
+}
+
+impl std::fmt::Debug for CommitListener {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("CommitListener")
+    }
+}
+
 /// All scenes of a server.
 #[derive(Debug)]
 pub struct Registry {
+    /// Told of every commit (the primary publishes them to replicas).
+    listener: std::sync::OnceLock<CommitListener>,
     scenes: RwLock<BTreeMap<String, Entry>>,
     /// One write lock per scene name with an update in progress.
     writers: Mutex<BTreeMap<String, Arc<Mutex<()>>>>,
@@ -79,6 +117,7 @@ impl Registry {
     /// The server answers `status` (state "loading") between the two.
     pub fn new(store: Store) -> Registry {
         Registry {
+            listener: std::sync::OnceLock::new(),
             scenes: RwLock::new(BTreeMap::new()),
             writers: Mutex::new(BTreeMap::new()),
             cache: ContourCache::default(),
@@ -209,10 +248,83 @@ impl Registry {
             None => self.history.lock().map_err(internal)?.get(name).map_or(0, |&(rev, _)| rev) + 1,
         };
         self.store.save(name, revision, &json).map_err(|e| internal(format!("cannot persist scene '{name}': {e}")))?;
+        self.notify(name, revision, Some(&json));
         let mut m = self.scenes.write().map_err(internal)?;
         m.insert(name.to_string(), Entry { scene: Arc::new(scene), revision, json });
         self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
         Ok(revision)
+    }
+
+    fn notify(&self, name: &str, revision: u64, json: Option<&serde_json::Value>) {
+        if let Some(l) = self.listener.get() {
+            (l.0)(&Commit { name: name.to_string(), revision, json: json.cloned() });
+        }
+    }
+
+    /// Sets the listener told of every later commit (once; later calls are ignored).
+    pub fn set_listener(&self, l: CommitListener) {
+        let _ = self.listener.set(l);
+    }
+
+    /// The version of every name: live scenes, and deletions (tombstones).
+    pub fn index(&self) -> Vec<(String, u64, bool)> {
+        let mut out: BTreeMap<String, (u64, bool)> = self
+            .history
+            .lock()
+            .map(|h| h.iter().filter(|(_, &(_, deleted))| deleted).map(|(k, &v)| (k.clone(), v)).collect())
+            .unwrap_or_default();
+        if let Ok(m) = self.scenes.read() {
+            for (k, e) in m.iter() {
+                out.insert(k.clone(), (e.revision, false));
+            }
+        }
+        out.into_iter().map(|(k, (r, d))| (k, r, d)).collect()
+    }
+
+    /// The current version of `name` (see [`Commit::version`]), if any.
+    pub fn version(&self, name: &str) -> Option<(u64, bool)> {
+        if let Some(r) = self.scenes.read().ok()?.get(name).map(|e| e.revision) {
+            return Some((r, false));
+        }
+        self.history.lock().ok()?.get(name).copied()
+    }
+
+    /// A replica installs a commit of the primary, with the primary's revision, when
+    /// it is newer than what it has; returns whether it did. The scene is validated
+    /// and persisted like any update.
+    pub fn install(&self, c: &Commit) -> Result<bool, ServiceError> {
+        check_name(&c.name)?;
+        self.with_write_lock(&c.name, || {
+            if self.version(&c.name).is_some_and(|v| v >= c.version()) {
+                return Ok(false);
+            }
+            let name = c.name.as_str();
+            match &c.json {
+                Some(json) => {
+                    let scene = self.build(json)?;
+                    self.store
+                        .save(name, c.revision, json)
+                        .map_err(|e| internal(format!("cannot persist scene '{name}': {e}")))?;
+                    self.history.lock().map_err(internal)?.remove(name);
+                    let mut m = self.scenes.write().map_err(internal)?;
+                    m.insert(
+                        name.to_string(),
+                        Entry { scene: Arc::new(scene), revision: c.revision, json: json.clone() },
+                    );
+                    self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
+                }
+                None => {
+                    self.store
+                        .remove(name, c.revision)
+                        .map_err(|e| internal(format!("cannot remove scene '{name}': {e}")))?;
+                    self.history.lock().map_err(internal)?.insert(name.to_string(), (c.revision, true));
+                    let mut m = self.scenes.write().map_err(internal)?;
+                    m.remove(name);
+                    self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
+                }
+            }
+            Ok(true)
+        })
     }
 
     /// Replaces (or creates) a whole scene.
@@ -283,6 +395,7 @@ impl Registry {
                 return Err(ServiceError::UnknownScene(name.to_string()));
             };
             self.store.remove(name, revision).map_err(|e| internal(format!("cannot remove scene '{name}': {e}")))?;
+            self.notify(name, revision, None);
             self.history.lock().map_err(internal)?.insert(name.to_string(), (revision, true));
             let mut m = self.scenes.write().map_err(internal)?;
             m.remove(name);

@@ -5,7 +5,7 @@
 use super::error::ServiceError;
 use super::handlers;
 use super::proto::*;
-use super::registry::Registry;
+use super::registry::{Commit, CommitListener, Registry};
 use super::store::{embedded, Store};
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
@@ -38,8 +38,30 @@ pub struct ServerConfig {
     pub max_job_seconds: f64,
     /// Endpoints printed in the ready line.
     pub listen: Vec<String>,
+    /// Run as a replica: answer reads only, following the primary's revisions
+    /// (deploy/cluster/README.md). Otherwise the server is a primary: it takes
+    /// writes and publishes its commits for replicas.
+    pub replica: bool,
 }
 
+/// Key of the primary's published commits (`<prefix>/<scene>`) and catch-up answers.
+pub const REPLICATION_SCENES: &str = "riskplan/_replication/scenes";
+/// Key of the primary's index of scene versions.
+pub const REPLICATION_INDEX: &str = "riskplan/_replication/index";
+/// How often a replica compares its versions with the primary's index and fetches
+/// what it missed (a lost publication is caught up within this).
+pub const SYNC_INTERVAL: Duration = Duration::from_secs(1);
+/// Timeout of a replica's catch-up queries to the primary.
+const SYNC_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// Keys answered from the start, while the stored scenes load.
+const EARLY_KEYS: [&str; 2] = ["riskplan/status", "riskplan/echo"];
+
+/// The keys a replica answers once ready, besides [`EARLY_KEYS`]: reads only (a query
+/// on `*/apply` is a write and must reach the primary, so a replica declares no
+/// queryable that includes it).
+const REPLICA_KEYS: [&str; 4] =
+    ["riskplan/scenes/*", "riskplan/scenes/*/plan", "riskplan/scenes/*/verify", "riskplan/scenes/*/risk"];
 /// The bounded job pool: `workers` permits; at most `workers + queue` jobs admitted.
 #[derive(Debug)]
 pub struct Jobs {
@@ -179,6 +201,9 @@ pub struct State {
     pub cancels: Cancels,
     /// Set once the stored scenes and the `--preload` files are in.
     ready: AtomicBool,
+    /// Set once the stored scenes are loaded (a replica is ready after catching up).
+    loaded: AtomicBool,
+    replica: bool,
 }
 
 impl State {
@@ -197,6 +222,7 @@ impl State {
         let (entries, hits, misses) = self.registry.cache.stats();
         StatusReply {
             state: if self.ready.load(Ordering::SeqCst) { "ready" } else { "loading" }.into(),
+            role: if self.replica { "replica" } else { "primary" }.into(),
             uptime_s: self.started.elapsed().as_secs_f64(),
             scenes: self
                 .registry
@@ -237,44 +263,62 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
             .map_err(|e| format!("--max-job-seconds {}: {e}", cfg.max_job_seconds))?,
         cancels: Cancels::default(),
         ready: AtomicBool::new(false),
+        loaded: AtomicBool::new(false),
+        replica: cfg.replica,
     });
     let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
-    let queryable =
-        session.declare_queryable("riskplan/**").await.map_err(|e| format!("cannot declare the queryable: {e}"))?;
-    let subscriber = session
-        .declare_subscriber("riskplan/scenes/**")
-        .await
-        .map_err(|e| format!("cannot declare the subscriber: {e}"))?;
+    // Complete queryables: with several servers behind a router, a query goes to one
+    // of them (Zenoh's BestMatching), never to all. Only `status` and `echo` are
+    // declared now; the rest once the stored scenes are in (see `serve_when_ready`),
+    // so that a loading server takes no work: in a cluster another one does, and
+    // clients repeat reads that no server took.
+    let mut early = Vec::new();
+    for k in EARLY_KEYS {
+        early.push(declare(&session, k).await?);
+    }
+    // a primary receives clients' puts; a replica its primary's commits
+    let sub_key = if cfg.replica { format!("{REPLICATION_SCENES}/**") } else { "riskplan/scenes/**".to_string() };
+    let subscriber =
+        session.declare_subscriber(&sub_key).await.map_err(|e| format!("cannot declare the subscriber: {e}"))?;
     eprintln!(
-        "riskplan: listening on {} ({} workers, queue {}); loading stored scenes",
+        "riskplan: listening on {} ({} workers, queue {}{}); loading stored scenes",
         cfg.listen.join(", "),
         cfg.workers,
-        cfg.queue
+        cfg.queue,
+        if cfg.replica { ", replica" } else { "" }
     );
-    info!(listen = %cfg.listen.join(","), "listening");
-    // Loading runs on a blocking thread while the loop below answers `status`
-    // ("loading") and `echo`; other requests get `unavailable` until it is done, and
-    // puts wait in the put worker's queue.
+    info!(listen = %cfg.listen.join(","), replica = cfg.replica, "listening");
+    if !cfg.replica {
+        spawn_publisher(&state, session.clone());
+    }
+    // Loading runs on a blocking thread while the queries below are answered:
+    // `status` ("loading") and `echo`; other requests get `unavailable` until it is
+    // done, and puts wait in the put worker's queue. A replica is ready after its
+    // first catch-up with the primary (or the first attempt, when none answers).
     let loading = {
         let st = state.clone();
         let preload = cfg.preload.clone();
+        let replica = cfg.replica;
         tokio::task::spawn_blocking(move || {
-            load_scenes(&st.registry, &preload);
-            st.ready.store(true, Ordering::SeqCst);
-            eprintln!("riskplan: ready ({} scenes)", st.registry.list().len());
-            info!(scenes = st.registry.list().len(), "ready");
+            load_scenes(&st.registry, if replica { &[] } else { &preload });
+            st.loaded.store(true, Ordering::SeqCst);
+            if !replica {
+                st.ready.store(true, Ordering::SeqCst);
+            }
         })
     };
     let puts = spawn_put_worker(state.clone(), loading);
+    if cfg.replica {
+        spawn_sync(state.clone(), session.clone());
+    }
+    let mut tasks: Vec<tokio::task::JoinHandle<()>> =
+        early.into_iter().map(|q| tokio::spawn(serve_queries(state.clone(), q, false))).collect();
+    tasks.push(tokio::spawn(serve_when_ready(state.clone(), session.clone())));
     let shutdown = shutdown_signal();
     tokio::pin!(shutdown);
     loop {
         tokio::select! {
             _ = &mut shutdown => break,
-            q = queryable.recv_async() => match q {
-                Ok(query) => { let st = state.clone(); tokio::spawn(async move { handle_query(st, query).await }); }
-                Err(_) => break,
-            },
             s = subscriber.recv_async() => match s {
                 Ok(sample) => {
                     let key = sample.key_expr().as_str().to_string();
@@ -289,6 +333,9 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
                 Err(_) => break,
             },
         }
+    }
+    for t in &tasks {
+        t.abort();
     }
     let cancelled = state.cancels.cancel_all();
     info!(cancelled, "shutting down");
@@ -320,6 +367,136 @@ fn spawn_put_worker(state: Arc<State>, loading: tokio::task::JoinHandle<()>) -> 
     tx
 }
 
+async fn declare(
+    session: &zenoh::Session,
+    key: &str,
+) -> Result<zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<Query>>, String> {
+    session.declare_queryable(key).complete(true).await.map_err(|e| format!("cannot declare the queryable {key}: {e}"))
+}
+
+/// Answers the queries of one queryable, each in its own task. `skip_early`: leave
+/// `status` and `echo` to their own queryables (a primary's `riskplan/**` includes
+/// them; a query dropped here gets no reply from this queryable).
+async fn serve_queries(
+    state: Arc<State>,
+    q: zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<Query>>,
+    skip_early: bool,
+) {
+    while let Ok(query) = q.recv_async().await {
+        if skip_early && EARLY_KEYS.contains(&query.key_expr().as_str()) {
+            continue;
+        }
+        let st = state.clone();
+        tokio::spawn(async move { handle_query(st, query).await });
+    }
+}
+
+/// Declares the work queryables once the server is ready (a primary: `riskplan/**`;
+/// a replica: the read keys), and serves them.
+async fn serve_when_ready(state: Arc<State>, session: zenoh::Session) {
+    while !state.ready.load(Ordering::SeqCst) {
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    let keys: Vec<&str> = if state.replica { REPLICA_KEYS.to_vec() } else { vec!["riskplan/**"] };
+    let mut loops = Vec::new();
+    for k in keys {
+        match declare(&session, k).await {
+            Ok(q) => loops.push(tokio::spawn(serve_queries(state.clone(), q, !state.replica))),
+            Err(e) => warn!("{e}"),
+        }
+    }
+    let n = state.registry.list().len();
+    eprintln!("riskplan: ready ({n} scenes{})", if state.replica { ", replica" } else { "" });
+    info!(scenes = n, "ready");
+    for l in loops {
+        let _ = l.await;
+    }
+}
+
+/// A primary publishes each commit on `riskplan/_replication/scenes/<scene>`, in
+/// commit order (the registry calls the listener under the scene's write lock).
+fn spawn_publisher(state: &Arc<State>, session: zenoh::Session) {
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Commit>();
+    state.registry.set_listener(CommitListener::new(move |c| {
+        let _ = tx.send(c.clone());
+    }));
+    tokio::spawn(async move {
+        while let Some(c) = rx.recv().await {
+            let key = format!("{REPLICATION_SCENES}/{}", c.name);
+            let entry = replication_entry(&c);
+            if let Err(e) = session.put(&key, Codec::Json.encode(&entry)).encoding(Encoding::APPLICATION_JSON).await {
+                warn!(scene = %c.name, "cannot publish the commit: {e}");
+            }
+        }
+    });
+}
+
+fn replication_entry(c: &Commit) -> ReplicationEntry {
+    ReplicationEntry {
+        name: c.name.clone(),
+        revision: c.revision,
+        deleted: c.json.is_none(),
+        scene: c.json.as_ref().map(embedded),
+    }
+}
+
+fn commit_of(e: ReplicationEntry) -> Commit {
+    Commit { name: e.name, revision: e.revision, json: if e.deleted { None } else { e.scene.map(|j| j.0) } }
+}
+
+/// A replica's catch-up: every [`SYNC_INTERVAL`], the primary's index against its own
+/// versions, and the scenes it is behind on fetched and installed. The first round
+/// (after the stored scenes are loaded) makes the replica ready.
+fn spawn_sync(state: Arc<State>, session: zenoh::Session) {
+    tokio::spawn(async move {
+        while !state.ready.load(Ordering::SeqCst) && !state.loaded.load(Ordering::SeqCst) {
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        loop {
+            match sync_once(&state, &session).await {
+                Ok(n) if n > 0 => info!(installed = n, "caught up with the primary"),
+                Ok(_) => {}
+                Err(e) => warn!("catch-up with the primary failed: {e}"),
+            }
+            state.ready.store(true, Ordering::SeqCst);
+            tokio::time::sleep(SYNC_INTERVAL).await;
+        }
+    });
+}
+
+async fn get_json<T: serde::de::DeserializeOwned>(session: &zenoh::Session, key: &str) -> Result<T, String> {
+    let replies = session
+        .get(key)
+        .consolidation(zenoh::query::ConsolidationMode::None)
+        .timeout(SYNC_TIMEOUT)
+        .await
+        .map_err(|e| e.to_string())?;
+    let reply = replies.recv_async().await.map_err(|_| format!("no primary answered {key}"))?;
+    let sample = reply.result().map_err(|e| format!("{key}: {}", e.payload().try_to_string().unwrap_or_default()))?;
+    Codec::Json.decode(&sample.payload().to_bytes()).map_err(|(m, _)| format!("{key}: {m}"))
+}
+
+async fn sync_once(state: &Arc<State>, session: &zenoh::Session) -> Result<usize, String> {
+    let index: ReplicationIndex = get_json(session, REPLICATION_INDEX).await?;
+    let mut installed = 0;
+    for (name, revision, deleted) in index.scenes {
+        if state.registry.version(&name).is_some_and(|v| v >= (revision, deleted)) {
+            continue;
+        }
+        let entry: ReplicationEntry = get_json(session, &format!("{REPLICATION_SCENES}/{name}")).await?;
+        let st = state.clone();
+        let r = tokio::task::spawn_blocking(move || st.registry.install(&commit_of(entry)))
+            .await
+            .map_err(|e| e.to_string())?;
+        match r {
+            Ok(true) => installed += 1,
+            Ok(false) => {}
+            Err(e) => warn!(scene = %name, "cannot install the primary's scene: {e}"),
+        }
+    }
+    Ok(installed)
+}
+
 /// Loads the stored scenes, then the `--preload` files whose names are neither live
 /// nor deleted by a client.
 fn load_scenes(registry: &Registry, preload: &[PathBuf]) {
@@ -342,7 +519,8 @@ fn load_scenes(registry: &Registry, preload: &[PathBuf]) {
     }
 }
 
-async fn shutdown_signal() {
+/// Resolves on SIGINT or SIGTERM.
+pub async fn shutdown_signal() {
     let ctrl_c = tokio::signal::ctrl_c();
     #[cfg(unix)]
     {
@@ -367,6 +545,13 @@ fn handle_put(state: &State, key: &str, kind: SampleKind, bytes: &[u8]) {
     let span = tracing::info_span!("put", key = %key);
     let _g = span.enter();
     let r: Result<Option<u64>, ServiceError> = (|| match (parts.as_slice(), kind) {
+        (["riskplan", "_replication", "scenes", _], SampleKind::Put) if state.replica => {
+            let entry: ReplicationEntry =
+                Codec::Json.decode(bytes).map_err(|(m, f)| ServiceError::Malformed { message: m, field: f })?;
+            let c = commit_of(entry);
+            state.registry.install(&c).map(|done| done.then_some(c.revision))
+        }
+        (["riskplan", "_replication", ..], _) => Ok(None),
         (["riskplan", "scenes", name], SampleKind::Put) => {
             if bytes.len() > MAX_PAYLOAD_BYTES {
                 return Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES));
@@ -406,6 +591,8 @@ async fn handle_query(state: Arc<State>, query: Query) {
     let key = query.key_expr().as_str().to_string();
     let parts: Vec<String> = key.split('/').map(str::to_string).collect();
     let kind = match parts.iter().map(String::as_str).collect::<Vec<_>>().as_slice() {
+        ["riskplan", "_replication", "index"] => "replication_index",
+        ["riskplan", "_replication", "scenes", _] => "replication_scene",
         ["riskplan", "status"] => "status",
         ["riskplan", "echo"] => "echo",
         ["riskplan", "scenes", _] => "scene",
@@ -413,7 +600,11 @@ async fn handle_query(state: Arc<State>, query: Query) {
         _ => "unknown",
     }
     .to_string();
-    let scene = if parts.len() >= 3 && parts[1] == "scenes" { parts[2].clone() } else { String::new() };
+    let scene = match parts.as_slice() {
+        [_, s, name, ..] if s == "scenes" => name.clone(),
+        [_, r, s, name] if r == "_replication" && s == "scenes" => name.clone(),
+        _ => String::new(),
+    };
     let span = tracing::info_span!("request", kind = %kind, scene = %scene, planner = tracing::field::Empty, revision = tracing::field::Empty, duration_ms = tracing::field::Empty);
     async move {
         let enc = query.encoding().map(|e| e.to_string()).unwrap_or_default();
@@ -487,6 +678,17 @@ async fn dispatch(
         "status" => return Ok((codec.encode(&state.status()), None)),
         // The bare round trip of the load benchmark: the payload back, no work, no pool.
         "echo" => return Ok((bytes, None)),
+        // a replica's catch-up queries (only a primary declares these keys)
+        "replication_index" => {
+            return Ok((Codec::Json.encode(&ReplicationIndex { scenes: state.registry.index() }), None))
+        }
+        "replication_scene" => {
+            let (revision, deleted) =
+                state.registry.version(scene).ok_or_else(|| ServiceError::UnknownScene(scene.to_string()))?;
+            let json = if deleted { None } else { Some(state.registry.get(scene)?.json) };
+            let c = Commit { name: scene.to_string(), revision, json };
+            return Ok((Codec::Json.encode(&replication_entry(&c)), Some(revision)));
+        }
         _ if !state.ready.load(Ordering::SeqCst) => {
             return Err(ServiceError::Unavailable("the server is loading its stored scenes: try again shortly".into()))
         }

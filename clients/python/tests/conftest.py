@@ -149,6 +149,8 @@ class Server:
         self.extra = list(extra or []) + os.environ.get("RISKPLAN_SERVE_ARGS", "").split()
         self.port = port or free_port()
         self.endpoint = f"{scheme}/{host}:{self.port}"
+        # a server of a cluster connects to the router and listens on nothing
+        self.listens = not any(a == "--mode" and b == "client" for a, b in zip(self.extra, self.extra[1:]))
         self.proc: Optional[subprocess.Popen] = None
         self.lines: List[str] = []
         self._ready = threading.Event()
@@ -156,7 +158,8 @@ class Server:
 
     @property
     def argv(self) -> List[str]:
-        return [str(self.binary), "serve", "--listen", self.endpoint, "--data", str(self.data_dir), *self.extra]
+        listen = ["--listen", self.endpoint] if self.listens else []
+        return [str(self.binary), "serve", *listen, "--data", str(self.data_dir), *self.extra]
 
     def start(self, limit: float = START_LIMIT_S, ready_line: str = READY_LINE) -> "Server":
         """Starts the process and waits for `ready_line` on its stderr (by default the
@@ -174,7 +177,7 @@ class Server:
             if self._ready.wait(0.2):
                 return self
             # also accept a server that answers status without printing the line
-            if ready_line == READY_LINE and self.endpoint.startswith("tcp/") and self._status_answers():
+            if ready_line == READY_LINE and self.listens and self.endpoint.startswith("tcp/") and self._status_answers():
                 return self
         self.kill()
         raise RuntimeError(f"riskplan serve not ready after {limit} s: {self.log()}")

@@ -92,8 +92,11 @@ def test_every_query_gets_exactly_one_reply_from_one_server(client, scene3, ring
 
 
 def test_two_servers_on_one_network_are_two_replies(binary, tmp_path):
-    """The check above can fail: a second server meshed with the first (--connect) also
-    serves riskplan/**, so each query gets two replies, and the client refuses them."""
+    """The check above can fail: a second server meshed with the first as a *peer*
+    (--connect, peer mode) also serves riskplan/**, and peer routing sends each query to
+    both (even with complete queryables), so the client refuses the two replies. That
+    topology is not supported: several servers run as a cluster behind a router
+    (deploy/cluster, test_cluster.py), where each query gets one reply."""
     a = Server(binary, tmp_path / "a").start()
     b = None
     try:

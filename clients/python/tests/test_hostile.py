@@ -134,8 +134,9 @@ def test_verify_summary_keeps_only_the_first_unsafe_piece(client, scene3, unique
     assert not bad["safe"] and len(bad["pieces"]) == 1 and not bad["pieces"][0]["safe"]
 
 
-def slow_scene(scene3: dict, obstacles: int = 4) -> dict:
-    """A valid scene whose contours take about a second to build (462-term obstacles)."""
+def slow_scene(scene3: dict, obstacles: int = 1) -> dict:
+    """A valid scene whose contour takes a few tenths of a second to build: one
+    462-term obstacle, near the scene's contour budget (a second one would exceed it)."""
     s = json.loads(json.dumps(scene3))
     s["params"]["v"] = {"dist": "normal", "mean": 0, "std": 1}
     s["obstacles"] = [{"id": f"o{i}", "poly": f"0.00001*(x1+x2+t+w+v+{i + 1})^6 - 1"} for i in range(obstacles)]

@@ -493,6 +493,7 @@ MESSAGES = {
         "type": "object",
         "required": ["uptime_s", "scenes", "cache", "queue", "requests"],
         "properties": {
+            "role": {"enum": ["primary", "replica"], "description": "primary: takes writes (a single server is one); replica: answers reads only and follows a primary (deploy/cluster)"},
             "state": {"enum": ["loading", "ready"], "description": "loading until the stored scenes and --preload files are in (every request but status and echo is answered unavailable), ready after"},
             "uptime_s": {"type": "number", "minimum": 0},
             "scenes": {

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import time
 import math
 from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
 
@@ -117,6 +119,9 @@ def _replier(reply: Any) -> Optional[str]:
 
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+# The read queries of proto/README.md ("Roles"): repeated when no server replied.
+READ_KEY = re.compile(r"^riskplan/(status|echo|scenes/[^/]+(/(plan|verify|risk))?)$")
+RETRY_PAUSE_S = 0.05
 
 
 class Client:
@@ -198,10 +203,10 @@ class Client:
         Returns the decoded JSON reply; raises a :class:`RiskplanError` subclass for an
         error reply, :class:`QueryTimeoutError` on timeout, :class:`NoReplyError` when
         nothing answered, :class:`DuplicateReplyError` when more than one reply came."""
+        total = float(timeout if timeout is not None else self.timeout)
         kwargs: Dict[str, Any] = dict(
             consolidation=zenoh.ConsolidationMode.NONE,
             target=zenoh.QueryTarget.BEST_MATCHING,
-            timeout=float(timeout if timeout is not None else self.timeout),
         )
         data = _encode(request)
         if data is not None:
@@ -209,7 +214,17 @@ class Client:
         enc = _encoding(encoding)
         if enc is not None:
             kwargs["encoding"] = enc
-        replies = list(self._session.get(key, **kwargs))
+        end = time.monotonic() + total
+        while True:
+            left = end - time.monotonic()
+            replies = list(self._session.get(key, timeout=max(left, 0.001), **kwargs))
+            # No reply at all to a read: the server that took it died (or none is up
+            # yet). Reads are safe to repeat, and another server of a cluster takes the
+            # next query (deploy/cluster): try again within the timeout. Writes
+            # (apply) are never repeated: the lost one may have been carried out.
+            if replies or not READ_KEY.match(key) or end - time.monotonic() <= RETRY_PAUSE_S:
+                break
+            time.sleep(RETRY_PAUSE_S)
         self.last_replies = len(replies)
         self.last_repliers = [_replier(r) for r in replies]
         self.last_encoding = None
