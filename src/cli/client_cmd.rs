@@ -130,8 +130,14 @@ enum ClientCommand {
         #[arg(long, default_value_t = 30.0)]
         seconds: f64,
         /// Query riskplan/echo instead (no work): the bare round trip.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "mix")]
         bare: bool,
+        /// A mixed workload on the scene instead: in every ten queries of a client, one
+        /// plan (time limit 1 s), five verifies, three risk queries (16 points) and one
+        /// apply (replacing that client's own tiny obstacle in a corner); prints
+        /// latencies and outcomes per kind.
+        #[arg(long)]
+        mix: bool,
     },
 }
 
@@ -266,72 +272,141 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             show(&client.status().await.map_err(err)?)?;
             Ok(0)
         }
-        ClientCommand::Load { scene, clients, seconds, bare } => load(client, &scene, clients, seconds, bare).await,
+        ClientCommand::Load { scene, clients, seconds, bare, mix } => {
+            load(client, &scene, clients, seconds, bare, mix).await
+        }
     }
 }
 
-async fn load(client: &Client, scene: &str, clients: usize, seconds: f64, bare: bool) -> Result<i32, CliError> {
+/// Per kind of query: latencies (s), outcomes (ok or error code), replies per query.
+type LoadStats = (Vec<f64>, std::collections::BTreeMap<String, u64>, std::collections::BTreeMap<usize, u64>);
+
+/// The queries of one load client: (kind, key, payload), cycled through.
+fn load_queries(
+    client: &Client,
+    scene: &str,
+    id: usize,
+    bare: bool,
+    mix: bool,
+) -> Vec<(&'static str, String, Vec<u8>)> {
+    let verify = VerifyRequest {
+        segment: Some(Segment { from: vec![-1.0, -0.9], to: vec![1.0, -0.5], t0: None, t1: None }),
+        ..Default::default()
+    };
+    let key = |k: &str| format!("riskplan/scenes/{scene}/{k}");
+    if bare {
+        return vec![("echo", "riskplan/echo".into(), client.encode(&"ping"))];
+    }
+    let v = ("verify", key("verify"), client.encode(&verify));
+    if !mix {
+        return vec![v];
+    }
+    let plan = PlanRequest { time_limit: Some(1.0), seed: Some(id as u64), ..Default::default() };
+    let points: Vec<Vec<f64>> = (0..16).map(|k| vec![-0.9 + 0.1 * k as f64, 0.3]).collect();
+    let risk = RiskRequest { points: Some(points), ..Default::default() };
+    // a disk of radius 0.005 near the corner (0.95, -0.95), away from the paths
+    let c = 0.9 + 0.001 * (id % 50) as f64;
+    let apply = ApplyRequest {
+        changes: Some(vec![Change {
+            op: "put".into(),
+            id: format!("load-{id}"),
+            poly: Some(format!("0.000025 - (x1 - {c:.3})^2 - (x2 + {c:.3})^2")),
+            params: None,
+        }]),
+        ..Default::default()
+    };
+    let p = ("plan", key("plan"), client.encode(&plan));
+    let r = ("risk", key("risk"), client.encode(&risk));
+    let a = ("apply", key("apply"), client.encode(&apply));
+    vec![p, v.clone(), r.clone(), v.clone(), r.clone(), v.clone(), a, v.clone(), r, v]
+}
+
+async fn load(
+    client: &Client,
+    scene: &str,
+    clients: usize,
+    seconds: f64,
+    bare: bool,
+    mix: bool,
+) -> Result<i32, CliError> {
     use std::collections::BTreeMap;
     use std::time::Instant;
-    let (key, payload) = if bare {
-        ("riskplan/echo".to_string(), client.encode(&"ping"))
-    } else {
-        let req = VerifyRequest {
-            segment: Some(Segment { from: vec![-1.0, -0.9], to: vec![1.0, -0.5], t0: None, t1: None }),
-            ..Default::default()
-        };
-        (format!("riskplan/scenes/{scene}/verify"), client.encode(&req))
-    };
     let deadline = Instant::now() + Duration::from_secs_f64(seconds.max(0.1));
     let started = Instant::now();
     let mut tasks = Vec::new();
-    for _ in 0..clients.max(1) {
-        let (key, payload) = (key.clone(), payload.clone());
+    for id in 0..clients.max(1) {
+        let queries = load_queries(client, scene, id, bare, mix);
         let c = client.clone();
         tasks.push(tokio::spawn(async move {
-            let mut lat = Vec::new();
-            let mut outcomes: BTreeMap<String, u64> = BTreeMap::new();
-            let mut reply_counts: BTreeMap<usize, u64> = BTreeMap::new();
+            let mut stats: BTreeMap<&'static str, LoadStats> = BTreeMap::new();
+            let mut k = id; // clients start at different points of the cycle
             while Instant::now() < deadline {
+                let (kind, key, payload) = &queries[k % queries.len()];
+                k += 1;
                 let t = Instant::now();
-                let r = c.raw_query(&key, payload.clone()).await;
-                lat.push(t.elapsed().as_secs_f64());
+                let r = c.raw_query(key, payload.clone()).await;
+                let e = stats.entry(kind).or_default();
+                e.0.push(t.elapsed().as_secs_f64());
                 let (n, code) = match r {
                     Ok(v) => v,
                     Err(e) => (0, Some(format!("client error: {e}"))),
                 };
-                *reply_counts.entry(n).or_default() += 1;
-                *outcomes.entry(code.unwrap_or_else(|| "ok".into())).or_default() += 1;
+                *e.2.entry(n).or_default() += 1;
+                *e.1.entry(code.unwrap_or_else(|| "ok".into())).or_default() += 1;
             }
-            (lat, outcomes, reply_counts)
+            stats
         }));
     }
-    let mut results = Vec::new();
+    let mut merged: BTreeMap<&'static str, LoadStats> = BTreeMap::new();
     for t in tasks {
-        results.push(t.await.map_err(|e| CliError(format!("load task failed: {e}")))?);
+        for (kind, (l, o, c)) in t.await.map_err(|e| CliError(format!("load task failed: {e}")))? {
+            let m = merged.entry(kind).or_default();
+            m.0.extend(l);
+            for (k, v) in o {
+                *m.1.entry(k).or_default() += v;
+            }
+            for (k, v) in c {
+                *m.2.entry(k).or_default() += v;
+            }
+        }
     }
     let elapsed = started.elapsed().as_secs_f64();
-    let mut lat: Vec<f64> = Vec::new();
+    let summary = |lat: &mut Vec<f64>| {
+        lat.sort_by(f64::total_cmp);
+        let pct = |p: f64| lat.get(((lat.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(f64::NAN) * 1e3;
+        serde_json::json!({"p50": pct(0.5), "p90": pct(0.9), "p99": pct(0.99), "max": pct(1.0)})
+    };
+    let mut all_lat = Vec::new();
     let mut outcomes: BTreeMap<String, u64> = BTreeMap::new();
     let mut counts: BTreeMap<usize, u64> = BTreeMap::new();
-    for (l, o, c) in results {
-        lat.extend(l);
-        for (k, v) in o {
-            *outcomes.entry(k).or_default() += v;
+    let mut kinds = serde_json::Map::new();
+    for (kind, (mut l, o, c)) in merged {
+        all_lat.extend_from_slice(&l);
+        for (k, v) in &o {
+            *outcomes.entry(k.clone()).or_default() += v;
         }
-        for (k, v) in c {
-            *counts.entry(k).or_default() += v;
+        for (k, v) in &c {
+            *counts.entry(*k).or_default() += v;
         }
+        kinds.insert(
+            kind.to_string(),
+            serde_json::json!({
+                "queries": l.len(), "latency_ms": summary(&mut l), "outcomes": o,
+                "replies_per_query": c.iter().map(|(k, v)| (k.to_string(), *v)).collect::<BTreeMap<_, _>>(),
+            }),
+        );
     }
-    lat.sort_by(f64::total_cmp);
-    let pct = |p: f64| lat.get(((lat.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(f64::NAN) * 1e3;
     let out = serde_json::json!({
-        "key": key, "clients": clients, "seconds": elapsed, "queries": lat.len(),
-        "throughput_qps": lat.len() as f64 / elapsed,
-        "latency_ms": {"p50": pct(0.5), "p90": pct(0.9), "p99": pct(0.99), "max": pct(1.0)},
+        "scene": scene, "clients": clients, "seconds": elapsed, "queries": all_lat.len(),
+        "throughput_qps": all_lat.len() as f64 / elapsed,
+        "latency_ms": summary(&mut all_lat),
         "outcomes": outcomes,
         "replies_per_query": counts.iter().map(|(k, v)| (k.to_string(), *v)).collect::<BTreeMap<_, _>>(),
+        "kinds": kinds,
     });
     show(&out)?;
-    Ok(if counts.keys().all(|&k| k == 1) { 0 } else { 1 })
+    // every query exactly one reply from a server: a local timeout (code "timeout")
+    // or a client error is not one
+    let unanswered = outcomes.keys().any(|k| k == "timeout" || k.starts_with("client error"));
+    Ok(if counts.keys().all(|&k| k == 1) && !unanswered { 0 } else { 1 })
 }
