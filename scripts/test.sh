@@ -14,6 +14,8 @@ echo "== cargo clippy (all targets, all features)"
 cargo clippy --all-targets --all-features -- -D warnings
 echo "== the math core builds alone (no service, no CLI)"
 cargo check --no-default-features --lib
+echo "== the service's messages and handlers without the transport (what fuzz/ builds)"
+cargo check --no-default-features --features proto,test-support --lib
 echo "== every Rust test: unit, property, integration (full sizes), doc tests"
 cargo test --all-features
 echo "== Python client tests (against the server binary of the test build)"
