@@ -462,8 +462,17 @@ impl<C: CoeffText> Poly<C> {
                 (_, false) => s.push_str(" + "),
             }
             let (txt, is_one) = c.abs_text();
-            let mono: Vec<String> =
-                m.pairs().iter().map(|&(v, e)| if e == 1 { names(v) } else { format!("{}^{e}", names(v)) }).collect();
+            // an exponent above the parser's per-'^' limit is written as repeated
+            // factors (w^64 as w^32*w^32), so that printed text always parses back
+            let mut mono: Vec<String> = Vec::new();
+            for &(v, e) in m.pairs() {
+                let mut left = e;
+                while left > 0 {
+                    let k = left.min(parse::MAX_EXPONENT);
+                    mono.push(if k == 1 { names(v) } else { format!("{}^{k}", names(v)) });
+                    left -= k;
+                }
+            }
             if mono.is_empty() {
                 s.push_str(&txt);
             } else {

@@ -63,6 +63,16 @@ fn prints_like_the_paper() {
 }
 
 #[test]
+fn exponents_above_the_parsers_limit_print_as_repeated_factors() {
+    // found by fuzzing: (x1+...)^32 expanded holds w^64, which a single '^' may not write
+    let names = |v: Var| table().name(v);
+    let q = p("(x1^2)^20");
+    let text = q.to_text(&names);
+    assert_eq!(text, "x1^32*x1^8");
+    assert_eq!(p(&text), q);
+}
+
+#[test]
 fn expectation_is_linear_and_uses_moments() {
     // E[w^2 - x1^2] with E[w^2] = 37/300
     let e = p("w^2 - x1^2").expect(|v| v == 3, |_, k| Some(if k == 2 { q(37, 300) } else { q(0, 1) })).unwrap();

@@ -89,12 +89,13 @@ impl Client {
         if let Some(r) = req {
             get = get.payload(self.codec.encode(r)).encoding(enc);
         }
+        let started = std::time::Instant::now();
         let replies = get.await.map_err(|e| ClientError::Zenoh(e.to_string()))?;
         let Ok(reply) = replies.recv_async().await else {
             // No reply to a read: the server that took it died (or none is up yet).
             // Reads are safe to repeat and another server of a cluster takes the next
             // query (deploy/cluster); writes (apply) are never repeated.
-            let left = timeout.saturating_sub(RETRY_PAUSE);
+            let left = timeout.saturating_sub(started.elapsed() + RETRY_PAUSE);
             if is_read(key) && !left.is_zero() {
                 tokio::time::sleep(RETRY_PAUSE).await;
                 return Box::pin(self.query(key, req, left)).await;

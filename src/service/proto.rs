@@ -369,6 +369,9 @@ pub struct ReplicationEntry {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ReplicationIndex {
+    /// The primary's data-directory identity: a replica that sees it change drops
+    /// what the primary no longer has and installs the primary's state in full.
+    pub primary: u64,
     /// `(name, revision, deleted)` of every live or deleted scene.
     pub scenes: Vec<(String, u64, bool)>,
 }

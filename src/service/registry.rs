@@ -266,6 +266,11 @@ impl Registry {
         let _ = self.listener.set(l);
     }
 
+    /// The data directory's identity (see [`Store::id`]).
+    pub fn store_id(&self) -> u64 {
+        self.store.id()
+    }
+
     /// The version of every name: live scenes, and deletions (tombstones).
     pub fn index(&self) -> Vec<(String, u64, bool)> {
         let mut out: BTreeMap<String, (u64, bool)> = self
@@ -289,13 +294,59 @@ impl Registry {
         self.history.lock().ok()?.get(name).copied()
     }
 
+    /// The version a replica compares with its primary's: a live scene or a deletion;
+    /// not the floor a quarantined file left (that floor is this server's own).
+    pub fn replicated_version(&self, name: &str) -> Option<(u64, bool)> {
+        if let Some(r) = self.scenes.read().ok()?.get(name).map(|e| e.revision) {
+            return Some((r, false));
+        }
+        self.history.lock().ok()?.get(name).copied().filter(|&(_, deleted)| deleted)
+    }
+
+    /// The current state of `name` as one commit (the revision and the content read
+    /// together, under the scene's write lock), `None` when unknown.
+    pub fn commit(&self, name: &str) -> Result<Option<Commit>, ServiceError> {
+        check_name(name)?;
+        self.with_write_lock(name, || {
+            if let Some(e) = self.scenes.read().map_err(internal)?.get(name) {
+                return Ok(Some(Commit { name: name.to_string(), revision: e.revision, json: Some(e.json.clone()) }));
+            }
+            let h = self.history.lock().map_err(internal)?.get(name).copied();
+            Ok(h.filter(|&(_, deleted)| deleted).map(|(revision, _)| Commit {
+                name: name.to_string(),
+                revision,
+                json: None,
+            }))
+        })
+    }
+
+    /// A replica drops the live scenes its primary no longer lists (the primary
+    /// quarantined them, or its data directory is new); returns their names.
+    pub fn drop_missing(&self, listed: &std::collections::BTreeSet<String>) -> Vec<String> {
+        let missing: Vec<(String, u64)> = self
+            .scenes
+            .read()
+            .map(|m| m.iter().filter(|(k, _)| !listed.contains(*k)).map(|(k, e)| (k.clone(), e.revision)).collect())
+            .unwrap_or_default();
+        let mut dropped = Vec::new();
+        for (name, revision) in missing {
+            let c = Commit { name: name.clone(), revision, json: None };
+            if self.install(&c, true).is_ok() {
+                dropped.push(name);
+            }
+        }
+        dropped
+    }
+
     /// A replica installs a commit of the primary, with the primary's revision, when
     /// it is newer than what it has; returns whether it did. The scene is validated
     /// and persisted like any update.
-    pub fn install(&self, c: &Commit) -> Result<bool, ServiceError> {
+    /// `force` (after the primary's identity changed: its data directory is new)
+    /// installs whatever the primary has.
+    pub fn install(&self, c: &Commit, force: bool) -> Result<bool, ServiceError> {
         check_name(&c.name)?;
         self.with_write_lock(&c.name, || {
-            if self.version(&c.name).is_some_and(|v| v >= c.version()) {
+            if !force && self.replicated_version(&c.name).is_some_and(|v| v >= c.version()) {
                 return Ok(false);
             }
             let name = c.name.as_str();

@@ -2,7 +2,7 @@
 //! subscriber on `riskplan/scenes/**` for puts and deletes, a bounded blocking job
 //! pool for computation, clean shutdown on SIGINT/SIGTERM.
 
-use super::error::ServiceError;
+use super::error::{invalid, ServiceError};
 use super::handlers;
 use super::proto::*;
 use super::registry::{Commit, CommitListener, Registry};
@@ -203,6 +203,9 @@ pub struct State {
     ready: AtomicBool,
     /// Set once the stored scenes are loaded (a replica is ready after catching up).
     loaded: AtomicBool,
+    /// A replica's primary, by data-directory identity (`None` before the first
+    /// catch-up).
+    primary_id: Mutex<Option<u64>>,
     replica: bool,
 }
 
@@ -264,6 +267,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         cancels: Cancels::default(),
         ready: AtomicBool::new(false),
         loaded: AtomicBool::new(false),
+        primary_id: Mutex::new(None),
         replica: cfg.replica,
     });
     let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
@@ -382,8 +386,13 @@ async fn serve_queries(
     q: zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<Query>>,
     skip_early: bool,
 ) {
+    let own = q.key_expr().as_str().to_string();
     while let Ok(query) = q.recv_async().await {
-        if skip_early && EARLY_KEYS.contains(&query.key_expr().as_str()) {
+        let key = query.key_expr().as_str();
+        // `riskplan/**` leaves status and echo to their own queryables; those take
+        // only their exact key (a wildcard query is answered once, by `riskplan/**`)
+        let early = EARLY_KEYS.contains(&own.as_str());
+        if (skip_early && EARLY_KEYS.contains(&key)) || (early && key != own) {
             continue;
         }
         let st = state.clone();
@@ -440,8 +449,15 @@ fn replication_entry(c: &Commit) -> ReplicationEntry {
     }
 }
 
-fn commit_of(e: ReplicationEntry) -> Commit {
-    Commit { name: e.name, revision: e.revision, json: if e.deleted { None } else { e.scene.map(|j| j.0) } }
+/// The commit of a replication entry; an error when it is neither a deletion nor a
+/// scene.
+fn commit_of(e: ReplicationEntry) -> Result<Commit, ServiceError> {
+    let json = match (e.deleted, e.scene) {
+        (true, None) => None,
+        (false, Some(j)) => Some(j.0),
+        _ => return Err(invalid("scene", "a commit is either deleted or has a scene")),
+    };
+    Ok(Commit { name: e.name, revision: e.revision, json })
 }
 
 /// A replica's catch-up: every [`SYNC_INTERVAL`], the primary's index against its own
@@ -453,12 +469,22 @@ fn spawn_sync(state: Arc<State>, session: zenoh::Session) {
             tokio::time::sleep(Duration::from_millis(10)).await;
         }
         loop {
-            match sync_once(&state, &session).await {
-                Ok(n) if n > 0 => info!(installed = n, "caught up with the primary"),
-                Ok(_) => {}
-                Err(e) => warn!("catch-up with the primary failed: {e}"),
+            let synced = match sync_once(&state, &session).await {
+                Ok(n) => {
+                    if n > 0 {
+                        info!(changed = n, "caught up with the primary");
+                    }
+                    true
+                }
+                Err(e) => {
+                    warn!("catch-up with the primary failed: {e}");
+                    false
+                }
+            };
+            // ready after a catch-up, or (primary unreachable) with stored scenes to serve
+            if synced || !state.registry.list().is_empty() {
+                state.ready.store(true, Ordering::SeqCst);
             }
-            state.ready.store(true, Ordering::SeqCst);
             tokio::time::sleep(SYNC_INTERVAL).await;
         }
     });
@@ -478,14 +504,30 @@ async fn get_json<T: serde::de::DeserializeOwned>(session: &zenoh::Session, key:
 
 async fn sync_once(state: &Arc<State>, session: &zenoh::Session) -> Result<usize, String> {
     let index: ReplicationIndex = get_json(session, REPLICATION_INDEX).await?;
+    let changed = state.primary_id.lock().map(|mut p| p.replace(index.primary) != Some(index.primary)).unwrap_or(true);
+    if changed {
+        info!(primary = index.primary, "following a primary: full catch-up");
+    }
+    let listed: std::collections::BTreeSet<String> = index.scenes.iter().map(|(n, _, _)| n.clone()).collect();
     let mut installed = 0;
     for (name, revision, deleted) in index.scenes {
-        if state.registry.version(&name).is_some_and(|v| v >= (revision, deleted)) {
+        if !changed && state.registry.replicated_version(&name).is_some_and(|v| v >= (revision, deleted)) {
             continue;
         }
-        let entry: ReplicationEntry = get_json(session, &format!("{REPLICATION_SCENES}/{name}")).await?;
+        // one scene that cannot be fetched or installed does not stop the others
+        let entry: ReplicationEntry = match get_json(session, &format!("{REPLICATION_SCENES}/{name}")).await {
+            Ok(e) => e,
+            Err(e) => {
+                warn!(scene = %name, "cannot fetch the primary's scene: {e}");
+                continue;
+            }
+        };
+        if entry.name != name {
+            warn!(scene = %name, "the primary's answer names another scene ({}): ignored", entry.name);
+            continue;
+        }
         let st = state.clone();
-        let r = tokio::task::spawn_blocking(move || st.registry.install(&commit_of(entry)))
+        let r = tokio::task::spawn_blocking(move || st.registry.install(&commit_of(entry)?, changed))
             .await
             .map_err(|e| e.to_string())?;
         match r {
@@ -494,7 +536,13 @@ async fn sync_once(state: &Arc<State>, session: &zenoh::Session) -> Result<usize
             Err(e) => warn!(scene = %name, "cannot install the primary's scene: {e}"),
         }
     }
-    Ok(installed)
+    let st = state.clone();
+    let dropped =
+        tokio::task::spawn_blocking(move || st.registry.drop_missing(&listed)).await.map_err(|e| e.to_string())?;
+    if !dropped.is_empty() {
+        info!(?dropped, "dropped scenes the primary no longer has");
+    }
+    Ok(installed + dropped.len())
 }
 
 /// Loads the stored scenes, then the `--preload` files whose names are neither live
@@ -545,11 +593,14 @@ fn handle_put(state: &State, key: &str, kind: SampleKind, bytes: &[u8]) {
     let span = tracing::info_span!("put", key = %key);
     let _g = span.enter();
     let r: Result<Option<u64>, ServiceError> = (|| match (parts.as_slice(), kind) {
-        (["riskplan", "_replication", "scenes", _], SampleKind::Put) if state.replica => {
+        (["riskplan", "_replication", "scenes", name], SampleKind::Put) if state.replica => {
             let entry: ReplicationEntry =
                 Codec::Json.decode(bytes).map_err(|(m, f)| ServiceError::Malformed { message: m, field: f })?;
-            let c = commit_of(entry);
-            state.registry.install(&c).map(|done| done.then_some(c.revision))
+            if entry.name != *name {
+                return Err(invalid("name", format!("a commit for '{}' published on '{key}'", entry.name)));
+            }
+            let c = commit_of(entry)?;
+            state.registry.install(&c, false).map(|done| done.then_some(c.revision))
         }
         (["riskplan", "_replication", ..], _) => Ok(None),
         (["riskplan", "scenes", name], SampleKind::Put) => {
@@ -680,14 +731,12 @@ async fn dispatch(
         "echo" => return Ok((bytes, None)),
         // a replica's catch-up queries (only a primary declares these keys)
         "replication_index" => {
-            return Ok((Codec::Json.encode(&ReplicationIndex { scenes: state.registry.index() }), None))
+            let index = ReplicationIndex { primary: state.registry.store_id(), scenes: state.registry.index() };
+            return Ok((Codec::Json.encode(&index), None));
         }
         "replication_scene" => {
-            let (revision, deleted) =
-                state.registry.version(scene).ok_or_else(|| ServiceError::UnknownScene(scene.to_string()))?;
-            let json = if deleted { None } else { Some(state.registry.get(scene)?.json) };
-            let c = Commit { name: scene.to_string(), revision, json };
-            return Ok((Codec::Json.encode(&replication_entry(&c)), Some(revision)));
+            let c = state.registry.commit(scene)?.ok_or_else(|| ServiceError::UnknownScene(scene.to_string()))?;
+            return Ok((Codec::Json.encode(&replication_entry(&c)), Some(c.revision)));
         }
         _ if !state.ready.load(Ordering::SeqCst) => {
             return Err(ServiceError::Unavailable("the server is loading its stored scenes: try again shortly".into()))

@@ -52,6 +52,7 @@ pub struct Store {
     dir: PathBuf,
     quarantine: PathBuf,
     epoch: u64,
+    id: u64,
 }
 
 impl Store {
@@ -76,8 +77,33 @@ impl Store {
             f.sync_all()?;
         }
         fs::rename(&tmp, &epoch_file)?;
+        // the data directory's identity: made once, kept for its life (a replica that
+        // sees its primary's identity change resynchronises in full)
+        let id_file = data.join("id");
+        let id = match fs::read_to_string(&id_file) {
+            Ok(s) => s.trim().parse::<u64>().map_err(|e| {
+                std::io::Error::new(std::io::ErrorKind::InvalidData, format!("{}: {e}", id_file.display()))
+            })?,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                let id: u64 = rand::random();
+                let tmp = data.join(".id.tmp");
+                {
+                    let mut f = File::create(&tmp)?;
+                    f.write_all(id.to_string().as_bytes())?;
+                    f.sync_all()?;
+                }
+                fs::rename(&tmp, &id_file)?;
+                id
+            }
+            Err(e) => return Err(e),
+        };
         File::open(data)?.sync_all()?;
-        Ok(Store { dir, quarantine: data.join("quarantine"), epoch })
+        Ok(Store { dir, quarantine: data.join("quarantine"), epoch, id })
+    }
+
+    /// The data directory's identity (random, made when the directory was created).
+    pub fn id(&self) -> u64 {
+        self.id
     }
 
     /// This run's epoch (1 for a new data directory, one more at every start).

@@ -175,3 +175,27 @@ def test_a_server_killed_under_load(cluster, victim):
         ids = {o["id"] for o in c.get_scene(name)["scene"]["obstacles"]}
         missing = [oid for oid, _ in acked if oid not in ids]
         assert not missing, f"acknowledged updates lost: {missing[:5]}"
+
+
+def test_a_replica_follows_a_primary_whose_data_directory_was_replaced(cluster):
+    """The primary is authoritative: after it restarts on an empty data directory (new
+    identity, revisions from 1 again), the replica drops what the primary no longer has
+    and takes the new primary's scenes, though their revisions are lower."""
+    import shutil
+    router, primary, replica = cluster
+    with riskplan.Client(router.endpoint, timeout=READ_TIMEOUT_S) as c:
+        for _ in range(3):
+            rev = c.apply("old", scene=load_scene("illustrative-3"))
+        wait_for(lambda: revision_on(router.endpoint, "replica", "old") == rev, what="the replica has 'old'")
+        primary.kill()
+        shutil.rmtree(primary.data_dir)
+        primary.start()
+        # the router learns of the restarted primary's queryables a moment after its
+        # ready line; until then an apply gets no reply (and was not carried out)
+        r_new = wait_for(lambda: c.apply("old-name-new-content", scene=load_scene("illustrative-4")),
+                         what="the restarted primary takes writes")
+        assert r_new == 1
+        wait_for(lambda: revision_on(router.endpoint, "replica", "old") is None, limit=15,
+                 what="the replica dropped the scene the new primary does not have")
+        wait_for(lambda: revision_on(router.endpoint, "replica", "old-name-new-content") == 1, limit=15,
+                 what="the replica took the new primary's scene")

@@ -322,3 +322,12 @@ def test_time_limit_above_the_server_cap(client, name3):
         assert plan.certified
     except (riskplan.LimitExceededError, riskplan.InvalidRequestError) as e:
         assert e.field is None or "time_limit" in e.field
+
+
+def test_wildcard_queries_get_one_reply(client):
+    """A wildcard key reaches several of the server's queryables (status, echo and
+    riskplan/**); it is still answered once."""
+    for key in ["riskplan/*", "riskplan/**", "riskplan/scenes/*/plan"]:
+        with pytest.raises(riskplan.RiskplanError):
+            client.query(key, {})
+        assert client.last_replies == 1, key
