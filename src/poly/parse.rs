@@ -43,10 +43,12 @@ pub const MAX_PARSE_TERMS: usize = 10_000;
 /// Budget of term-by-term products for one polynomial text: a product of polynomials
 /// with `a` and `b` terms costs `a·b` (about 2 µs each in exact arithmetic while the
 /// coefficients fit a machine word, and more, see [`product_cost`], when they do
-/// not), so a fifth of a second at most; every polynomial of the paper needs under a
-/// thousand. A caller that parses many texts shares one budget among them with
-/// [`parse_with_budget`].
-pub const MAX_PARSE_WORK: usize = 100_000;
+/// not), so well under a tenth of a second (fuzzing found 0.7 s at 100 000 on a
+/// loaded machine); every polynomial of the paper needs under a thousand, and a
+/// 500-term obstacle (the scene limit) as a product of a 50-term and a 10-term
+/// factor needs 500. A caller that parses many texts shares one budget among them
+/// with [`parse_with_budget`].
+pub const MAX_PARSE_WORK: usize = 25_000;
 
 /// The work of the product of `a` and `b` in units of [`MAX_PARSE_WORK`]: `a·b` term
 /// products, each weighted by the size of the coefficients multiplied, `(la + lb)²/4`

@@ -46,7 +46,7 @@ pub const MAX_CONTOUR_WORK: usize = 250_000;
 /// Budget of term products for expanding all of a scene's obstacle texts together
 /// (`poly::parse_with_budget`); with [`MAX_CONTOUR_WORK`] it bounds the exact
 /// arithmetic a scene can ask for, however many obstacles it lists.
-pub const MAX_SCENE_PARSE_WORK: usize = 250_000;
+pub const MAX_SCENE_PARSE_WORK: usize = 100_000;
 /// Largest number of obstacles in a scene.
 pub const MAX_OBSTACLES: usize = 512;
 
