@@ -106,13 +106,6 @@ fn internal(e: impl std::fmt::Display) -> ServiceError {
 }
 
 impl Registry {
-    /// Loads every stored scene ([`Registry::new`] then [`Registry::load`]).
-    pub fn open(store: Store) -> (Registry, Vec<String>) {
-        let reg = Registry::new(store);
-        let problems = reg.load();
-        (reg, problems)
-    }
-
     /// An empty registry over `store`; [`Registry::load`] reads the stored scenes.
     /// The server answers `status` (state "loading") between the two.
     pub fn new(store: Store) -> Registry {
@@ -284,14 +277,6 @@ impl Registry {
             }
         }
         out.into_iter().map(|(k, (r, d))| (k, r, d)).collect()
-    }
-
-    /// The current version of `name` (see [`Commit::version`]), if any.
-    pub fn version(&self, name: &str) -> Option<(u64, bool)> {
-        if let Some(r) = self.scenes.read().ok()?.get(name).map(|e| e.revision) {
-            return Some((r, false));
-        }
-        self.history.lock().ok()?.get(name).copied()
     }
 
     /// The version a replica compares with its primary's: a live scene or a deletion;
