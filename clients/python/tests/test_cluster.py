@@ -40,12 +40,16 @@ class Router:
 def cluster(binary, tmp_path):
     router = Router(binary)
     common = ["--mode", "client", "--connect", router.endpoint, "--workers", "2"]
-    primary = Server(binary, tmp_path / "primary", extra=common).start()
-    replica = Server(binary, tmp_path / "replica", extra=common + ["--replica"]).start()
-    yield router, primary, replica
-    for s in (replica, primary):
-        s.kill()
-    router.stop()
+    primary = Server(binary, tmp_path / "primary", extra=common)
+    replica = Server(binary, tmp_path / "replica", extra=common + ["--replica"])
+    try:   # nothing is left running, also when a start fails
+        primary.start()
+        replica.start()
+        yield router, primary, replica
+    finally:
+        for s in (replica, primary):
+            s.kill()
+        router.stop()
 
 
 def statuses(endpoint) -> Dict[str, dict]:
