@@ -240,12 +240,38 @@ impl Registry {
             Some(e) => e.revision + 1,
             None => self.history.lock().map_err(internal)?.get(name).map_or(0, |&(rev, _)| rev) + 1,
         };
+        self.commit_live(name, revision, json, scene)?;
+        Ok(revision)
+    }
+
+    /// Under the scene's write lock: persists `name` at `revision`, tells the
+    /// listener, and makes it the live entry.
+    fn commit_live(
+        &self,
+        name: &str,
+        revision: u64,
+        json: serde_json::Value,
+        scene: Scene,
+    ) -> Result<(), ServiceError> {
         self.store.save(name, revision, &json).map_err(|e| internal(format!("cannot persist scene '{name}': {e}")))?;
         self.notify(name, revision, Some(&json));
+        self.history.lock().map_err(internal)?.remove(name);
         let mut m = self.scenes.write().map_err(internal)?;
         m.insert(name.to_string(), Entry { scene: Arc::new(scene), revision, json });
         self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
-        Ok(revision)
+        Ok(())
+    }
+
+    /// Under the scene's write lock: persists the deletion of `name` after `revision`
+    /// (a tombstone), tells the listener, and drops the live entry.
+    fn commit_deleted(&self, name: &str, revision: u64) -> Result<(), ServiceError> {
+        self.store.remove(name, revision).map_err(|e| internal(format!("cannot remove scene '{name}': {e}")))?;
+        self.notify(name, revision, None);
+        self.history.lock().map_err(internal)?.insert(name.to_string(), (revision, true));
+        let mut m = self.scenes.write().map_err(internal)?;
+        m.remove(name);
+        self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
+        Ok(())
     }
 
     fn notify(&self, name: &str, revision: u64, json: Option<&serde_json::Value>) {
@@ -334,30 +360,9 @@ impl Registry {
             if !force && self.replicated_version(&c.name).is_some_and(|v| v >= c.version()) {
                 return Ok(false);
             }
-            let name = c.name.as_str();
             match &c.json {
-                Some(json) => {
-                    let scene = self.build(json)?;
-                    self.store
-                        .save(name, c.revision, json)
-                        .map_err(|e| internal(format!("cannot persist scene '{name}': {e}")))?;
-                    self.history.lock().map_err(internal)?.remove(name);
-                    let mut m = self.scenes.write().map_err(internal)?;
-                    m.insert(
-                        name.to_string(),
-                        Entry { scene: Arc::new(scene), revision: c.revision, json: json.clone() },
-                    );
-                    self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
-                }
-                None => {
-                    self.store
-                        .remove(name, c.revision)
-                        .map_err(|e| internal(format!("cannot remove scene '{name}': {e}")))?;
-                    self.history.lock().map_err(internal)?.insert(name.to_string(), (c.revision, true));
-                    let mut m = self.scenes.write().map_err(internal)?;
-                    m.remove(name);
-                    self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
-                }
+                Some(json) => self.commit_live(&c.name, c.revision, json.clone(), self.build(json)?)?,
+                None => self.commit_deleted(&c.name, c.revision)?,
             }
             Ok(true)
         })
@@ -430,13 +435,7 @@ impl Registry {
             let Some(revision) = self.scenes.read().map_err(internal)?.get(name).map(|e| e.revision) else {
                 return Err(ServiceError::UnknownScene(name.to_string()));
             };
-            self.store.remove(name, revision).map_err(|e| internal(format!("cannot remove scene '{name}': {e}")))?;
-            self.notify(name, revision, None);
-            self.history.lock().map_err(internal)?.insert(name.to_string(), (revision, true));
-            let mut m = self.scenes.write().map_err(internal)?;
-            m.remove(name);
-            self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
-            Ok(())
+            self.commit_deleted(name, revision)
         })
     }
 }
