@@ -86,7 +86,12 @@ const ZERO_WITNESS: Witness = Witness { tau: 0.0, value: 0.0 };
 /// doubles per level; the exact path ([`check`]) decides those cases in a few nodes
 /// per level.
 pub fn check_interval(p: &UPoly<Interval>, max_depth: u32) -> Verdict {
-    let a = p.coeffs();
+    check_interval_coeffs(p.coeffs(), max_depth)
+}
+
+/// [`check_interval`] on monomial coefficients `a[k]` of `τ^k` given as a slice (no
+/// polynomial object: the compiled restriction of [`super::fast`] produces these).
+pub fn check_interval_coeffs(a: &[Interval], max_depth: u32) -> Verdict {
     if a.iter().any(|x| !(x.lo.is_finite() && x.hi.is_finite() && x.lo <= x.hi)) {
         return Verdict::Undecided(Undecided::NonFinite);
     }
@@ -134,6 +139,25 @@ pub fn check_interval(p: &UPoly<Interval>, max_depth: u32) -> Verdict {
     } else {
         run_in_stack_buffer::<{ (MAX_DEGREE + 1) * MAX_DEPTH_LIMIT as usize }>(a, b, max_depth)
     }
+}
+
+/// An enclosure of the range on [0, 1] of the polynomial with monomial coefficients
+/// `a` (outward-rounded intervals), from the hull of its Bernstein coefficients (the
+/// convex hull property); `None` above [`MAX_DEGREE`] or for non-finite input.
+pub fn bernstein_enclosure(a: &[Interval]) -> Option<Interval> {
+    if a.is_empty() {
+        return Some(Interval::point(0.0));
+    }
+    if a.len() > MAX_DEGREE + 1 || a.iter().any(|x| !(x.lo.is_finite() && x.hi.is_finite())) {
+        return None;
+    }
+    let mut b = [Interval::point(0.0); MAX_DEGREE + 1];
+    let b = &mut b[..a.len()];
+    bernstein_interval_into(a, b);
+    let lo = b.iter().map(|x| x.lo).fold(f64::INFINITY, f64::min);
+    let hi = b.iter().map(|x| x.hi).fold(f64::NEG_INFINITY, f64::max);
+    (lo.is_finite() && hi.is_finite() && b.iter().all(|x| !x.lo.is_nan() && !x.hi.is_nan()))
+        .then_some(Interval { lo, hi })
 }
 
 /// Decides `p > 0` on [0, 1] in exact rational arithmetic (same algorithm as

@@ -9,6 +9,8 @@
 
 pub mod bernstein;
 mod compose;
+pub mod fast;
+pub mod region;
 pub mod sos;
 #[cfg(any(test, feature = "test-support"))]
 pub mod sturm;

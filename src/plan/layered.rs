@@ -244,6 +244,7 @@ impl Planner for LayeredRrt {
         let t_start = Instant::now();
         self.params.validate()?;
         check_endpoints(p, checker)?;
+        checker.prepare(term);
         let s = self.params.pieces;
         let (t0, tf) = p.horizon;
         let times: Vec<f64> = (0..=s).map(|i| if i == s { tf } else { t0 + (tf - t0) * i as f64 / s as f64 }).collect();

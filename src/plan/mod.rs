@@ -104,6 +104,10 @@ pub trait MotionChecker: Send + Sync {
     fn check(&self, piece: &Piece) -> Motion;
     /// Judges a single point at time `t` (start and goal).
     fn check_point(&self, x: &[f64], t: f64) -> Motion;
+    /// Builds whatever the checker caches before the first check (a certifier's
+    /// covers and index), stopping early when `term` expires. Planners call it once at
+    /// the start of `solve`; checking without it works (and builds on first use).
+    fn prepare(&self, _term: &Termination) {}
 }
 
 /// Counters and time of a checker, shared by planners.
@@ -193,6 +197,10 @@ impl Termination {
             }
         }
         self.deadline.is_some_and(|d| Instant::now() >= d)
+    }
+    /// Whether the deadline passed or the flag is set (does not consume the budget).
+    pub fn expired(&self) -> bool {
+        self.cancelled() || self.deadline.is_some_and(|d| Instant::now() >= d)
     }
     /// Time left before the deadline (`None` without one).
     pub fn remaining(&self) -> Option<Duration> {

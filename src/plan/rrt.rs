@@ -163,6 +163,7 @@ impl Planner for StaticRrt {
             });
         }
         check_endpoints(p, checker)?;
+        checker.prepare(term);
         let counter = CheckCounter::default();
         let ws = &p.scene.workspace;
         let sampler = StripeSampler::new(&ws.lower, &ws.upper, &p.start, &p.goal, self.params.widths.clone());

@@ -152,6 +152,10 @@ pub struct Scene {
     pub vars: VarTable,
     /// The file as read (for re-serialising and for free-form blocks).
     pub file: SceneFile,
+    /// Compiled contours and proven covers for motion checkers (built on first use;
+    /// each entry remembers the obstacles, workspace and horizon it was built for and
+    /// is ignored for a scene that differs, e.g. one made with `..scene.clone()`).
+    pub kernel: Arc<crate::verify::KernelCache>,
 }
 
 impl Scene {
@@ -238,6 +242,7 @@ impl Scene {
             goal,
             vars,
             file,
+            kernel: Default::default(),
         })
     }
 

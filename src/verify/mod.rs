@@ -11,19 +11,22 @@
 //! The workspace box is checked exactly (non-strictly: start and goal may lie on it).
 
 mod audit;
+mod index;
 mod workspace;
 
+use crate::certify::fast::CompiledContour;
 use crate::certify::{bernstein, restrict_exact, restrict_interval, sos, PieceRef, Undecided, Verdict};
 use crate::contour::RiskLevel;
-use crate::plan::{Motion, MotionChecker};
+use crate::plan::{Motion, MotionChecker, Termination};
 use crate::poly::{Interval, UPoly};
 use crate::scene::{Obstacle, Piece, Scene, Trajectory};
 use num_rational::BigRational;
 use num_traits::Signed;
 use serde::{Deserialize, Serialize};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 pub use audit::{audit_trajectory, Audit, AuditOptions, Exceedance};
+pub use index::{compiled, piece_bbox, scene_center, KernelCache, SceneIndex};
 pub use workspace::{check_workspace, WorkspaceStatus};
 
 /// Which method decides positivity.
@@ -216,19 +219,29 @@ fn worst(a: Status, b: Status) -> Status {
 
 /// Decides an obstacle's two constraints over a piece in order (`mean`, the lower
 /// degree, first; then `cantelli`) and hands each decision to `visit`, which returns
-/// whether to go on. The interval restriction is built once; the exact one only if a
-/// decision needs the exact fallback, and then once for both constraints.
+/// whether to go on. The interval restriction is built once — from the compiled,
+/// centred contour when given and within its capacity, else by general composition —
+/// and the exact one only if a decision needs the exact fallback, then once for both.
 fn decide_obstacle(
     o: &Obstacle,
+    compiled: Option<&CompiledContour>,
     piece: PieceRef<'_>,
     delta: &BigRational,
     method: Method,
     settings: &sos::SosSettings,
     mut visit: impl FnMut(&'static str, Vec<(&'static str, Verdict)>) -> bool,
 ) {
-    let iv = restrict_interval(&o.contour, piece, delta);
+    let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - delta));
+    let fast = compiled.and_then(|c| c.restrict(piece)).and_then(|r| r.constraints(omd));
+    let (cantelli, mean) = match fast {
+        Some((g1, g2)) => (UPoly::new(g1.coeffs().to_vec()), UPoly::new(g2.coeffs().to_vec())),
+        None => {
+            let iv = restrict_interval(&o.contour, piece, delta);
+            (iv.cantelli, iv.mean)
+        }
+    };
     let exact = std::cell::OnceCell::new();
-    for (name, poly) in [("mean", &iv.mean), ("cantelli", &iv.cantelli)] {
+    for (name, poly) in [("mean", &mean), ("cantelli", &cantelli)] {
         let ex = || {
             let r = exact.get_or_init(|| restrict_exact(&o.contour, piece, delta));
             if name == "mean" {
@@ -251,9 +264,21 @@ pub fn verify_obstacle(
     method: Method,
     settings: &sos::SosSettings,
 ) -> ObstacleReport {
+    verify_obstacle_with(o, None, piece, delta, method, settings)
+}
+
+/// [`verify_obstacle`] with the obstacle's compiled contour (the fast restriction).
+pub fn verify_obstacle_with(
+    o: &Obstacle,
+    compiled: Option<&CompiledContour>,
+    piece: PieceRef<'_>,
+    delta: &RiskLevel,
+    method: Method,
+    settings: &sos::SosSettings,
+) -> ObstacleReport {
     let mut constraints = Vec::with_capacity(2);
     let mut status = Status::Safe;
-    decide_obstacle(o, piece, delta.rational(), method, settings, |name, vs| {
+    decide_obstacle(o, compiled, piece, delta.rational(), method, settings, |name, vs| {
         let st = combine(&vs);
         status = worst(status, st);
         let reports: Vec<(&'static str, MethodReport)> =
@@ -314,15 +339,16 @@ pub fn verify_until(
     stop: &dyn Fn() -> bool,
 ) -> Result<VerifyReport, Interrupted> {
     let mut pieces = Vec::with_capacity(traj.pieces.len());
+    let compiled = compiled(scene);
     for pc in &traj.pieces {
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
         let workspace = check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr);
         let mut obstacles = Vec::with_capacity(scene.obstacles.len());
-        for o in &scene.obstacles {
+        for (o, c) in scene.obstacles.iter().zip(compiled.iter()) {
             if stop() {
                 return Err(Interrupted);
             }
-            obstacles.push(verify_obstacle(o, pr, delta, method, settings));
+            obstacles.push(verify_obstacle_with(o, Some(c), pr, delta, method, settings));
         }
         let safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
         pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
@@ -338,36 +364,132 @@ pub fn verify_until(
 /// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,
 /// exactly) and inside the workspace.
 pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &RiskLevel) -> bool {
+    point_safe_with(scene, x, t, &vec![delta.clone(); scene.obstacles.len()])
+}
+
+/// Where a point stands at one instant (docs/design.md §3.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PointStatus {
+    /// Inside the workspace and strictly inside every Δᵢ-contour, exactly.
+    Safe,
+    /// Outside the workspace box, or not finite.
+    OutsideWorkspace,
+    /// On or outside the Δᵢ-contour of obstacle `i` (the first such obstacle).
+    InContour(usize),
+}
+
+/// The status of `x` at time `t` with one risk level per obstacle, exactly.
+pub fn point_status(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> PointStatus {
     if !scene.workspace.contains(x) {
-        return false;
+        return PointStatus::OutsideWorkspace;
     }
-    let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else { return false };
-    let Some(tq) = BigRational::from_float(t) else { return false };
+    let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else {
+        return PointStatus::OutsideWorkspace;
+    };
+    let Some(tq) = BigRational::from_float(t) else { return PointStatus::OutsideWorkspace };
     xt.push(tq);
-    let one_minus = BigRational::from_integer(1.into()) - delta.rational();
-    scene.obstacles.iter().all(|o| {
+    let bad = scene.obstacles.iter().zip(deltas).position(|(o, d)| {
+        let one_minus = BigRational::from_integer(1.into()) - d.rational();
         let r = o.contour.risk_at(&xt);
         let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
-        r.mean.is_negative() && g1.is_positive()
-    })
+        !(r.mean.is_negative() && g1.is_positive())
+    });
+    bad.map_or(PointStatus::Safe, PointStatus::InContour)
+}
+
+/// [`point_safe`] with one risk level per obstacle.
+pub fn point_safe_with(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> bool {
+    point_status(scene, x, t, deltas) == PointStatus::Safe
 }
 
 /// The continuous-time certifier as a planner's motion checker: a piece is accepted
 /// only when every constraint of every obstacle is proven positive on the piece and
 /// the piece stays in the workspace. Stops at the first failure; the lower-degree
 /// mean constraint is tried first.
-#[derive(Clone, Debug)]
+///
+/// Fast path (docs/design.md §5.6): the workspace is proven from the piece's
+/// Bernstein bounding box (exact check otherwise); obstacles whose proven cover the
+/// box misses are skipped ([`SceneIndex`]); the rest are decided on the compiled
+/// restriction, with the exact rational fallback for undecided cases.
+///
+/// Each obstacle may have its own risk level Δᵢ (the joint risk mode: Σ Δᵢ = Δ bounds
+/// the probability of colliding with any obstacle, by Boole's inequality).
+#[derive(Debug)]
 pub struct SceneCertifier {
     scene: Arc<Scene>,
-    delta: RiskLevel,
+    deltas: Vec<RiskLevel>,
+    one_minus: Vec<Interval>,
     method: Method,
     settings: sos::SosSettings,
+    compiled: Arc<Vec<CompiledContour>>,
+    index: OnceLock<Arc<SceneIndex>>,
 }
 
 impl SceneCertifier {
-    /// A certifier for `scene` at risk `delta`.
+    /// A certifier for `scene` at risk `delta` for every obstacle.
     pub fn new(scene: Arc<Scene>, delta: RiskLevel, method: Method) -> Self {
-        SceneCertifier { scene, delta, method, settings: sos::SosSettings::default() }
+        let deltas = vec![delta; scene.obstacles.len()];
+        Self::with_deltas(scene, deltas, method)
+    }
+
+    /// A certifier with one risk level per obstacle (`deltas[i]` for obstacle `i`).
+    pub fn with_deltas(scene: Arc<Scene>, deltas: Vec<RiskLevel>, method: Method) -> Self {
+        assert_eq!(deltas.len(), scene.obstacles.len(), "one risk level per obstacle");
+        let one_minus = deltas
+            .iter()
+            .map(|d| Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational())))
+            .collect();
+        let compiled = compiled(&scene);
+        SceneCertifier {
+            scene,
+            deltas,
+            one_minus,
+            method,
+            settings: sos::SosSettings::default(),
+            compiled,
+            index: OnceLock::new(),
+        }
+    }
+
+    /// The per-obstacle risk levels.
+    pub fn deltas(&self) -> &[RiskLevel] {
+        &self.deltas
+    }
+
+    /// The index, built (without interruption) if [`MotionChecker::prepare`] did not.
+    pub fn index(&self) -> &Arc<SceneIndex> {
+        self.index.get_or_init(|| SceneIndex::cached(&self.scene, &self.deltas, &|| false))
+    }
+
+    /// Whether obstacle `i` is proven safe on a piece (Exact method, fast path).
+    fn obstacle_safe(&self, i: usize, pr: PieceRef<'_>) -> bool {
+        let o = &self.scene.obstacles[i];
+        let delta = self.deltas[i].rational();
+        if self.method == Method::Exact {
+            if let Some((g1, g2)) = self.compiled[i].restrict(pr).and_then(|r| r.constraints(self.one_minus[i])) {
+                let exact = std::cell::OnceCell::new();
+                for (k, g) in [g2, g1].iter().enumerate() {
+                    match bernstein::check_interval_coeffs(g.coeffs(), bernstein::DEFAULT_MAX_DEPTH) {
+                        Verdict::Safe { .. } => {}
+                        Verdict::Unsafe(_) => return false,
+                        Verdict::Undecided(_) => {
+                            let r = exact.get_or_init(|| restrict_exact(&o.contour, pr, delta));
+                            let p = if k == 0 { &r.mean } else { &r.cantelli };
+                            if !bernstein::check_exact(p, bernstein::DEFAULT_MAX_DEPTH).is_safe() {
+                                return false;
+                            }
+                        }
+                    }
+                }
+                return true;
+            }
+        }
+        let mut safe = true;
+        decide_obstacle(o, Some(&self.compiled[i]), pr, delta, self.method, &self.settings, |_, vs| {
+            safe = combine(&vs) == Status::Safe;
+            safe
+        });
+        safe
     }
 }
 
@@ -380,18 +502,24 @@ impl MotionChecker for SceneCertifier {
         true
     }
 
+    fn prepare(&self, term: &Termination) {
+        let _ = self.index.get_or_init(|| SceneIndex::cached(&self.scene, &self.deltas, &|| term.expired()));
+    }
+
     fn check(&self, piece: &Piece) -> Motion {
         let pr = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
-        if check_workspace(&self.scene.workspace.lower, &self.scene.workspace.upper, pr).status != Status::Safe {
+        let ws = &self.scene.workspace;
+        let bbox = piece_bbox(pr);
+        let inside = bbox.as_ref().is_some_and(|b| {
+            b.iter().zip(ws.lower.iter().zip(&ws.upper)).all(|(&(lo, hi), (&l, &u))| l <= lo && hi <= u)
+        });
+        if !inside && check_workspace(&ws.lower, &ws.upper, pr).status != Status::Safe {
             return Motion::Rejected;
         }
-        for o in &self.scene.obstacles {
-            let mut safe = true;
-            decide_obstacle(o, pr, self.delta.rational(), self.method, &self.settings, |_, vs| {
-                safe = combine(&vs) == Status::Safe;
-                safe
-            });
-            if !safe {
+        let mut cands = Vec::new();
+        self.index().candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
+        for i in cands {
+            if !self.obstacle_safe(i, pr) {
                 return Motion::Rejected;
             }
         }
@@ -399,7 +527,7 @@ impl MotionChecker for SceneCertifier {
     }
 
     fn check_point(&self, x: &[f64], t: f64) -> Motion {
-        if point_safe(&self.scene, x, t, &self.delta) {
+        if point_safe_with(&self.scene, x, t, &self.deltas) {
             Motion::Accepted
         } else {
             Motion::Rejected

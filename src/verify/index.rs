@@ -1,0 +1,362 @@
+//! The motion checker's fast path (docs/design.md §5.6): compiled contours, proven
+//! covers of each obstacle's unsafe set, and a grid so that an edge meets only the
+//! obstacles near it.
+//!
+//! Nothing here decides "safe" by itself except with a proof:
+//! - an obstacle is skipped for a piece only when the piece lies in the workspace and
+//!   its bounding box misses the obstacle's proven cover ([`crate::certify::region`])
+//!   during every time slab the piece spans;
+//! - the others are decided on the compiled restriction ([`crate::certify::fast`]) by
+//!   the Bernstein checker, with the exact rational fallback unchanged.
+
+use crate::certify::fast::{CompiledContour, FPoly};
+use crate::certify::region::{unsafe_cover, ConstraintBounds, Cover};
+use crate::certify::PieceRef;
+use crate::contour::RiskLevel;
+use crate::poly::Interval;
+use crate::scene::Scene;
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// Time slabs per horizon for a moving obstacle's covers: a piece is tested against
+/// the covers of the slabs it spans; more slabs give tighter boxes at more set-up cost.
+pub const TIME_SLABS: usize = 8;
+
+/// Below this many obstacles every obstacle's cover is tested directly (a grid costs
+/// more than it saves).
+pub const GRID_MIN_OBSTACLES: usize = 16;
+
+/// Grid cells per obstacle (the grid has about this many cells per obstacle, at most
+/// [`GRID_MAX_CELLS`]).
+pub const GRID_CELLS_PER_OBSTACLE: usize = 4;
+
+/// Upper bound on grid cells.
+pub const GRID_MAX_CELLS: usize = 1 << 16;
+
+/// Indexes kept per scene (one per distinct list of per-obstacle risk levels).
+pub const INDEXES_PER_SCENE: usize = 4;
+
+/// What a scene keeps for its motion checkers: compiled contours (independent of Δ)
+/// and the covers for the last few risk allocations.
+#[derive(Default)]
+pub struct KernelCache {
+    compiled: OnceLock<(Fingerprint, Arc<Vec<CompiledContour>>)>,
+    indexes: Mutex<Vec<IndexEntry>>,
+}
+
+/// A cached index: what it was built from, and for which risk levels.
+type IndexEntry = (Fingerprint, Vec<RiskLevel>, Arc<SceneIndex>);
+
+/// What a cache entry was built from: the obstacles' contours (by identity), the
+/// workspace and the horizon. An entry is used only for a scene with the same.
+#[derive(Clone, Debug, PartialEq)]
+struct Fingerprint {
+    contours: Vec<usize>,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    horizon: (f64, f64),
+}
+
+impl Fingerprint {
+    fn of(scene: &Scene) -> Self {
+        Fingerprint {
+            contours: scene.obstacles.iter().map(|o| Arc::as_ptr(&o.contour) as usize).collect(),
+            lower: scene.workspace.lower.clone(),
+            upper: scene.workspace.upper.clone(),
+            horizon: scene.horizon,
+        }
+    }
+}
+
+impl std::fmt::Debug for KernelCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("KernelCache").field("compiled", &self.compiled.get().map(|c| c.1.len())).finish()
+    }
+}
+
+/// The centre of the compiled variables: the workspace centre and the horizon's middle.
+pub fn scene_center(scene: &Scene) -> Vec<f64> {
+    let ws = &scene.workspace;
+    let mut c: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * l + 0.5 * u).collect();
+    c.push(0.5 * scene.horizon.0 + 0.5 * scene.horizon.1);
+    c
+}
+
+/// The scene's compiled contours (built once, shared by every checker of the scene).
+pub fn compiled(scene: &Scene) -> Arc<Vec<CompiledContour>> {
+    let build = || {
+        let c = scene_center(scene);
+        Arc::new(scene.obstacles.iter().map(|o| CompiledContour::new(&o.contour, &c)).collect::<Vec<_>>())
+    };
+    let fp = Fingerprint::of(scene);
+    let (f, c) = scene.kernel.compiled.get_or_init(|| (fp.clone(), build()));
+    if *f == fp {
+        c.clone()
+    } else {
+        build()
+    }
+}
+
+/// One time slab of an obstacle and its proven cover.
+#[derive(Clone, Debug)]
+struct Slab {
+    t: (f64, f64),
+    /// Spatial part of the cover; `None`: proven safe everywhere in the slab.
+    cover: Option<Vec<(f64, f64)>>,
+}
+
+/// An obstacle's covers: per slab (static obstacles: one slab for all time), or none
+/// (always checked).
+#[derive(Clone, Debug)]
+struct ObstacleCovers {
+    slabs: Option<Vec<Slab>>,
+    /// Whether the slabs cover all time (static obstacle).
+    timeless: bool,
+}
+
+/// Covers and a grid for one scene and one risk level per obstacle.
+#[derive(Debug)]
+pub struct SceneIndex {
+    covers: Vec<ObstacleCovers>,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    grid: Option<Grid>,
+    /// Seconds spent building the covers.
+    pub build_seconds: f64,
+    /// Cells evaluated.
+    pub cells: usize,
+}
+
+#[derive(Debug)]
+struct Grid {
+    n: Vec<usize>,
+    size: Vec<f64>,
+    cells: Vec<Vec<u32>>,
+    always: Vec<u32>,
+}
+
+impl Grid {
+    fn cell_range(&self, lower: &[f64], bbox: &[(f64, f64)]) -> Vec<(usize, usize)> {
+        bbox.iter()
+            .enumerate()
+            .map(|(d, &(lo, hi))| {
+                let a = ((lo - lower[d]) / self.size[d]).floor().max(0.0) as usize;
+                let b = ((hi - lower[d]) / self.size[d]).floor().max(0.0) as usize;
+                (a.min(self.n[d] - 1), b.min(self.n[d] - 1))
+            })
+            .collect()
+    }
+    fn for_each_cell(&self, range: &[(usize, usize)], mut f: impl FnMut(usize)) {
+        let mut idx: Vec<usize> = range.iter().map(|r| r.0).collect();
+        loop {
+            let mut flat = 0;
+            for d in (0..idx.len()).rev() {
+                flat = flat * self.n[d] + idx[d];
+            }
+            f(flat);
+            let mut d = 0;
+            loop {
+                if d == idx.len() {
+                    return;
+                }
+                if idx[d] < range[d].1 {
+                    idx[d] += 1;
+                    break;
+                }
+                idx[d] = range[d].0;
+                d += 1;
+            }
+        }
+    }
+}
+
+fn overlaps(a: &[(f64, f64)], b: &[(f64, f64)]) -> bool {
+    a.iter().zip(b).all(|(x, y)| x.0 <= y.1 && y.0 <= x.1)
+}
+
+impl SceneIndex {
+    /// Builds the covers of every obstacle at its risk level (`deltas[i]`), asking
+    /// `stop` between obstacles: obstacles left without a cover are always checked.
+    pub fn build(scene: &Scene, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> SceneIndex {
+        let start = std::time::Instant::now();
+        let ws = &scene.workspace;
+        let center = scene_center(scene);
+        let (h0, h1) = scene.horizon;
+        let mut cells = 0;
+        let mut covers = Vec::with_capacity(scene.obstacles.len());
+        for (o, delta) in scene.obstacles.iter().zip(deltas) {
+            if stop() {
+                covers.push(ObstacleCovers { slabs: None, timeless: false });
+                continue;
+            }
+            let bounds = ConstraintBounds::new(&o.contour, delta.rational(), &center);
+            let dynamic = o.contour.is_dynamic();
+            let mut split: Vec<bool> = vec![true; scene.dim];
+            split.push(dynamic);
+            let slab_times: Vec<(f64, f64)> = if dynamic {
+                (0..TIME_SLABS)
+                    .map(|k| {
+                        let a = if k == 0 { h0 } else { h0 + (h1 - h0) * k as f64 / TIME_SLABS as f64 };
+                        let b =
+                            if k + 1 == TIME_SLABS { h1 } else { h0 + (h1 - h0) * (k + 1) as f64 / TIME_SLABS as f64 };
+                        (a, b)
+                    })
+                    .collect()
+            } else {
+                vec![(center[scene.dim], center[scene.dim])]
+            };
+            let mut slabs = Vec::with_capacity(slab_times.len());
+            for t in slab_times {
+                let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
+                region.push(t);
+                let (cover, st) = unsafe_cover(&bounds, &region, &split);
+                cells += st.cells;
+                let cover = match cover {
+                    Cover::Empty => None,
+                    Cover::Box(mut b) => {
+                        b.truncate(scene.dim);
+                        Some(b)
+                    }
+                };
+                slabs.push(Slab { t, cover });
+            }
+            covers.push(ObstacleCovers { slabs: Some(slabs), timeless: !dynamic });
+        }
+        let grid = (scene.obstacles.len() >= GRID_MIN_OBSTACLES).then(|| build_grid(scene, &covers));
+        SceneIndex {
+            covers,
+            lower: ws.lower.clone(),
+            upper: ws.upper.clone(),
+            grid,
+            build_seconds: start.elapsed().as_secs_f64(),
+            cells,
+        }
+    }
+
+    /// The index of `scene` at `deltas` from the scene's cache, built if absent.
+    pub fn cached(scene: &Scene, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> Arc<SceneIndex> {
+        let fp = Fingerprint::of(scene);
+        let hit = scene
+            .kernel
+            .indexes
+            .lock()
+            .ok()
+            .and_then(|v| v.iter().find(|(f, d, _)| *f == fp && d == deltas).map(|e| e.2.clone()));
+        if let Some(i) = hit {
+            return i;
+        }
+        let built = Arc::new(SceneIndex::build(scene, deltas, stop));
+        let complete = built.covers.iter().all(|c| c.slabs.is_some());
+        if complete {
+            if let Ok(mut v) = scene.kernel.indexes.lock() {
+                v.retain(|(f, d, _)| !(*f == fp && d == deltas));
+                if v.len() >= INDEXES_PER_SCENE {
+                    v.remove(0);
+                }
+                v.push((fp, deltas.to_vec(), built.clone()));
+            }
+        }
+        built
+    }
+
+    /// Whether obstacle `i` may be skipped for a piece whose spatial bounding box is
+    /// `bbox` (inside the workspace) on `[t0, t1]`: its cover misses the box in every
+    /// slab the piece spans.
+    fn skippable(&self, i: usize, bbox: &[(f64, f64)], t0: f64, t1: f64) -> bool {
+        let c = &self.covers[i];
+        let Some(slabs) = &c.slabs else { return false };
+        if c.timeless {
+            return slabs.iter().all(|s| s.cover.as_ref().is_none_or(|b| !overlaps(b, bbox)));
+        }
+        let (first, last) = (slabs[0].t.0, slabs[slabs.len() - 1].t.1);
+        if !(t0 >= first && t1 <= last) {
+            return false;
+        }
+        slabs.iter().filter(|s| s.t.0 <= t1 && t0 <= s.t.1).all(|s| s.cover.as_ref().is_none_or(|b| !overlaps(b, bbox)))
+    }
+
+    /// The obstacles a piece must be checked against, given its spatial bounding box
+    /// (`None`: unknown or not inside the workspace — then every obstacle).
+    pub fn candidates(&self, bbox: Option<&[(f64, f64)]>, t0: f64, t1: f64, out: &mut Vec<usize>) {
+        out.clear();
+        let n = self.covers.len();
+        let Some(bbox) = bbox.filter(|b| {
+            b.iter().zip(self.lower.iter().zip(&self.upper)).all(|(&(lo, hi), (&l, &u))| l <= lo && hi <= u)
+        }) else {
+            out.extend(0..n);
+            return;
+        };
+        match &self.grid {
+            None => out.extend((0..n).filter(|&i| !self.skippable(i, bbox, t0, t1))),
+            Some(g) => {
+                let range = g.cell_range(&self.lower, bbox);
+                g.for_each_cell(&range, |c| out.extend(g.cells[c].iter().map(|&i| i as usize)));
+                out.extend(g.always.iter().map(|&i| i as usize));
+                out.sort_unstable();
+                out.dedup();
+                out.retain(|&i| !self.skippable(i, bbox, t0, t1));
+            }
+        }
+    }
+
+    /// Obstacles with a cover that is not the whole workspace (for statistics).
+    pub fn filtered(&self) -> usize {
+        self.covers.iter().filter(|c| c.slabs.is_some()).count()
+    }
+}
+
+fn build_grid(scene: &Scene, covers: &[ObstacleCovers]) -> Grid {
+    let ws = &scene.workspace;
+    let dim = scene.dim;
+    let total = (covers.len() * GRID_CELLS_PER_OBSTACLE).clamp(1, GRID_MAX_CELLS);
+    let per = ((total as f64).powf(1.0 / dim as f64).floor() as usize).max(1);
+    let n = vec![per; dim];
+    let size: Vec<f64> = (0..dim).map(|d| (ws.upper[d] - ws.lower[d]) / per as f64).collect();
+    let mut grid = Grid { n, size, cells: vec![Vec::new(); per.pow(dim as u32)], always: Vec::new() };
+    for (i, c) in covers.iter().enumerate() {
+        let Some(slabs) = &c.slabs else {
+            grid.always.push(i as u32);
+            continue;
+        };
+        let boxes: Vec<&Vec<(f64, f64)>> = slabs.iter().filter_map(|s| s.cover.as_ref()).collect();
+        if boxes.is_empty() {
+            continue;
+        }
+        let mut hull = boxes[0].clone();
+        for b in &boxes[1..] {
+            for (h, x) in hull.iter_mut().zip(b.iter()) {
+                h.0 = h.0.min(x.0);
+                h.1 = h.1.max(x.1);
+            }
+        }
+        let range = grid.cell_range(&ws.lower, &hull);
+        let mut touched = Vec::new();
+        grid.for_each_cell(&range, |cell| touched.push(cell));
+        for cell in touched {
+            grid.cells[cell].push(i as u32);
+        }
+    }
+    grid
+}
+
+/// A proven bounding box of a piece's positions over its time interval, from the
+/// Bernstein coefficients of each coordinate (convex hull property), or `None` when
+/// the degree exceeds the compiled capacity or a bound is not finite.
+pub fn piece_bbox(piece: PieceRef<'_>) -> Option<Vec<(f64, f64)>> {
+    let t0 = Interval::point(piece.t0);
+    let h = Interval::point(piece.t1) - t0;
+    let lin = FPoly::linear(t0, h);
+    let mut out = Vec::with_capacity(piece.coeffs.len());
+    for row in piece.coeffs {
+        let mut acc = FPoly::zero();
+        for &c in row.iter().rev() {
+            acc = acc.mul(&lin)?;
+            acc.add_assign(&FPoly::constant(Interval::point(c)));
+        }
+        let b = crate::certify::bernstein::bernstein_enclosure(acc.coeffs())?;
+        if !(b.lo.is_finite() && b.hi.is_finite()) {
+            return None;
+        }
+        out.push((b.lo, b.hi));
+    }
+    Some(out)
+}
