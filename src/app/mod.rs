@@ -5,11 +5,12 @@
 
 use crate::contour::RiskLevel;
 use crate::plan::{
-    rrt_planner, McChecker, McCheckerParams, MotionChecker, PlanError, PlanOutcome, PlanStatus, Planner, Problem,
+    rrt_planner, McChecker, McCheckerParams, MotionChecker, PlanError, PlanOptions, PlanOutcome, Planner, Problem,
     Termination,
 };
 use crate::scene::Scene;
 use crate::verify::{Method, SceneCertifier};
+use num_rational::BigRational;
 use std::fmt;
 use std::str::FromStr;
 use std::sync::atomic::AtomicBool;
@@ -20,24 +21,70 @@ use thiserror::Error;
 /// The planners a request can name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PlannerKind {
-    /// RRT-SOS: every edge certified in continuous time (eq. 15); the static tree on
-    /// static scenes, the time-layered tree when an obstacle moves or pieces are given.
+    /// The default: every edge certified in continuous time (eq. 15) — bidirectional
+    /// RRT on static scenes, the time-layered tree with the piece ladder on moving
+    /// ones — then certified shortcutting and C¹ corner blends.
     RrtSos,
-    /// The paper's Monte Carlo RRT baseline (K scenarios × W waypoints per edge):
-    /// uncertified, its plans say `certified: false`.
+    /// The paper's RRT-SOS as published (static tree with widening stripes, or the
+    /// time-layered tree), for reproducing the paper's numbers; straight pieces.
+    RrtSosPaper,
+    /// The Monte Carlo baseline: the default planner's search with the paper's
+    /// sampling edge check (K scenarios × W waypoints per edge): uncertified, its plans
+    /// say `certified: false`.
     McRrt,
 }
 
 impl PlannerKind {
     /// Every planner, in the order help texts list them.
-    pub const ALL: [PlannerKind; 2] = [PlannerKind::RrtSos, PlannerKind::McRrt];
+    pub const ALL: [PlannerKind; 3] = [PlannerKind::RrtSos, PlannerKind::RrtSosPaper, PlannerKind::McRrt];
 
     /// The name on the command line and on the wire.
     pub fn as_str(self) -> &'static str {
         match self {
             PlannerKind::RrtSos => "rrt-sos",
+            PlannerKind::RrtSosPaper => "rrt-sos-paper",
             PlannerKind::McRrt => "mc-rrt",
         }
+    }
+}
+
+/// What Δ bounds (docs/design.md §3.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum RiskMode {
+    /// The paper's: the probability of colliding with each obstacle, at each instant, is
+    /// at most Δ.
+    #[default]
+    PerObstacle,
+    /// The probability of colliding with any obstacle at each instant is at most Δ:
+    /// obstacle `i` gets Δᵢ with Σ Δᵢ = Δ (Boole's inequality), Δᵢ = Δ/N.
+    JointUniform,
+    /// As `JointUniform`, with more of Δ for the obstacles near the start–goal line
+    /// (weight `1/(1 + d/L)`, `d` the distance of the obstacle's proven cover from the
+    /// line, `L` the workspace's largest side).
+    JointWeighted,
+}
+
+impl RiskMode {
+    /// Every mode.
+    pub const ALL: [RiskMode; 3] = [RiskMode::PerObstacle, RiskMode::JointUniform, RiskMode::JointWeighted];
+    /// The name on the command line and on the wire.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RiskMode::PerObstacle => "per-obstacle",
+            RiskMode::JointUniform => "joint",
+            RiskMode::JointWeighted => "joint-weighted",
+        }
+    }
+}
+
+impl FromStr for RiskMode {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        RiskMode::ALL.into_iter().find(|k| k.as_str() == s).ok_or_else(|| UnknownName {
+            what: "risk_mode",
+            name: s.to_string(),
+            expected: RiskMode::ALL.map(|k| k.as_str()).join(", "),
+        })
     }
 }
 
@@ -65,7 +112,7 @@ impl FromStr for PlannerKind {
         PlannerKind::ALL.into_iter().find(|k| k.as_str() == s).ok_or_else(|| UnknownName {
             what: "planner",
             name: s.to_string(),
-            expected: PlannerKind::ALL.map(|k| k.as_str()).join(" or "),
+            expected: PlannerKind::ALL.map(|k| k.as_str()).join(", "),
         })
     }
 }
@@ -95,10 +142,18 @@ pub struct PlanRequest {
     pub seed: u64,
     /// Pieces of the time-layered planner; `Some` forces it.
     pub pieces: Option<usize>,
-    /// The improve step of the static planner.
+    /// The improve step of the paper's static planner.
     pub improve: bool,
     /// How long the planner may run.
     pub time_limit: Duration,
+    /// Speed limit (`None`: the scene's `planner.max_speed`, if any).
+    pub max_speed: Option<f64>,
+    /// Acceleration limit for smoothing (`None`: the scene's, if any).
+    pub max_accel: Option<f64>,
+    /// Shortcut and blend the plan (default planners; on by default).
+    pub smooth: bool,
+    /// What Δ bounds.
+    pub risk_mode: RiskMode,
 }
 
 /// The time limit of a request that gives none (the service's default).
@@ -115,6 +170,10 @@ impl Default for PlanRequest {
             pieces: None,
             improve: false,
             time_limit: DEFAULT_TIME_LIMIT,
+            max_speed: None,
+            max_accel: None,
+            smooth: true,
+            risk_mode: RiskMode::PerObstacle,
         }
     }
 }
@@ -127,12 +186,16 @@ pub struct PreparedPlan {
     pub planner: Box<dyn Planner>,
     /// The motion checker the planner consults.
     pub checker: Box<dyn MotionChecker>,
+    /// The risk level of each obstacle in a joint risk mode (`None`: per obstacle).
+    pub allocation: Option<Vec<(String, f64)>>,
 }
 
 impl PreparedPlan {
     /// Runs the planner until it finishes or `term` says stop.
     pub fn solve(&mut self, term: &Termination) -> Result<PlanOutcome, PlanError> {
-        self.planner.solve(&self.problem, self.checker.as_ref(), term)
+        let mut out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
+        out.stats.risk_allocation = self.allocation.clone();
+        Ok(out)
     }
 }
 
@@ -159,12 +222,26 @@ impl PlanRequest {
     /// The problem, the planner and the checker, with every option checked.
     pub fn prepare(&self, scene: Arc<Scene>) -> Result<PreparedPlan, PlanError> {
         let problem = self.problem(scene)?;
-        let planner = rrt_planner(&problem, self.pieces, self.improve)?;
+        let options = PlanOptions {
+            pieces: self.pieces,
+            improve: self.improve,
+            max_speed: self.max_speed,
+            max_accel: self.max_accel,
+            smooth: self.smooth,
+        };
+        let planner = rrt_planner(&problem, self.planner == PlannerKind::RrtSosPaper, &options)?;
+        let deltas = allocate(&problem, self.risk_mode)?;
         let checker: Box<dyn MotionChecker> = match self.planner {
-            PlannerKind::RrtSos => {
-                Box::new(SceneCertifier::new(problem.scene.clone(), problem.delta.clone(), self.certifier))
+            PlannerKind::RrtSos | PlannerKind::RrtSosPaper => {
+                Box::new(SceneCertifier::with_deltas(problem.scene.clone(), deltas.clone(), self.certifier))
             }
             PlannerKind::McRrt => {
+                if self.risk_mode != RiskMode::PerObstacle {
+                    return Err(PlanError::InvalidOption {
+                        option: "risk_mode".into(),
+                        message: "mc-rrt checks the paper's per-obstacle risk only".into(),
+                    });
+                }
                 let model = problem.scene.mc_model().map_err(|e| PlanError::InvalidOption {
                     option: "planner".into(),
                     message: format!("mc-rrt needs parameters it can sample: {e}"),
@@ -172,7 +249,9 @@ impl PlanRequest {
                 Box::new(McChecker::new(model, problem.delta.to_f64(), McCheckerParams::default(), self.seed))
             }
         };
-        Ok(PreparedPlan { problem, planner, checker })
+        let allocation = (self.risk_mode != RiskMode::PerObstacle)
+            .then(|| problem.scene.obstacles.iter().zip(&deltas).map(|(o, d)| (o.id.clone(), d.to_f64())).collect());
+        Ok(PreparedPlan { problem, planner, checker, allocation })
     }
 
     /// When to stop: this request's time limit from now, and `cancel` if given.
@@ -194,12 +273,77 @@ impl PlanRequest {
 
 /// Why an outcome has no trajectory, in one line (for replies and messages).
 pub fn no_plan_reason(out: &PlanOutcome, limit: Duration) -> String {
-    let why = match out.status {
-        PlanStatus::DeadlineReached => format!("no plan within the time limit of {} s", limit.as_secs_f64()),
-        PlanStatus::Cancelled => "the plan was cancelled".into(),
-        PlanStatus::Exhausted | PlanStatus::Exact => "no plan within the planner's iteration limits".into(),
+    match &out.reason {
+        Some(crate::plan::NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried }) => format!(
+            "no plan within the time limit of {} s ({iterations} iterations, {edges_checked} edges checked{})",
+            limit.as_secs_f64(),
+            if pieces_tried.is_empty() { String::new() } else { format!(", pieces tried {pieces_tried:?}") }
+        ),
+        Some(r) => r.message(),
+        None => format!("no plan ({} iterations, {} edges checked)", out.stats.iterations, out.stats.edges_checked),
+    }
+}
+
+/// The risk level of each obstacle for `mode` (docs/design.md §3.1): Δ for each in the
+/// paper's mode; in a joint mode exact rationals with Σ Δᵢ = Δ, so that by Boole's
+/// inequality the probability of colliding with any obstacle at an instant is ≤ Δ.
+pub fn allocate(p: &Problem, mode: RiskMode) -> Result<Vec<RiskLevel>, PlanError> {
+    let n = p.scene.obstacles.len();
+    let delta = p.delta.rational().clone();
+    let weights: Vec<BigRational> = match mode {
+        RiskMode::PerObstacle => return Ok(vec![p.delta.clone(); n]),
+        RiskMode::JointUniform => vec![BigRational::from_integer(1.into()); n],
+        RiskMode::JointWeighted => {
+            // covers at the uniform allocation locate each obstacle
+            let uniform = RiskLevel::new(&delta / BigRational::from_integer(n.max(1).into()))
+                .map_err(|e| PlanError::InvalidOption { option: "risk_mode".into(), message: e.to_string() })?;
+            let index = crate::verify::SceneIndex::cached(&p.scene, &vec![uniform; n], &|| false);
+            let side = crate::plan::scale::Scale::of(p).side.max(f64::MIN_POSITIVE);
+            index
+                .cover_hulls()
+                .iter()
+                .map(|h| {
+                    let d = h.as_ref().map_or(f64::INFINITY, |b| box_segment_distance(b, &p.start, &p.goal));
+                    // weights in [1/64, 1], rounded to a float and used exactly
+                    let w = (1.0 / (1.0 + d / side)).clamp(1.0 / 64.0, 1.0);
+                    BigRational::from_float(w).unwrap_or_else(|| BigRational::from_integer(1.into()))
+                })
+                .collect()
+        }
     };
-    format!("{why} ({} iterations, {} edges checked)", out.stats.iterations, out.stats.edges_checked)
+    let total: BigRational = weights.iter().sum();
+    weights
+        .iter()
+        .map(|w| {
+            RiskLevel::new(&delta * w / &total)
+                .map_err(|e| PlanError::InvalidOption { option: "risk_mode".into(), message: e.to_string() })
+        })
+        .collect()
+}
+
+/// Distance from a box to the segment `a–b` (sampled along the segment: a weight, not a
+/// decision).
+fn box_segment_distance(b: &[(f64, f64)], a: &[f64], c: &[f64]) -> f64 {
+    (0..=64)
+        .map(|k| {
+            let s = k as f64 / 64.0;
+            b.iter()
+                .enumerate()
+                .map(|(d, &(lo, hi))| {
+                    let x = a[d] + (c[d] - a[d]) * s;
+                    let e = if x < lo {
+                        lo - x
+                    } else if x > hi {
+                        x - hi
+                    } else {
+                        0.0
+                    };
+                    e * e
+                })
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 #[cfg(test)]
@@ -212,7 +356,7 @@ mod tests {
             assert_eq!(k.as_str().parse::<PlannerKind>(), Ok(k));
         }
         let e = "rrt".parse::<PlannerKind>().unwrap_err();
-        assert_eq!(e.to_string(), "unknown planner 'rrt' (rrt-sos or mc-rrt)");
+        assert_eq!(e.to_string(), "unknown planner 'rrt' (rrt-sos, rrt-sos-paper, mc-rrt)");
     }
 
     #[test]

@@ -32,17 +32,17 @@ pub const CAPACITY: usize = MAX_DEGREE + 1;
 /// A univariate polynomial in τ with interval coefficients, of degree < [`CAPACITY`],
 /// stored inline (no heap).
 #[derive(Clone, Copy, Debug)]
-pub struct FPoly {
-    c: [Interval; CAPACITY],
+pub struct FPoly<const N: usize = CAPACITY> {
+    c: [Interval; N],
     len: usize,
 }
 
 const ZERO: Interval = Interval { lo: 0.0, hi: 0.0 };
 
-impl FPoly {
+impl<const N: usize> FPoly<N> {
     /// The zero polynomial.
     pub fn zero() -> Self {
-        FPoly { c: [ZERO; CAPACITY], len: 0 }
+        FPoly { c: [ZERO; N], len: 0 }
     }
     /// A constant.
     pub fn constant(v: Interval) -> Self {
@@ -63,20 +63,20 @@ impl FPoly {
         &self.c[..self.len]
     }
     /// `self += o`.
-    pub fn add_assign(&mut self, o: &FPoly) {
+    pub fn add_assign(&mut self, o: &FPoly<N>) {
         for k in 0..o.len {
             self.c[k] = if k < self.len { self.c[k] + o.c[k] } else { o.c[k] };
         }
         self.len = self.len.max(o.len);
     }
     /// `self − o`.
-    pub fn sub(&self, o: &FPoly) -> FPoly {
+    pub fn sub(&self, o: &FPoly<N>) -> FPoly<N> {
         let mut r = *self;
         r.add_assign(&o.neg());
         r
     }
     /// `−self`.
-    pub fn neg(&self) -> FPoly {
+    pub fn neg(&self) -> FPoly<N> {
         let mut r = *self;
         for v in &mut r.c[..r.len] {
             *v = -*v;
@@ -84,23 +84,23 @@ impl FPoly {
         r
     }
     /// `s·self`.
-    pub fn scale(&self, s: Interval) -> FPoly {
+    pub fn scale(&self, s: Interval) -> FPoly<N> {
         let mut r = *self;
         for v in &mut r.c[..r.len] {
             *v = *v * s;
         }
         r
     }
-    /// `self·o`, or `None` when the degree would reach [`CAPACITY`].
-    pub fn mul(&self, o: &FPoly) -> Option<FPoly> {
+    /// `self·o`, or `None` when the degree would reach the capacity `N`.
+    pub fn mul(&self, o: &FPoly<N>) -> Option<FPoly<N>> {
         if self.len == 0 || o.len == 0 {
             return Some(FPoly::zero());
         }
         let len = self.len + o.len - 1;
-        if len > CAPACITY {
+        if len > N {
             return None;
         }
-        let mut r = FPoly { c: [ZERO; CAPACITY], len };
+        let mut r = FPoly { c: [ZERO; N], len };
         for i in 0..self.len {
             let a = self.c[i];
             for j in 0..o.len {
@@ -115,13 +115,130 @@ impl FPoly {
     }
 }
 
+/// Unit roundoff of `f64` (round to nearest): `2^-53`.
+const UNIT_ROUNDOFF: f64 = 1.1102230246251565e-16;
+
+/// Slack added to every error bound for underflow: each operation that underflows errs
+/// by at most `2^-1074` absolutely, which the relative model does not cover; `1e-290`
+/// covers up to 10^33 such operations per coefficient.
+const UNDERFLOW_SLACK: f64 = 1e-290;
+
+/// A univariate polynomial in τ computed in plain `f64` with a running bound on its
+/// rounding error (docs/design.md §5.6): beside each coefficient `v` it carries `a`,
+/// the same computation on the absolute values of every input, and `k`, a bound on the
+/// number of roundings on any path from an input to a coefficient. Each computed
+/// coefficient is `Σ ±(Π inputs)·Π_{j≤k}(1+δ_j)` with `|δ_j| ≤ u`, so it errs from the
+/// exact value by at most `γ_k·|E|_abs`, `γ_k = k·u/(1 − k·u)`, and the computed `a`
+/// is at least `(1 − γ_k)·|E|_abs` (Higham, *Accuracy and Stability*, §3.1–3.4).
+/// [`EPoly::enclosure`] turns this into outward intervals. Two `f64` operations per
+/// operation instead of an interval's eight and two roundings outward.
+#[derive(Clone, Copy, Debug)]
+pub struct EPoly<const N: usize> {
+    v: [f64; N],
+    a: [f64; N],
+    len: usize,
+    k: u32,
+}
+
+impl<const N: usize> EPoly<N> {
+    /// The zero polynomial.
+    pub fn zero() -> Self {
+        EPoly { v: [0.0; N], a: [0.0; N], len: 0, k: 0 }
+    }
+    /// A constant known exactly (a float input).
+    pub fn exact(c: f64) -> Self {
+        let mut p = Self::zero();
+        p.v[0] = c;
+        p.a[0] = c.abs();
+        p.len = 1;
+        p
+    }
+    /// `a + b·τ` from exact floats.
+    pub fn linear(a: f64, b: f64) -> Self {
+        let mut p = Self::exact(a);
+        p.v[1] = b;
+        p.a[1] = b.abs();
+        p.len = 2;
+        p
+    }
+    /// `self + o` (`sign` −1 subtracts).
+    pub fn add_signed(&self, o: &EPoly<N>, sign: f64) -> EPoly<N> {
+        let mut r = *self;
+        for i in 0..o.len {
+            if i < r.len {
+                r.v[i] += sign * o.v[i];
+                r.a[i] += o.a[i];
+            } else {
+                r.v[i] = sign * o.v[i];
+                r.a[i] = o.a[i];
+            }
+        }
+        r.len = r.len.max(o.len);
+        r.k = r.k.max(o.k) + 1;
+        r
+    }
+    /// `self·o`, or `None` beyond the capacity.
+    pub fn mul(&self, o: &EPoly<N>) -> Option<EPoly<N>> {
+        if self.len == 0 || o.len == 0 {
+            return Some(EPoly::zero());
+        }
+        let len = self.len + o.len - 1;
+        if len > N {
+            return None;
+        }
+        let mut r = EPoly { v: [0.0; N], a: [0.0; N], len, k: self.k.max(o.k) + self.len.min(o.len) as u32 + 1 };
+        for i in 0..self.len {
+            let (x, xa) = (self.v[i], self.a[i]);
+            for j in 0..o.len {
+                r.v[i + j] += x * o.v[j];
+                r.a[i + j] += xa * o.a[j];
+            }
+        }
+        Some(r)
+    }
+    /// `s·self` for an enclosed scalar given by its nearest float and its own bound of
+    /// roundings `ks` (1 for a rounded rational).
+    pub fn scale(&self, s: f64, ks: u32) -> EPoly<N> {
+        let mut r = *self;
+        for i in 0..r.len {
+            r.v[i] *= s;
+            r.a[i] *= s.abs();
+        }
+        r.k = r.k.max(ks) + ks + 1;
+        r
+    }
+    /// Outward intervals enclosing the exact coefficients, or `None` when a value is
+    /// not finite or the rounding count is too large for the bound to mean anything.
+    pub fn enclosure(&self, out: &mut [Interval; N]) -> Option<usize> {
+        let ku = self.k as f64 * UNIT_ROUNDOFF;
+        if ku >= 1e-3 {
+            return None;
+        }
+        // γ_k/(1 − γ_k) ≤ k·u/(1 − 2k·u), enlarged by 2^-40 for the rounding of this
+        // very computation
+        let factor = ku / (1.0 - 2.0 * ku) * (1.0 + 1.0 / (1u64 << 40) as f64);
+        for ((o, &v), &a) in out.iter_mut().zip(&self.v).zip(&self.a).take(self.len) {
+            let e = a * factor + UNDERFLOW_SLACK;
+            if !(v.is_finite() && e.is_finite()) {
+                return None;
+            }
+            *o = Interval { lo: (v - e).next_down(), hi: (v + e).next_up() };
+        }
+        Some(self.len)
+    }
+}
+
 /// A node of a Horner tree: `Σ_k coeffs[k]·v^k` with each coefficient a tree over the
 /// later variables.
 #[derive(Clone, Debug)]
 enum Node {
     Zero,
-    Const(Interval),
-    Horner { var: usize, coeffs: Vec<Node> },
+    /// The enclosure, and the nearest float with its rounding count (0 if exact).
+    Const(Interval, f64, u32),
+    Horner {
+        var: usize,
+        coeffs: Vec<Node>,
+    },
 }
 
 /// A polynomial in `n` variables compiled for repeated evaluation: a Horner tree with
@@ -133,16 +250,18 @@ pub struct Compiled {
     degree: usize,
 }
 
-fn build(terms: &mut [(Vec<u32>, Interval)], var: usize, nvars: usize) -> Node {
+fn build(terms: &mut [(Vec<u32>, BigRational)], var: usize, nvars: usize) -> Node {
     if terms.is_empty() {
         return Node::Zero;
     }
     if var == nvars {
-        let mut acc = ZERO;
+        let mut acc = BigRational::zero();
         for (_, c) in terms.iter() {
-            acc = acc + *c;
+            acc += c;
         }
-        return Node::Const(acc);
+        let near = crate::poly::rational_to_f64(&acc);
+        let exact = BigRational::from_float(near).is_some_and(|f| f == acc);
+        return Node::Const(Interval::enclose_rational(&acc), near, u32::from(!exact));
     }
     let top = terms.iter().map(|(e, _)| e[var]).max().unwrap_or(0) as usize;
     if top == 0 {
@@ -163,7 +282,7 @@ impl Compiled {
     /// Compiles `p` (variables `0..nvars`; any other variable must not occur) with
     /// every coefficient enclosed.
     pub fn new(p: &QPoly, nvars: usize) -> Self {
-        let mut terms: Vec<(Vec<u32>, Interval)> = p
+        let mut terms: Vec<(Vec<u32>, BigRational)> = p
             .terms()
             .map(|(m, c)| {
                 let mut e = vec![0u32; nvars];
@@ -172,7 +291,7 @@ impl Compiled {
                         e[v as usize] = k;
                     }
                 }
-                (e, Interval::enclose_rational(c))
+                (e, c.clone())
             })
             .collect();
         let degree = terms.iter().map(|(e, _)| e.iter().sum::<u32>() as usize).max().unwrap_or(0);
@@ -190,12 +309,12 @@ impl Compiled {
     }
 
     /// The polynomial with every variable replaced by a univariate polynomial in τ
-    /// (`subs[v]`), enclosed; `None` when a degree would reach [`CAPACITY`].
-    pub fn compose(&self, subs: &[FPoly]) -> Option<FPoly> {
-        fn go(n: &Node, subs: &[FPoly]) -> Option<FPoly> {
+    /// (`subs[v]`), enclosed; `None` when a degree would reach the capacity `N`.
+    pub fn compose<const N: usize>(&self, subs: &[FPoly<N>]) -> Option<FPoly<N>> {
+        fn go<const N: usize>(n: &Node, subs: &[FPoly<N>]) -> Option<FPoly<N>> {
             match n {
                 Node::Zero => Some(FPoly::zero()),
-                Node::Const(c) => Some(FPoly::constant(*c)),
+                Node::Const(c, _, _) => Some(FPoly::constant(*c)),
                 Node::Horner { var, coeffs } => {
                     let mut acc = go(&coeffs[coeffs.len() - 1], subs)?;
                     for c in coeffs[..coeffs.len() - 1].iter().rev() {
@@ -211,13 +330,38 @@ impl Compiled {
         go(&self.root, subs)
     }
 
+    /// [`Compiled::compose`] in `f64` with a running error bound ([`EPoly`]).
+    pub fn compose_e<const N: usize>(&self, subs: &[EPoly<N>]) -> Option<EPoly<N>> {
+        fn go<const N: usize>(n: &Node, subs: &[EPoly<N>]) -> Option<EPoly<N>> {
+            match n {
+                Node::Zero => Some(EPoly::zero()),
+                Node::Const(_, f, k) => {
+                    let mut p = EPoly::exact(*f);
+                    p.k = *k;
+                    Some(p)
+                }
+                Node::Horner { var, coeffs } => {
+                    let mut acc = go(&coeffs[coeffs.len() - 1], subs)?;
+                    for c in coeffs[..coeffs.len() - 1].iter().rev() {
+                        acc = acc.mul(&subs[*var])?;
+                        if !matches!(c, Node::Zero) {
+                            acc = acc.add_signed(&go(c, subs)?, 1.0);
+                        }
+                    }
+                    Some(acc)
+                }
+            }
+        }
+        go(&self.root, subs)
+    }
+
     /// An enclosure of the polynomial's range over the box `vals` (naive interval
     /// Horner evaluation).
     pub fn eval_box(&self, vals: &[Interval]) -> Interval {
         fn go(n: &Node, vals: &[Interval]) -> Interval {
             match n {
                 Node::Zero => ZERO,
-                Node::Const(c) => *c,
+                Node::Const(c, _, _) => *c,
                 Node::Horner { var, coeffs } => {
                     let x = vals[*var];
                     let mut acc = go(&coeffs[coeffs.len() - 1], vals);
@@ -268,17 +412,17 @@ pub struct CompiledContour {
 
 /// The two restricted moment polynomials of one obstacle on one piece.
 #[derive(Clone, Copy, Debug)]
-pub struct FastRestriction {
+pub struct FastRestriction<const N: usize = CAPACITY> {
     /// `e1(τ) = E[P](x(t(τ)), t(τ))`.
-    pub mean: FPoly,
+    pub mean: FPoly<N>,
     /// `e2(τ) = E[P²](…)`.
-    pub second: FPoly,
+    pub second: FPoly<N>,
 }
 
-impl FastRestriction {
+impl<const N: usize> FastRestriction<N> {
     /// `g1 = e1² − (1−Δ)·e2` (Cantelli) and `g2 = −e1` (mean), for `1−Δ` enclosed in
     /// `one_minus_delta`; `None` when `e1²` exceeds the capacity.
-    pub fn constraints(&self, one_minus_delta: Interval) -> Option<(FPoly, FPoly)> {
+    pub fn constraints(&self, one_minus_delta: Interval) -> Option<(FPoly<N>, FPoly<N>)> {
         let sq = self.mean.mul(&self.mean)?;
         Some((sq.sub(&self.second.scale(one_minus_delta)), self.mean.neg()))
     }
@@ -298,8 +442,8 @@ impl CompiledContour {
 
     /// The centred coordinates of a piece as polynomials in τ ∈ [0, 1]:
     /// `y_d(τ) = x_d(t0 + hτ) − c_d`, `s(τ) = t0 + hτ − t_c`. `None` when a piece's
-    /// degree exceeds the capacity.
-    pub fn substitutions(&self, piece: PieceRef<'_>) -> Option<[FPoly; 9]> {
+    /// degree exceeds the capacity or it has more than 8 coordinates.
+    pub fn substitutions<const N: usize>(&self, piece: PieceRef<'_>) -> Option<[FPoly<N>; 9]> {
         let nv = self.center.len();
         if nv > 9 {
             return None;
@@ -322,11 +466,76 @@ impl CompiledContour {
         Some(subs)
     }
 
-    /// E[P] and E[P²] restricted to a piece, enclosed; `None` beyond the capacity.
-    pub fn restrict(&self, piece: PieceRef<'_>) -> Option<FastRestriction> {
-        let subs = self.substitutions(piece)?;
+    /// E[P] and E[P²] restricted to a piece, enclosed, with capacity `N`; `None`
+    /// beyond it.
+    pub fn restrict_with<const N: usize>(&self, piece: PieceRef<'_>) -> Option<FastRestriction<N>> {
+        let subs = self.substitutions::<N>(piece)?;
         let subs = &subs[..self.center.len()];
         Some(FastRestriction { mean: self.mean.compose(subs)?, second: self.second.compose(subs)? })
+    }
+
+    /// E[P] and E[P²] restricted to a piece, enclosed; `None` beyond [`CAPACITY`].
+    pub fn restrict(&self, piece: PieceRef<'_>) -> Option<FastRestriction> {
+        self.restrict_with::<CAPACITY>(piece)
+    }
+
+    /// Runs `f(g2, g1)` on outward intervals enclosing the coefficients of the mean
+    /// and Cantelli constraints restricted to a piece (`1−Δ` given as its nearest float
+    /// and whether that float is exact), computed in `f64` with a running error bound
+    /// ([`EPoly`]) in the smallest stack buffer that holds them; `None` beyond
+    /// [`CAPACITY`] or on overflow.
+    pub fn with_constraints<R>(
+        &self,
+        piece: PieceRef<'_>,
+        one_minus_delta: (f64, bool),
+        f: impl FnOnce(&[Interval], &[Interval]) -> R,
+    ) -> Option<R> {
+        fn run<const N: usize, R>(
+            c: &CompiledContour,
+            piece: PieceRef<'_>,
+            omd: (f64, bool),
+            f: impl FnOnce(&[Interval], &[Interval]) -> R,
+        ) -> Option<R> {
+            let nv = c.center.len();
+            if nv > 9 {
+                return None;
+            }
+            // centred coordinates: y_d(τ) = x_d(t0 + hτ) − c_d, s(τ) = t0 + hτ − t_c;
+            // h = t1 − t0 is itself rounded (one rounding)
+            let mut lin = EPoly::<N>::linear(piece.t0, piece.t1 - piece.t0);
+            lin.a[1] = (piece.t1 - piece.t0).abs().max(piece.t1.abs() + piece.t0.abs());
+            lin.k = 1;
+            let mut subs = [EPoly::<N>::zero(); 9];
+            for (d, sub) in subs.iter_mut().enumerate().take(nv - 1) {
+                let row: &[f64] = piece.coeffs.get(d).map(|r| r.as_slice()).unwrap_or(&[]);
+                let mut acc = EPoly::zero();
+                for &cf in row.iter().rev() {
+                    acc = acc.mul(&lin)?.add_signed(&EPoly::exact(cf), 1.0);
+                }
+                *sub = acc.add_signed(&EPoly::exact(c.center[d]), -1.0);
+            }
+            subs[nv - 1] = lin.add_signed(&EPoly::exact(c.center[nv - 1]), -1.0);
+            let subs = &subs[..nv];
+            let e1 = c.mean.compose_e(subs)?;
+            let e2 = c.second.compose_e(subs)?;
+            let g1 = e1.mul(&e1)?.add_signed(&e2.scale(omd.0, u32::from(!omd.1)), -1.0);
+            let (mut b1, mut b2) = ([ZERO; N], [ZERO; N]);
+            let n1 = g1.enclosure(&mut b1)?;
+            let n2 = e1.enclosure(&mut b2)?;
+            for v in &mut b2[..n2] {
+                *v = -*v;
+            }
+            Some(f(&b2[..n2], &b1[..n1]))
+        }
+        let need =
+            self.restricted_degree(piece.coeffs.iter().map(|r| r.len().saturating_sub(1)).max().unwrap_or(0)) + 1;
+        if need <= 8 {
+            run::<8, R>(self, piece, one_minus_delta, f)
+        } else if need <= 16 {
+            run::<16, R>(self, piece, one_minus_delta, f)
+        } else {
+            run::<CAPACITY, R>(self, piece, one_minus_delta, f)
+        }
     }
 
     /// The degree in τ of `E[P²]` restricted to a piece of degree `k` in t (an upper
@@ -397,6 +606,14 @@ mod tests {
             let (g1, g2) = fast.constraints(Interval::enclose_rational(&(BigRational::from_integer(1.into()) - &delta))).unwrap();
             prop_assert!(encloses(g1.coeffs(), &exact.cantelli).is_ok(), "{:?}", encloses(g1.coeffs(), &exact.cantelli));
             prop_assert!(encloses(g2.coeffs(), &exact.mean).is_ok(), "{:?}", encloses(g2.coeffs(), &exact.mean));
+            // the f64 path with a running error bound encloses it too
+            let omd = BigRational::from_integer(1.into()) - &delta;
+            let f = crate::poly::rational_to_f64(&omd);
+            let fe = BigRational::from_float(f).is_some_and(|e| e == omd);
+            let checked = cc.with_constraints(piece, (f, fe), |g2, g1| {
+                encloses(g1, &exact.cantelli).and_then(|_| encloses(g2, &exact.mean))
+            }).unwrap();
+            prop_assert!(checked.is_ok(), "{:?}", checked);
         }
     }
 

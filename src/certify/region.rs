@@ -172,53 +172,58 @@ fn hull(cells: &[Vec<(f64, f64)>]) -> Vec<(f64, f64)> {
 /// A proven outer box of the unsafe set of `bounds` within `region` (absolute
 /// coordinates, one `(lo, hi)` per variable: space, then time). Only the dimensions
 /// with `split[v]` are subdivided (time is not split for a static obstacle).
+///
+/// The cells not (yet) proven safe always cover the unsafe part of the region; the
+/// result is their hull. Only cells on the hull's spatial faces decide it, so only
+/// those are refined (the far field is proven in large cells, and cells inside the
+/// hull are left as they are while they stay inside). The search ends when every
+/// face cell is at most `1/COVER_RESOLUTION` of the hull, or at the budget.
 pub fn unsafe_cover(bounds: &ConstraintBounds, region: &[(f64, f64)], split: &[bool]) -> (Cover, CoverStats) {
     let mut stats = CoverStats::default();
     let root_w: Vec<f64> = region.iter().map(|(lo, hi)| hi - lo).collect();
-    let mut cells = vec![region.to_vec()];
+    let spatial: Vec<usize> = (0..region.len().saturating_sub(1)).filter(|&v| split[v]).collect();
+    stats.cells += 1;
+    let Some(v0) = bounds.assess(region, split, &root_w) else { return (Cover::Empty, stats) };
+    // unproven cells, each with the dimension to split it along
+    let mut cells: Vec<(Vec<(f64, f64)>, usize)> = vec![(region.to_vec(), v0)];
     loop {
-        // (cell, the dimension to split it along)
-        let mut left: Vec<(Vec<(f64, f64)>, usize)> = Vec::with_capacity(cells.len());
-        let mut pending = cells.into_iter();
-        for c in pending.by_ref() {
-            stats.cells += 1;
-            if let Some(v) = bounds.assess(&c, split, &root_w) {
-                left.push((c, v));
+        let boxes: Vec<Vec<(f64, f64)>> = cells.iter().map(|(c, _)| c.clone()).collect();
+        let h = hull(&boxes);
+        let on_face = |c: &[(f64, f64)]| spatial.iter().any(|&v| c[v].0 <= h[v].0 || c[v].1 >= h[v].1);
+        let fine = |c: &[(f64, f64)]| spatial.iter().all(|&v| (c[v].1 - c[v].0) * COVER_RESOLUTION <= h[v].1 - h[v].0);
+        let (face, inner): (Vec<_>, Vec<_>) =
+            cells.into_iter().partition(|(c, v)| *v != usize::MAX && on_face(c) && !fine(c));
+        if face.is_empty() || stats.cells >= MAX_COVER_CELLS || stats.levels >= MAX_COVER_LEVELS * 8 {
+            return (Cover::Box(h), stats);
+        }
+        stats.levels += 1;
+        cells = inner;
+        let mut pending = face.into_iter();
+        for (c, v) in pending.by_ref() {
+            let m = if v < c.len() { 0.5 * (c[v].0 + c[v].1) } else { f64::NAN };
+            if !(v < c.len() && m > c[v].0 && m < c[v].1) {
+                // nothing left to split: the cell stays as it is
+                cells.push((c, usize::MAX));
+                continue;
+            }
+            let (mut a, mut b) = (c.clone(), c);
+            a[v].1 = m;
+            b[v].0 = m;
+            for child in [a, b] {
+                stats.cells += 1;
+                if let Some(w) = bounds.assess(&child, split, &root_w) {
+                    cells.push((child, w));
+                }
             }
             if stats.cells >= MAX_COVER_CELLS {
                 break;
             }
         }
-        // sound at the budget: the cells not yet evaluated stay in the cover as they are
-        left.extend(pending.map(|c| (c, usize::MAX)));
-        if left.is_empty() {
+        // sound at the budget: the face cells not yet split stay in the cover as they are
+        cells.extend(pending);
+        if cells.is_empty() {
             return (Cover::Empty, stats);
         }
-        let boxes: Vec<Vec<(f64, f64)>> = left.iter().map(|(c, _)| c.clone()).collect();
-        let h = hull(&boxes);
-        // fine enough in space (time is split only where the bound needs it)
-        let fine = (0..region.len()).filter(|&v| split[v] && v + 1 < region.len()).all(|v| {
-            let hw = h[v].1 - h[v].0;
-            boxes.iter().all(|c| (c[v].1 - c[v].0) * COVER_RESOLUTION <= hw)
-        });
-        if fine || stats.cells >= MAX_COVER_CELLS || stats.levels >= MAX_COVER_LEVELS {
-            return (Cover::Box(h), stats);
-        }
-        stats.levels += 1;
-        let mut next = Vec::with_capacity(left.len() * 2);
-        for (c, v) in left {
-            let m = if v < c.len() { 0.5 * (c[v].0 + c[v].1) } else { f64::NAN };
-            if !(m > c[v.min(c.len() - 1)].0 && m < c[v.min(c.len() - 1)].1) {
-                // nothing left to split: this cell stays as it is
-                return (Cover::Box(h), stats);
-            }
-            let (mut a, mut b) = (c.clone(), c);
-            a[v].1 = m;
-            b[v].0 = m;
-            next.push(a);
-            next.push(b);
-        }
-        cells = next;
     }
 }
 

@@ -14,12 +14,23 @@ use std::time::Duration;
 
 /// Plan a risk-bounded trajectory from the scene's start to its goal.
 ///
-/// rrt-sos: every edge is certified safe in continuous time (eq. 15) against every
-/// obstacle's Δ-risk contour. Scenes with moving obstacles use the time-layered
-/// variant (--pieces s equal time intervals; each edge certified on its own interval);
-/// static scenes use a tree of straight edges with an optional improve step and a
-/// constant-speed timing over the horizon. mc-rrt is the paper's Monte Carlo baseline
-/// (10 scenarios × 20 waypoints per edge): its output is marked "certified": false.
+/// rrt-sos (default): every edge is certified safe in continuous time (eq. 15) against
+/// every obstacle's Δ-risk contour. Static scenes: a bidirectional tree; moving
+/// obstacles: the time-layered tree, trying 1, 2, 4, … 32 equal time intervals
+/// (--pieces fixes the number), each edge certified on its own interval. The path is
+/// then shortcut and its corners blended into C¹ pieces of degree ≤ 2, each certified
+/// (--no-smooth keeps the raw path). Lengths are derived from the workspace, so any
+/// scale and placement behaves alike.
+///
+/// rrt-sos-paper: the paper's RRT-SOS as published (widening stripes, rlim), with the
+/// scene's planner.rrt_sos block or the paper's values scaled to the workspace;
+/// --improve adds its improve step on static scenes. mc-rrt: the default search with
+/// the paper's Monte Carlo edge check (10 scenarios × 20 waypoints per edge): its
+/// output is marked "certified": false.
+///
+/// --risk-mode joint bounds the probability of colliding with any obstacle at each
+/// instant by Δ (obstacle i gets Δᵢ, ΣΔᵢ = Δ; the stats list them); the default
+/// per-obstacle mode is the paper's.
 ///
 /// Writes the trajectory (format v1 plus "planner", "certified", "stats") to --out or
 /// stdout and a one-line summary to stderr. Exit status: 0 plan found, 1 none found
@@ -38,9 +49,21 @@ pub struct PlanArgs {
     /// Seed of the planner's RNG (same seed, same plan).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Pieces of the time-layered planner (default: the scene's planner block, else 2). Forces the layered planner.
+    /// Pieces of the time-layered planner (default: the ladder 1, 2, 4, … 32; rrt-sos-paper: the scene's planner block, else the ladder). Forces the layered planner.
     #[arg(long)]
     pieces: Option<usize>,
+    /// Speed limit in workspace units per time unit (default: the scene's planner.max_speed, else none).
+    #[arg(long)]
+    max_speed: Option<f64>,
+    /// Acceleration limit for the corner blends (default: the scene's planner.max_accel, else none).
+    #[arg(long)]
+    max_accel: Option<f64>,
+    /// Return the raw tree path (straight pieces, velocity jumps at the corners).
+    #[arg(long)]
+    no_smooth: bool,
+    /// What Δ bounds: per-obstacle (the paper's), joint (any obstacle; Δ split evenly) or joint-weighted (more of Δ to obstacles near the start–goal line).
+    #[arg(long, default_value = "per-obstacle")]
+    risk_mode: riskplan::app::RiskMode,
     /// Time limit in seconds.
     #[arg(long, default_value_t = 120.0)]
     time_limit: f64,
@@ -69,6 +92,10 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
         pieces: a.pieces,
         improve: a.improve,
         time_limit: time_limit_arg(a.time_limit)?,
+        max_speed: a.max_speed,
+        max_accel: a.max_accel,
+        smooth: !a.no_smooth,
+        risk_mode: a.risk_mode,
     };
     let mut prepared = request.prepare(scene.clone()).map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
     let term = request.termination(None);
@@ -95,6 +122,9 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
         s.edges_accepted,
         s.path_length.map(|l| format!(", length {l:.4}")).unwrap_or_default()
     );
+    if let Some(r) = &outcome.reason {
+        eprintln!("{}: {}", a.planner, r.message());
+    }
     if let Some(fig) = &a.figure {
         draw_figure(&scene, &problem, &outcome, fig)?;
     }

@@ -12,24 +12,34 @@
 
 use super::rrt::steer;
 use super::sampling::{width_range, StripeSampler};
+use super::scale::Scale;
+use super::smooth::{blend, shortcut, SmoothStats, Waypoint};
+use super::NoPlanReason;
 use super::{
     check_endpoints, dist, nearest, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats, PlanStatus,
     Planner, Problem, Termination,
 };
-use crate::scene::{Piece, Trajectory};
+use crate::scene::{Piece, RrtSosBlock, Trajectory};
+use rand::Rng;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
+
+/// The ladder of piece counts tried when none is given: each rung gets half the time
+/// that remains (the last all of it) and [`LayeredParams::max_attempts`] attempts.
+pub const LADDER: [usize; 6] = [1, 2, 4, 8, 16, 32];
 
 /// Parameters of the layered planner (defaults: the authors' values).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LayeredParams {
-    /// Number of pieces `s` (equal time intervals).
-    pub pieces: usize,
-    /// Steering step `rlim`; also caps speed at `rlim·s/(tf − t0)`.
-    pub step: f64,
-    /// Stripe half-widths (`0.1:0.1:5`, of which the authors use the first 21).
+    /// Number of pieces `s` (equal time intervals); `None`: the [`LADDER`].
+    pub pieces: Option<usize>,
+    /// Steering step `rlim` (the paper's, which also caps speed at `rlim·s/(tf − t0)`);
+    /// `None`: no cap but `max_speed`.
+    pub step: Option<f64>,
+    /// Stripe half-widths (`0.1:0.1:5`, of which the authors use the first 21), or the
+    /// radii of local sampling.
     pub widths: Vec<f64>,
     /// Vertices per stripe in intermediate layers.
     pub samples_per_stripe: usize,
@@ -39,8 +49,17 @@ pub struct LayeredParams {
     pub max_vertices_per_layer: usize,
     /// Iterations per layer (`MAX_ITER`).
     pub max_iterations_per_layer: usize,
-    /// Restarts of the whole construction before giving up.
+    /// Restarts of the whole construction before giving up (per rung of the ladder).
     pub max_attempts: usize,
+    /// Sample layer `i` around the point `i/s` of the way from start to goal (the
+    /// default planner) instead of the paper's stripe along the whole line.
+    pub local: bool,
+    /// Speed limit.
+    pub max_speed: Option<f64>,
+    /// Acceleration limit for smoothing.
+    pub max_accel: Option<f64>,
+    /// Shortcut and blend the result.
+    pub smooth: bool,
 }
 
 impl Default for LayeredParams {
@@ -48,64 +67,92 @@ impl Default for LayeredParams {
         let mut widths = width_range(0.1, 0.1, 5.0);
         widths.truncate(21);
         LayeredParams {
-            pieces: 2,
-            step: 1.0,
+            pieces: Some(2),
+            step: Some(1.0),
             widths,
             samples_per_stripe: 10,
             iter_per_stripe: 50,
             max_vertices_per_layer: 20,
             max_iterations_per_layer: 1000,
             max_attempts: 100,
+            local: false,
+            max_speed: None,
+            max_accel: None,
+            smooth: false,
         }
     }
 }
 
 impl LayeredParams {
-    /// Reads the scene's `planner.rrt_sos` block where present (pieces, rlim, widths, limits).
-    pub fn from_scene_block(block: Option<&serde_json::Value>) -> Self {
-        let mut p = LayeredParams::default();
+    /// The paper's parameters: the scene's `planner.rrt_sos` block where present
+    /// (pieces, rlim, widths, limits), else the paper's values in the problem's units;
+    /// without `pieces` the ladder.
+    pub fn paper(block: Option<&RrtSosBlock>, scale: &Scale) -> Self {
+        let mut p = LayeredParams {
+            pieces: None,
+            step: Some(scale.paper_step()),
+            widths: scale.paper_layered_widths(),
+            ..Default::default()
+        };
         let Some(b) = block else { return p };
-        let u = |k: &str| b[k].as_u64().map(|v| v as usize);
-        if let Some(v) = u("pieces") {
-            p.pieces = v;
+        if b.pieces.is_some() {
+            p.pieces = b.pieces;
         }
-        if let Some(r) = b["rlim"].as_f64() {
-            p.step = r;
+        if let Some(r) = b.rlim {
+            p.step = Some(r);
         }
-        if let (Some(a), Some(s), Some(e)) =
-            (b["width"]["start"].as_f64(), b["width"]["step"].as_f64(), b["width"]["stop"].as_f64())
-        {
-            p.widths = width_range(a, s, e);
-            if let Some(n) = b["width"]["used_entries"].as_u64() {
-                p.widths.truncate(n as usize);
+        if let Some(w) = &b.width {
+            if let Some(v) = &w.values {
+                p.widths = v.clone();
+            } else if let (Some(a), Some(s), Some(e)) = (w.start, w.step, w.stop) {
+                p.widths = width_range(a, s, e);
+            }
+            if let Some(n) = w.used_entries {
+                p.widths.truncate(n);
             }
         }
-        if let Some(v) = u("samples_per_stripe") {
-            p.samples_per_stripe = v;
-        }
-        if let Some(v) = u("iter_per_stripe") {
-            p.iter_per_stripe = v;
-        }
-        if let Some(v) = u("max_vertices_per_layer") {
-            p.max_vertices_per_layer = v;
-        }
-        if let Some(v) = u("max_iterations_per_layer") {
-            p.max_iterations_per_layer = v;
+        for (v, dst) in [
+            (b.samples_per_stripe, &mut p.samples_per_stripe),
+            (b.iter_per_stripe, &mut p.iter_per_stripe),
+            (b.max_vertices_per_layer, &mut p.max_vertices_per_layer),
+            (b.max_iterations_per_layer, &mut p.max_iterations_per_layer),
+        ] {
+            if let Some(v) = v {
+                *dst = v;
+            }
         }
         p
+    }
+
+    /// The default planner's parameters: the ladder, no steering cap but the speed
+    /// limit, local sampling with radii `side·(0.05 … 1.05)`, fewer attempts per rung.
+    pub fn fast(scale: &Scale) -> Self {
+        LayeredParams {
+            pieces: None,
+            step: None,
+            widths: scale.paper_layered_widths(),
+            max_attempts: 20,
+            max_iterations_per_layer: 400,
+            local: true,
+            smooth: true,
+            ..Default::default()
+        }
     }
 
     /// Checks ranges.
     pub fn validate(&self) -> Result<(), PlanError> {
         let bad = |o: &str, m: &str| Err(PlanError::InvalidOption { option: o.into(), message: m.into() });
-        if self.pieces == 0 {
+        if self.pieces == Some(0) {
             return bad("pieces", "must be ≥ 1");
         }
-        if self.pieces > 1000 {
+        if self.pieces.is_some_and(|s| s > 1000) {
             return bad("pieces", "must be ≤ 1000");
         }
-        if !(self.step > 0.0 && self.step.is_finite()) {
+        if self.step.is_some_and(|s| !(s > 0.0 && s.is_finite())) {
             return bad("step", "must be a positive number");
+        }
+        if self.widths.is_empty() || self.widths.iter().any(|w| w.is_nan() || *w <= 0.0) {
+            return bad("widths", "must be positive (and at least one)");
         }
         if self.samples_per_stripe == 0 || self.iter_per_stripe == 0 || self.max_vertices_per_layer == 0 {
             return bad("samples_per_stripe", "stripe and layer sizes must be ≥ 1");
@@ -148,6 +195,7 @@ impl LayeredRrt {
     fn attempt(
         &self,
         p: &Problem,
+        s: usize,
         times: &[f64],
         sampler: &StripeSampler,
         rng: &mut ChaCha8Rng,
@@ -157,11 +205,12 @@ impl LayeredRrt {
         stats: &mut PlanStats,
         tree: &mut Vec<(Vec<f64>, Vec<f64>)>,
     ) -> Attempt {
-        let s = self.params.pieces;
         let mut layers = vec![Layer { verts: vec![p.start.clone()], parent: vec![usize::MAX], pieces: vec![None] }];
         if s == 1 {
             let piece = Piece::segment(&p.start, &p.goal, times[0], times[1]);
-            return if counter.check(checker, &piece) == Motion::Accepted {
+            return if self.speed_ok(&p.start, &p.goal, times[1] - times[0])
+                && counter.check(checker, &piece) == Motion::Accepted
+            {
                 Attempt::Found(vec![piece])
             } else {
                 Attempt::Failed
@@ -179,10 +228,33 @@ impl LayeredRrt {
                 let by_count = layer.verts.len() / self.params.samples_per_stripe;
                 let by_iter = iter / self.params.iter_per_stripe;
                 let stripe = 1 + if last { by_iter } else { by_count.max(by_iter) };
-                let q = sampler.sample(rng, stripe);
+                let q = if self.params.local {
+                    let nominal: Vec<f64> =
+                        p.start.iter().zip(&p.goal).map(|(a, b)| a + (b - a) * i as f64 / s as f64).collect();
+                    let r = sampler.width(stripe).min(self.params.widths[self.params.widths.len() - 1]);
+                    let ws = &p.scene.workspace;
+                    nominal
+                        .iter()
+                        .enumerate()
+                        .map(|(d, c)| (c + r * rng.random_range(-1.0..=1.0)).clamp(ws.lower[d], ws.upper[d]))
+                        .collect()
+                } else {
+                    sampler.sample(rng, stripe)
+                };
                 let prev = &layers[i - 1];
                 let a = nearest(&prev.verts, &q);
-                let q = steer(&prev.verts[a], &q, self.params.step);
+                let dt = times[i] - times[i - 1];
+                let cap = match (self.params.step, self.params.max_speed) {
+                    (Some(st), Some(v)) => st.min(v * dt),
+                    (Some(st), None) => st,
+                    (None, Some(v)) => v * dt,
+                    (None, None) => f64::INFINITY,
+                };
+                let q = steer(&prev.verts[a], &q, cap);
+                // the goal must stay reachable under the speed limit
+                if !self.speed_ok(&q, &p.goal, times[s] - times[i]) {
+                    continue;
+                }
                 let piece = Piece::segment(&prev.verts[a], &q, times[i - 1], times[i]);
                 if counter.check(checker, &piece) != Motion::Accepted {
                     continue;
@@ -190,7 +262,9 @@ impl LayeredRrt {
                 tree.push((prev.verts[a].clone(), q.clone()));
                 if last {
                     let to_goal = Piece::segment(&q, &p.goal, times[i], times[i + 1]);
-                    if counter.check(checker, &to_goal) == Motion::Accepted {
+                    if self.speed_ok(&q, &p.goal, times[i + 1] - times[i])
+                        && counter.check(checker, &to_goal) == Motion::Accepted
+                    {
                         tree.push((q.clone(), p.goal.clone()));
                         layer.verts.push(q);
                         layer.parent.push(a);
@@ -230,6 +304,12 @@ impl LayeredRrt {
     }
 }
 
+impl LayeredRrt {
+    fn speed_ok(&self, a: &[f64], b: &[f64], dt: f64) -> bool {
+        self.params.max_speed.is_none_or(|v| dist(a, b) <= v * dt)
+    }
+}
+
 impl Planner for LayeredRrt {
     fn name(&self) -> &'static str {
         "rrt-sos"
@@ -244,36 +324,84 @@ impl Planner for LayeredRrt {
         let t_start = Instant::now();
         self.params.validate()?;
         check_endpoints(p, checker)?;
+        let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
+        if let Some(r) = super::connect::out_of_reach(p, self.params.max_speed) {
+            stats.planning_time_s = t_start.elapsed().as_secs_f64();
+            return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
+        }
         checker.prepare(term);
-        let s = self.params.pieces;
         let (t0, tf) = p.horizon;
-        let times: Vec<f64> = (0..=s).map(|i| if i == s { tf } else { t0 + (tf - t0) * i as f64 / s as f64 }).collect();
         let ws = &p.scene.workspace;
         let sampler = StripeSampler::new(&ws.lower, &ws.upper, &p.start, &p.goal, self.params.widths.clone());
         let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
         let counter = CheckCounter::default();
-        let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
         let mut tree = Vec::new();
         let mut status = PlanStatus::Exhausted;
+        let mut found: Option<(usize, Vec<Piece>)> = None;
+        let rungs: Vec<usize> = match self.params.pieces {
+            Some(s) => vec![s],
+            None => LADDER.to_vec(),
+        };
+        let mut tried = Vec::new();
+        'ladder: for (k, &s) in rungs.iter().enumerate() {
+            let times: Vec<f64> =
+                (0..=s).map(|i| if i == s { tf } else { t0 + (tf - t0) * i as f64 / s as f64 }).collect();
+            // each rung but the last gets half of the time that remains
+            let rung_term = match term.remaining() {
+                Some(left) if k + 1 < rungs.len() => term.clone().earliest(left / 2),
+                _ => term.clone(),
+            };
+            tried.push(s);
+            for _ in 0..self.params.max_attempts {
+                stats.attempts += 1;
+                match self
+                    .attempt(p, s, &times, &sampler, &mut rng, checker, &counter, &rung_term, &mut stats, &mut tree)
+                {
+                    Attempt::Found(pieces) => {
+                        found = Some((s, pieces));
+                        break 'ladder;
+                    }
+                    Attempt::Stopped if term.expired() => {
+                        status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
+                        break 'ladder;
+                    }
+                    Attempt::Stopped => break,
+                    Attempt::Failed if s == 1 => break,
+                    Attempt::Failed => {}
+                }
+            }
+        }
         let mut trajectory = None;
-        for _ in 0..self.params.max_attempts {
-            stats.attempts += 1;
-            match self.attempt(p, &times, &sampler, &mut rng, checker, &counter, term, &mut stats, &mut tree) {
-                Attempt::Found(pieces) => {
-                    stats.time_to_feasible_s = Some(t_start.elapsed().as_secs_f64());
-                    let len: f64 = pieces.iter().map(|pc| dist(&pc.at(pc.t0), &pc.at(pc.t1))).sum();
-                    stats.path_length = Some(len);
-                    stats.feasible_path_length = Some(len);
-                    trajectory = Some(Trajectory::new(pieces));
-                    status = PlanStatus::Exact;
-                    break;
+        if let Some((s, pieces)) = found {
+            stats.pieces = Some(s);
+            stats.time_to_feasible_s = Some(t_start.elapsed().as_secs_f64());
+            let len: f64 = pieces.iter().map(|pc| dist(&pc.at(pc.t0), &pc.at(pc.t1))).sum();
+            stats.feasible_path_length = Some(len);
+            stats.path_length = Some(len);
+            let mut out = Some(pieces.clone());
+            if self.params.smooth {
+                let t_imp = Instant::now();
+                let mut w: Vec<Waypoint> = pieces.iter().map(|pc| (pc.t0, pc.at(pc.t0))).collect();
+                w[0].1 = p.start.clone();
+                w.push((tf, p.goal.clone()));
+                // the layer vertices exactly as certified
+                for (k, pc) in pieces.iter().enumerate().skip(1) {
+                    w[k].1 = pc.at(pc.t0);
                 }
-                Attempt::Stopped => {
-                    status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
-                    break;
+                let mut sm = SmoothStats { waypoints_before: w.len(), ..Default::default() };
+                let short = shortcut(w, p.horizon, true, self.params.max_speed, checker, &counter, &mut rng, term);
+                sm.waypoints_after = short.len();
+                let smoothed = blend(&short, self.params.max_accel, checker, &counter, &mut sm);
+                stats.improve_time_s = t_imp.elapsed().as_secs_f64();
+                if smoothed.is_some() {
+                    stats.path_length = Some(short.windows(2).map(|x| dist(&x[0].1, &x[1].1)).sum());
+                    out = smoothed;
                 }
-                Attempt::Failed if s == 1 => break,
-                Attempt::Failed => {}
+                stats.smoothing = Some(sm);
+            }
+            if let Some(pieces) = out {
+                trajectory = Some(Trajectory::new(pieces));
+                status = PlanStatus::Exact;
             }
         }
         let (checked, accepted, secs) = counter.totals();
@@ -283,6 +411,18 @@ impl Planner for LayeredRrt {
         stats.vertices += 1;
         stats.planning_time_s = t_start.elapsed().as_secs_f64();
         let certified = trajectory.is_some() && checker.sound();
-        Ok(PlanOutcome { status, trajectory, certified, stats, tree })
+        let reason = trajectory.is_none().then(|| {
+            let mut r = NoPlanReason::from_status(status, &stats, term);
+            if let NoPlanReason::Exhausted { pieces_tried, .. } | NoPlanReason::DeadlineReached { pieces_tried, .. } =
+                &mut r
+            {
+                *pieces_tried = tried.clone();
+            }
+            r
+        });
+        if stats.pieces.is_none() {
+            stats.pieces = tried.last().copied();
+        }
+        Ok(PlanOutcome { status, trajectory, certified, stats, tree, reason })
     }
 }

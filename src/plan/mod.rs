@@ -9,13 +9,17 @@
 //! - [`Planner::solve`] returns a [`PlanOutcome`] (status, trajectory, stats) or a
 //!   typed [`PlanError`] for bad requests.
 
+mod connect;
 mod layered;
 mod mc_checker;
 mod rrt;
 mod sampling;
+pub mod scale;
+pub mod smooth;
 #[cfg(any(test, feature = "test-support"))]
 pub mod testing;
 
+pub use connect::{ConnectParams, ConnectRrt};
 pub use layered::{LayeredParams, LayeredRrt};
 pub use mc_checker::{McChecker, McCheckerParams};
 pub use rrt::{RrtParams, StaticRrt};
@@ -108,6 +112,10 @@ pub trait MotionChecker: Send + Sync {
     /// covers and index), stopping early when `term` expires. Planners call it once at
     /// the start of `solve`; checking without it works (and builds on first use).
     fn prepare(&self, _term: &Termination) {}
+    /// The obstacle whose contour excludes `x` at time `t`, if the checker knows.
+    fn blocking_obstacle(&self, _x: &[f64], _t: f64) -> Option<String> {
+        None
+    }
 }
 
 /// Counters and time of a checker, shared by planners.
@@ -251,6 +259,95 @@ pub struct PlanStats {
     pub checker: String,
     /// Seed.
     pub seed: u64,
+    /// Pieces of the layered planner's successful rung (or the last tried).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pieces: Option<usize>,
+    /// What shortcutting and blending did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub smoothing: Option<smooth::SmoothStats>,
+    /// The risk level Δᵢ of each obstacle in a joint risk mode (obstacle id, Δᵢ).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub risk_allocation: Option<Vec<(String, f64)>>,
+}
+
+/// Why a planner returned no trajectory (a typed outcome, not an error).
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum NoPlanReason {
+    /// The goal is farther than `max_speed` allows over the horizon (shown at once,
+    /// or for the shortest path found).
+    OutOfReach {
+        /// Distance (or path length) to cover.
+        distance: f64,
+        /// The speed limit.
+        max_speed: f64,
+        /// The horizon's duration.
+        duration: f64,
+    },
+    /// The planner's own limits were spent.
+    Exhausted {
+        /// Sampling iterations.
+        iterations: u64,
+        /// Edges checked.
+        edges_checked: u64,
+        /// Layered pieces tried (the ladder), if any.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        pieces_tried: Vec<usize>,
+    },
+    /// The time limit passed first.
+    DeadlineReached {
+        /// Sampling iterations.
+        iterations: u64,
+        /// Edges checked.
+        edges_checked: u64,
+        /// Layered pieces tried (the ladder), if any.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        pieces_tried: Vec<usize>,
+    },
+    /// Cancelled.
+    Cancelled,
+}
+
+impl NoPlanReason {
+    /// The reason for an unsuccessful status.
+    pub fn from_status(status: PlanStatus, stats: &PlanStats, term: &Termination) -> Self {
+        let (iterations, edges_checked) = (stats.iterations, stats.edges_checked);
+        match status {
+            PlanStatus::Cancelled => NoPlanReason::Cancelled,
+            _ if term.cancelled() => NoPlanReason::Cancelled,
+            PlanStatus::DeadlineReached => {
+                NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried: Vec::new() }
+            }
+            _ => NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried: Vec::new() },
+        }
+    }
+
+    /// One line for messages.
+    pub fn message(&self) -> String {
+        match self {
+            NoPlanReason::OutOfReach { distance, max_speed, duration } => format!(
+                "the goal is out of reach: {distance:.6} to cover in {duration} at max_speed {max_speed} (at most {:.6})",
+                max_speed * duration
+            ),
+            NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried } => format!(
+                "no plan within the planner's limits ({iterations} iterations, {edges_checked} edges checked{})",
+                ladder_text(pieces_tried)
+            ),
+            NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried } => format!(
+                "no plan within the time limit ({iterations} iterations, {edges_checked} edges checked{})",
+                ladder_text(pieces_tried)
+            ),
+            NoPlanReason::Cancelled => "the plan was cancelled".into(),
+        }
+    }
+}
+
+fn ladder_text(p: &[usize]) -> String {
+    if p.is_empty() {
+        String::new()
+    } else {
+        format!(", pieces tried {p:?}")
+    }
 }
 
 /// The result of a planner run.
@@ -266,6 +363,15 @@ pub struct PlanOutcome {
     pub stats: PlanStats,
     /// Tree edges, for figures.
     pub tree: Vec<(Vec<f64>, Vec<f64>)>,
+    /// Why there is no trajectory (`None` with one).
+    pub reason: Option<NoPlanReason>,
+}
+
+impl PlanOutcome {
+    /// An outcome without a trajectory.
+    pub fn no_plan(status: PlanStatus, stats: PlanStats, reason: NoPlanReason) -> Self {
+        PlanOutcome { status, trajectory: None, certified: false, stats, tree: Vec::new(), reason: Some(reason) }
+    }
 }
 
 /// A bad request (the caller's fault); "no plan found" is an outcome, not an error.
@@ -288,7 +394,7 @@ pub enum PlanError {
         point: Vec<f64>,
     },
     /// Start or goal not inside the Δ-risk contour of every obstacle.
-    #[error("{which}: {point:?} is not in the safe set of the Δ-risk contours at t = {t} (its risk bound exceeds Δ, or it touches a contour)")]
+    #[error("{which}: {point:?} is not in the safe set of the Δ-risk contour of obstacle '{obstacle}' at t = {t} (its risk bound exceeds Δ, or it touches the contour)")]
     UnsafeEndpoint {
         /// `start` or `goal`.
         which: String,
@@ -296,6 +402,8 @@ pub enum PlanError {
         point: Vec<f64>,
         /// The time.
         t: f64,
+        /// The obstacle whose contour it is not inside (empty when unknown).
+        obstacle: String,
     },
     /// Planner options out of range.
     #[error("invalid planner option {option}: {message}")]
@@ -317,12 +425,14 @@ pub trait Planner: Send {
         -> Result<PlanOutcome, PlanError>;
 }
 
-/// Checks start and goal: inside the workspace and strictly inside every Δ-contour.
+/// Checks start and goal: inside the workspace and strictly inside every Δ-contour;
+/// an unsafe endpoint names the obstacle (from the checker) and the time.
 pub fn check_endpoints(p: &Problem, checker: &dyn MotionChecker) -> Result<(), PlanError> {
     p.validate()?;
     for (which, x, t) in [("start", &p.start, p.horizon.0), ("goal", &p.goal, p.horizon.1)] {
         if checker.check_point(x, t) != Motion::Accepted {
-            return Err(PlanError::UnsafeEndpoint { which: which.into(), point: x.clone(), t });
+            let obstacle = checker.blocking_obstacle(x, t).unwrap_or_default();
+            return Err(PlanError::UnsafeEndpoint { which: which.into(), point: x.clone(), t, obstacle });
         }
     }
     Ok(())
@@ -333,28 +443,63 @@ pub fn dist(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
 }
 
-/// The RRT-SOS planner a problem calls for: the time-layered planner when an obstacle
-/// moves or `pieces` is given, else the static tree (with the improve step if asked).
-/// Parameters default to the scene's `planner.rrt_sos` block. The improve step does
-/// not exist for the layered planner: asking for it there is an error.
-pub fn rrt_planner(p: &Problem, pieces: Option<usize>, improve: bool) -> Result<Box<dyn Planner>, PlanError> {
-    let block = p.scene.file.planner.as_ref().and_then(|b| b.get("rrt_sos"));
-    if pieces.is_some() || p.is_dynamic() {
-        if improve {
-            return Err(PlanError::InvalidOption {
-                option: "improve".into(),
-                message: "applies to static scenes only; the layered planner has no improve step".into(),
-            });
+/// Options every RRT planner takes from a request.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlanOptions {
+    /// Pieces of the layered planner (`Some` forces it; `None`: the ladder 2, 4, 8, …
+    /// on moving-obstacle scenes).
+    pub pieces: Option<usize>,
+    /// The improve step of the paper's static planner.
+    pub improve: bool,
+    /// Speed limit (request, else the scene's `planner.max_speed`).
+    pub max_speed: Option<f64>,
+    /// Acceleration limit for smoothing (request, else the scene's `planner.max_accel`).
+    pub max_accel: Option<f64>,
+    /// Shortcut and blend the result (the default planners only).
+    pub smooth: bool,
+}
+
+/// The planner a problem calls for. `paper`: the paper's RRT-SOS (static tree, or the
+/// time-layered tree when an obstacle moves or `pieces` is given), parameters from the
+/// scene's `planner.rrt_sos` block or scale-free defaults. Otherwise the default: the
+/// connect planner on static scenes, the layered planner with the ladder and local
+/// sampling on moving ones; both smoothed unless asked not to.
+pub fn rrt_planner(p: &Problem, paper: bool, o: &PlanOptions) -> Result<Box<dyn Planner>, PlanError> {
+    let block = p.scene.file.planner.as_ref();
+    let rrt_block = block.and_then(|b| b.rrt_sos.as_ref());
+    let max_speed = o.max_speed.or(block.and_then(|b| b.max_speed));
+    let max_accel = o.max_accel.or(block.and_then(|b| b.max_accel));
+    for (name, v) in [("max_speed", max_speed), ("max_accel", max_accel)] {
+        if v.is_some_and(|v| !(v > 0.0 && v.is_finite())) {
+            return Err(PlanError::InvalidOption { option: name.into(), message: "must be a positive number".into() });
         }
-        let mut params = LayeredParams::from_scene_block(block);
-        if let Some(s) = pieces {
-            params.pieces = s;
+    }
+    let scale = scale::Scale::of(p);
+    let layered = o.pieces.is_some() || p.is_dynamic();
+    if o.improve && (layered || !paper) {
+        return Err(PlanError::InvalidOption {
+            option: "improve".into(),
+            message: "applies to the paper's static planner only (rrt-sos-paper on a static scene); the default planner shortcuts its path instead".into(),
+        });
+    }
+    if layered {
+        let mut params = if paper { LayeredParams::paper(rrt_block, &scale) } else { LayeredParams::fast(&scale) };
+        if o.pieces.is_some() {
+            params.pieces = o.pieces;
         }
+        params.max_speed = max_speed;
+        params.max_accel = max_accel;
+        params.smooth = o.smooth && !paper;
         Ok(Box::new(LayeredRrt::new(params)))
-    } else {
-        let mut params = RrtParams::from_scene_block(block);
-        params.improve = improve;
+    } else if paper {
+        let mut params = RrtParams::paper(rrt_block, &scale);
+        params.improve = o.improve;
+        params.max_speed = max_speed;
         Ok(Box::new(StaticRrt::new(params)))
+    } else {
+        Ok(Box::new(ConnectRrt {
+            params: ConnectParams { smooth: o.smooth, max_speed, max_accel, ..Default::default() },
+        }))
     }
 }
 

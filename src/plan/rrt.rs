@@ -12,11 +12,13 @@
 //! the exact floats returned.
 
 use super::sampling::{width_range, StripeSampler};
+use super::scale::Scale;
+use super::NoPlanReason;
 use super::{
     check_endpoints, constant_speed, dist, nearest, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome,
     PlanStats, PlanStatus, Planner, Problem, Termination,
 };
-use crate::scene::{Piece, Trajectory};
+use crate::scene::{Piece, RrtSosBlock, Trajectory};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::collections::{BinaryHeap, HashMap};
@@ -38,6 +40,8 @@ pub struct RrtParams {
     pub max_iterations: u64,
     /// Run the improve step after the first feasible path.
     pub improve: bool,
+    /// Speed limit (the path's length over the horizon).
+    pub max_speed: Option<f64>,
 }
 
 impl Default for RrtParams {
@@ -49,27 +53,30 @@ impl Default for RrtParams {
             failures_per_widen: 50,
             max_iterations: 100_000,
             improve: false,
+            max_speed: None,
         }
     }
 }
 
 impl RrtParams {
-    /// Reads the scene's `planner.rrt_sos` block where present (rlim, width, samples_per_stripe).
-    pub fn from_scene_block(block: Option<&serde_json::Value>) -> Self {
-        let mut p = RrtParams::default();
+    /// The paper's parameters: the scene's `planner.rrt_sos` block where present
+    /// (rlim, width, samples_per_stripe), else the paper's values in the problem's own
+    /// units ([`Scale`]).
+    pub fn paper(block: Option<&RrtSosBlock>, scale: &Scale) -> Self {
+        let mut p = RrtParams { step: scale.paper_step(), widths: scale.paper_static_widths(), ..Default::default() };
         let Some(b) = block else { return p };
-        if let Some(r) = b["rlim"].as_f64() {
+        if let Some(r) = b.rlim {
             p.step = r;
         }
-        if let Some(vals) = b["width"]["values"].as_array() {
-            p.widths = vals.iter().filter_map(|v| v.as_f64()).collect();
-        } else if let (Some(a), Some(s), Some(e)) =
-            (b["width"]["start"].as_f64(), b["width"]["step"].as_f64(), b["width"]["stop"].as_f64())
-        {
-            p.widths = width_range(a, s, e);
+        if let Some(w) = &b.width {
+            if let Some(v) = &w.values {
+                p.widths = v.clone();
+            } else if let (Some(a), Some(s), Some(e)) = (w.start, w.step, w.stop) {
+                p.widths = width_range(a, s, e);
+            }
         }
-        if let Some(n) = b["samples_per_stripe"].as_u64() {
-            p.samples_per_stripe = n as usize;
+        if let Some(n) = b.samples_per_stripe {
+            p.samples_per_stripe = n;
         }
         p
     }
@@ -163,6 +170,10 @@ impl Planner for StaticRrt {
             });
         }
         check_endpoints(p, checker)?;
+        if let Some(r) = super::connect::out_of_reach(p, self.params.max_speed) {
+            let stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
+            return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
+        }
         checker.prepare(term);
         let counter = CheckCounter::default();
         let ws = &p.scene.workspace;
@@ -227,7 +238,11 @@ impl Planner for StaticRrt {
             // Re-check the pieces exactly as returned (constant speed, rounded floats):
             // a sound checker must have accepted the very floats returned. (A sampling
             // checker's re-check would only redraw scenarios; it is skipped.)
+            let duration = p.horizon.1 - p.horizon.0;
             for pts in candidates {
+                if self.params.max_speed.is_some_and(|v| path_length(&pts) > v * duration) {
+                    continue;
+                }
                 let pieces = constant_speed(&pts, p.horizon);
                 if !checker.sound() || pieces.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted) {
                     stats.path_length = Some(path_length(&pts));
@@ -245,7 +260,15 @@ impl Planner for StaticRrt {
         stats.attempts = 1;
         stats.planning_time_s = t_start.elapsed().as_secs_f64();
         let certified = trajectory.is_some() && checker.sound();
-        Ok(PlanOutcome { status, trajectory, certified, stats, tree: tree.edges() })
+        let reason = trajectory.is_none().then(|| match (goal_index, self.params.max_speed) {
+            (Some(_), Some(v)) => NoPlanReason::OutOfReach {
+                distance: stats.feasible_path_length.unwrap_or(0.0),
+                max_speed: v,
+                duration: p.horizon.1 - p.horizon.0,
+            },
+            _ => NoPlanReason::from_status(status, &stats, term),
+        });
+        Ok(PlanOutcome { status, trajectory, certified, stats, tree: tree.edges(), reason })
     }
 }
 

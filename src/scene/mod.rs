@@ -9,7 +9,10 @@ mod file;
 mod num;
 mod trajectory;
 
-pub use file::{ObstacleFile, ParamFile, SceneFile, WorkspaceFile, SCENE_FORMAT};
+pub use file::{
+    BoxBlock, MonteCarloRrtBlock, ObstacleFile, ParamFile, PlannerBlock, RrtSosBlock, SceneFile, StandardSosBlock,
+    TimeVaryingSosBlock, WidthBlock, WorkspaceFile, SCENE_FORMAT,
+};
 pub use num::{parse_num_text, Num};
 pub use trajectory::{
     Piece, Trajectory, TrajectoryError, TrajectoryFile, CONTINUITY_TOLERANCE, MAX_PIECES, MAX_PIECE_DEGREE,

@@ -52,6 +52,13 @@ fn plan_request(req: &PlanRequest, cap: Duration) -> Result<app::PlanRequest, Se
         pieces: req.pieces.map(|s| usize::try_from(s).map_err(|_| invalid("pieces", "too large"))).transpose()?,
         improve: req.improve.unwrap_or(false),
         time_limit: time_limit.min(cap),
+        max_speed: req.max_speed,
+        max_accel: req.max_accel,
+        smooth: req.smooth.unwrap_or(true),
+        risk_mode: match req.risk_mode.as_deref() {
+            Some(m) => m.parse().map_err(|e: app::UnknownName| invalid("risk_mode", e.to_string()))?,
+            None => app::RiskMode::PerObstacle,
+        },
     })
 }
 

@@ -118,7 +118,7 @@ pub struct PlanRequest {
     /// Goal (default: the scene's).
     #[serde(default)]
     pub goal: Option<Vec<f64>>,
-    /// `rrt-sos` or `mc-rrt`.
+    /// `rrt-sos` (default), `rrt-sos-paper` or `mc-rrt`.
     #[serde(default)]
     pub planner: Option<String>,
     /// Seconds (capped by the server).
@@ -139,6 +139,18 @@ pub struct PlanRequest {
     /// `exact`, `sos` or `both`.
     #[serde(default)]
     pub certifier: Option<String>,
+    /// Speed limit (default: the scene's `planner.max_speed`, else none).
+    #[serde(default)]
+    pub max_speed: Option<f64>,
+    /// Acceleration limit for smoothing (default: the scene's, else none).
+    #[serde(default)]
+    pub max_accel: Option<f64>,
+    /// Shortcut and blend the plan (default true).
+    #[serde(default)]
+    pub smooth: Option<bool>,
+    /// `per-obstacle` (default), `joint` or `joint-weighted`.
+    #[serde(default)]
+    pub risk_mode: Option<String>,
 }
 
 /// `plan_reply`: a trajectory in format v1 with its provenance.

@@ -188,7 +188,6 @@ impl SceneIndex {
                 covers.push(ObstacleCovers { slabs: None, timeless: false });
                 continue;
             }
-            let bounds = ConstraintBounds::new(&o.contour, delta.rational(), &center);
             let dynamic = o.contour.is_dynamic();
             let mut split: Vec<bool> = vec![true; scene.dim];
             split.push(dynamic);
@@ -205,9 +204,17 @@ impl SceneIndex {
                 vec![(center[scene.dim], center[scene.dim])]
             };
             let mut slabs = Vec::with_capacity(slab_times.len());
+            let mut static_bounds = None;
             for t in slab_times {
                 let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
                 region.push(t);
+                // centre the bounds near the obstacle: interval bounds of a polynomial
+                // expanded around a far point lose to cancellation
+                let build = || {
+                    let c = obstacle_center(&o.contour, &region);
+                    ConstraintBounds::new(&o.contour, delta.rational(), &c)
+                };
+                let bounds = if dynamic { build() } else { static_bounds.get_or_insert_with(build).clone() };
                 let (cover, st) = unsafe_cover(&bounds, &region, &split);
                 cells += st.cells;
                 let cover = match cover {
@@ -274,17 +281,23 @@ impl SceneIndex {
         slabs.iter().filter(|s| s.t.0 <= t1 && t0 <= s.t.1).all(|s| s.cover.as_ref().is_none_or(|b| !overlaps(b, bbox)))
     }
 
-    /// The obstacles a piece must be checked against, given its spatial bounding box
-    /// (`None`: unknown or not inside the workspace — then every obstacle).
+    /// The obstacles a piece must be checked against, given a proven spatial bounding
+    /// box of the piece. **The caller must have proven that the piece stays in the
+    /// workspace** (the covers say nothing outside it); `None`: every obstacle.
     pub fn candidates(&self, bbox: Option<&[(f64, f64)]>, t0: f64, t1: f64, out: &mut Vec<usize>) {
         out.clear();
         let n = self.covers.len();
-        let Some(bbox) = bbox.filter(|b| {
-            b.iter().zip(self.lower.iter().zip(&self.upper)).all(|(&(lo, hi), (&l, &u))| l <= lo && hi <= u)
-        }) else {
+        let Some(bbox) = bbox else {
             out.extend(0..n);
             return;
         };
+        // the piece is in the workspace: clip its (outward-rounded) box to it
+        let clipped: Vec<(f64, f64)> = bbox
+            .iter()
+            .zip(self.lower.iter().zip(&self.upper))
+            .map(|(&(lo, hi), (&l, &u))| (lo.max(l), hi.min(u)))
+            .collect();
+        let bbox = clipped.as_slice();
         match &self.grid {
             None => out.extend((0..n).filter(|&i| !self.skippable(i, bbox, t0, t1))),
             Some(g) => {
@@ -298,10 +311,58 @@ impl SceneIndex {
         }
     }
 
+    /// The hull over time of each obstacle's cover (`None`: proven safe everywhere or no
+    /// cover), for statistics and figures.
+    pub fn cover_hulls(&self) -> Vec<Option<Vec<(f64, f64)>>> {
+        self.covers
+            .iter()
+            .map(|c| {
+                let boxes: Vec<&Vec<(f64, f64)>> = c.slabs.as_ref()?.iter().filter_map(|s| s.cover.as_ref()).collect();
+                let mut h = (*boxes.first()?).clone();
+                for b in &boxes[1..] {
+                    for (x, y) in h.iter_mut().zip(b.iter()) {
+                        x.0 = x.0.min(y.0);
+                        x.1 = x.1.max(y.1);
+                    }
+                }
+                Some(h)
+            })
+            .collect()
+    }
+
     /// Obstacles with a cover that is not the whole workspace (for statistics).
     pub fn filtered(&self) -> usize {
         self.covers.iter().filter(|c| c.slabs.is_some()).count()
     }
+}
+
+/// Points per dimension of the grid on which [`obstacle_center`] looks for the largest
+/// E[P] (a centre for the bounds, not a decision: any point works, a near one is better).
+pub const CENTER_GRID: usize = 16;
+
+/// A point of `region` (space, then a time interval) near the obstacle: the grid point
+/// of largest E[P] at the middle time, in floats.
+pub fn obstacle_center(contour: &crate::contour::RiskContour, region: &[(f64, f64)]) -> Vec<f64> {
+    let dim = region.len() - 1;
+    let t = 0.5 * region[dim].0 + 0.5 * region[dim].1;
+    let mut best = (f64::NEG_INFINITY, region.iter().map(|(a, b)| 0.5 * a + 0.5 * b).collect::<Vec<f64>>());
+    let n = CENTER_GRID;
+    let total = n.pow(dim as u32);
+    let mut x = vec![0.0; dim + 1];
+    x[dim] = t;
+    for k in 0..total {
+        let mut r = k;
+        for (d, xd) in x.iter_mut().enumerate().take(dim) {
+            let i = r % n;
+            r /= n;
+            *xd = region[d].0 + (region[d].1 - region[d].0) * (i as f64 + 0.5) / n as f64;
+        }
+        let (m, _) = contour.moments_f64(&x);
+        if m > best.0 {
+            best = (m, x.clone());
+        }
+    }
+    best.1
 }
 
 fn build_grid(scene: &Scene, covers: &[ObstacleCovers]) -> Grid {
@@ -344,7 +405,7 @@ fn build_grid(scene: &Scene, covers: &[ObstacleCovers]) -> Grid {
 pub fn piece_bbox(piece: PieceRef<'_>) -> Option<Vec<(f64, f64)>> {
     let t0 = Interval::point(piece.t0);
     let h = Interval::point(piece.t1) - t0;
-    let lin = FPoly::linear(t0, h);
+    let lin = FPoly::<{ crate::scene::MAX_PIECE_DEGREE + 1 }>::linear(t0, h);
     let mut out = Vec::with_capacity(piece.coeffs.len());
     for row in piece.coeffs {
         let mut acc = FPoly::zero();

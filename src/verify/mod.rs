@@ -418,7 +418,7 @@ pub fn point_safe_with(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -
 pub struct SceneCertifier {
     scene: Arc<Scene>,
     deltas: Vec<RiskLevel>,
-    one_minus: Vec<Interval>,
+    one_minus: Vec<(f64, bool)>,
     method: Method,
     settings: sos::SosSettings,
     compiled: Arc<Vec<CompiledContour>>,
@@ -437,7 +437,11 @@ impl SceneCertifier {
         assert_eq!(deltas.len(), scene.obstacles.len(), "one risk level per obstacle");
         let one_minus = deltas
             .iter()
-            .map(|d| Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational())))
+            .map(|d| {
+                let q = BigRational::from_integer(1.into()) - d.rational();
+                let f = crate::poly::rational_to_f64(&q);
+                (f, BigRational::from_float(f).is_some_and(|e| e == q))
+            })
             .collect();
         let compiled = compiled(&scene);
         SceneCertifier {
@@ -466,22 +470,26 @@ impl SceneCertifier {
         let o = &self.scene.obstacles[i];
         let delta = self.deltas[i].rational();
         if self.method == Method::Exact {
-            if let Some((g1, g2)) = self.compiled[i].restrict(pr).and_then(|r| r.constraints(self.one_minus[i])) {
-                let exact = std::cell::OnceCell::new();
-                for (k, g) in [g2, g1].iter().enumerate() {
-                    match bernstein::check_interval_coeffs(g.coeffs(), bernstein::DEFAULT_MAX_DEPTH) {
+            let fast = self.compiled[i].with_constraints(pr, self.one_minus[i], |g2, g1| {
+                for g in [g2, g1] {
+                    match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
                         Verdict::Safe { .. } => {}
-                        Verdict::Unsafe(_) => return false,
-                        Verdict::Undecided(_) => {
-                            let r = exact.get_or_init(|| restrict_exact(&o.contour, pr, delta));
-                            let p = if k == 0 { &r.mean } else { &r.cantelli };
-                            if !bernstein::check_exact(p, bernstein::DEFAULT_MAX_DEPTH).is_safe() {
-                                return false;
-                            }
-                        }
+                        Verdict::Unsafe(_) => return Some(false),
+                        Verdict::Undecided(_) => return None,
                     }
                 }
-                return true;
+                Some(true)
+            });
+            match fast {
+                Some(Some(v)) => return v,
+                Some(None) => {
+                    // undecided in floats: the exact rational check decides both constraints
+                    let r = restrict_exact(&o.contour, pr, delta);
+                    return [&r.mean, &r.cantelli]
+                        .iter()
+                        .all(|p| bernstein::check_exact(p, bernstein::DEFAULT_MAX_DEPTH).is_safe());
+                }
+                None => {}
             }
         }
         let mut safe = true;
@@ -491,6 +499,25 @@ impl SceneCertifier {
         });
         safe
     }
+}
+
+/// Whether a coordinate of degree ≤ 1, `c0 + c1·t` on `[t0, t1]`, stays in `[l, u]`,
+/// exactly (its extremes are its end values, evaluated in rationals): the float
+/// enclosure of an edge that ends on the workspace boundary crosses it by rounding.
+fn straight_coordinate_inside(c: &[f64], t0: f64, t1: f64, l: f64, u: f64) -> bool {
+    if c.len() > 2 {
+        return false;
+    }
+    let q = |v: f64| BigRational::from_float(v);
+    let (Some(c0), Some(c1), Some(a), Some(b), Some(l), Some(u)) =
+        (q(c.first().copied().unwrap_or(0.0)), q(c.get(1).copied().unwrap_or(0.0)), q(t0), q(t1), q(l), q(u))
+    else {
+        return false;
+    };
+    [a, b].iter().all(|t| {
+        let x = &c0 + &c1 * t;
+        l <= x && x <= u
+    })
 }
 
 impl MotionChecker for SceneCertifier {
@@ -511,7 +538,9 @@ impl MotionChecker for SceneCertifier {
         let ws = &self.scene.workspace;
         let bbox = piece_bbox(pr);
         let inside = bbox.as_ref().is_some_and(|b| {
-            b.iter().zip(ws.lower.iter().zip(&ws.upper)).all(|(&(lo, hi), (&l, &u))| l <= lo && hi <= u)
+            b.iter().zip(ws.lower.iter().zip(&ws.upper)).enumerate().all(|(d, (&(lo, hi), (&l, &u)))| {
+                (l <= lo && hi <= u) || straight_coordinate_inside(&piece.coeffs[d], piece.t0, piece.t1, l, u)
+            })
         });
         if !inside && check_workspace(&ws.lower, &ws.upper, pr).status != Status::Safe {
             return Motion::Rejected;
@@ -524,6 +553,13 @@ impl MotionChecker for SceneCertifier {
             }
         }
         Motion::Accepted
+    }
+
+    fn blocking_obstacle(&self, x: &[f64], t: f64) -> Option<String> {
+        match point_status(&self.scene, x, t, &self.deltas) {
+            PointStatus::InContour(i) => Some(self.scene.obstacles[i].id.clone()),
+            _ => None,
+        }
     }
 
     fn check_point(&self, x: &[f64], t: f64) -> Motion {

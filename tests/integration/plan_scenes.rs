@@ -14,8 +14,13 @@ use std::time::Duration;
 
 const SCENES: [&str; 6] = common::PLANNING_SCENES;
 
-fn planner_for(p: &Problem) -> Box<dyn Planner> {
-    riskplan::plan::rrt_planner(p, None, false).expect("valid planner options")
+/// The default planner (smoothed) and the paper's.
+fn planners_for(p: &Problem) -> Vec<Box<dyn Planner>> {
+    let smooth = riskplan::plan::PlanOptions { smooth: true, ..Default::default() };
+    vec![
+        riskplan::plan::rrt_planner(p, false, &smooth).expect("valid planner options"),
+        riskplan::plan::rrt_planner(p, true, &Default::default()).expect("valid planner options"),
+    ]
 }
 
 fn plan(name: &str, seed: u64) -> (Arc<Scene>, Trajectory) {
@@ -71,8 +76,12 @@ fn conformance_rrt_sos_and_mc_rrt_static_and_dynamic() {
         let s = Arc::new(common::scene(name));
         let p = Problem::from_scene(s.clone(), 3).unwrap();
         let cert = SceneCertifier::new(s.clone(), p.delta.clone(), Method::Exact);
-        conformance(planner_for(&p).as_mut(), &p, &cert, Duration::from_secs(60));
         let mc = McChecker::new(s.mc_model().unwrap(), 0.1, McCheckerParams::default(), 3);
-        conformance(planner_for(&p).as_mut(), &p, &mc, Duration::from_secs(60));
+        for mut planner in planners_for(&p) {
+            conformance(planner.as_mut(), &p, &cert, Duration::from_secs(60));
+        }
+        for mut planner in planners_for(&p) {
+            conformance(planner.as_mut(), &p, &mc, Duration::from_secs(60));
+        }
     }
 }

@@ -1,0 +1,90 @@
+//! The planner's edge check (issue 10): the scene certifier on straight edges.
+//!
+//! - `kernel/disk_near`: one degree-4 contour (illustrative-3), an edge that passes near
+//!   the obstacle (inside its cover, so the compiled restriction and both proofs run);
+//! - `edges/<scene>`: 256 seeded random edges of the planner's length; the time is per
+//!   batch, divide by 256 for an edge and by the obstacle count for an obstacle;
+//! - `growth/disks-<n>`: the same on the constant-density disk family (8 … 512 disks).
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use rand::{Rng, SeedableRng};
+use riskplan::plan::MotionChecker;
+use riskplan::scene::{Piece, Scene};
+use riskplan::verify::{Method, SceneCertifier};
+use std::sync::Arc;
+
+mod common;
+
+fn edges(s: &Scene, len: f64, n: usize, seed: u64) -> Vec<Piece> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let (lo, hi) = (&s.workspace.lower, &s.workspace.upper);
+    (0..n)
+        .map(|_| {
+            let a: Vec<f64> = lo.iter().zip(hi).map(|(&l, &h)| rng.random_range(l..h)).collect();
+            let dir: Vec<f64> = (0..a.len()).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let norm = dir.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-9);
+            let b: Vec<f64> =
+                a.iter().zip(&dir).enumerate().map(|(d, (x, v))| (x + len * v / norm).clamp(lo[d], hi[d])).collect();
+            Piece::segment(&a, &b, s.horizon.0, s.horizon.1)
+        })
+        .collect()
+}
+
+fn certifier(s: Scene) -> SceneCertifier {
+    let delta = s.risk.clone();
+    let c = SceneCertifier::new(Arc::new(s), delta, Method::Exact);
+    let _ = c.index(); // build the covers outside the measurement
+    c
+}
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("kernel");
+    let cert = certifier(common::reference_scene("illustrative-3"));
+    let near = Piece::segment(&[-1.0, -0.8], &[1.0, -0.8], 0.0, 1.0);
+    assert_eq!(cert.check(&near), riskplan::plan::Motion::Accepted);
+    g.bench_function("disk_near", |b| b.iter(|| cert.check(black_box(&near))));
+    g.finish();
+
+    let mut g = c.benchmark_group("edges");
+    for (stem, len) in [("illustrative-3", 1.0), ("example-d1-cluttered-2d", 1.0)] {
+        let s = common::reference_scene(stem);
+        let es = edges(&s, len, 256, 1);
+        let cert = certifier(s);
+        g.bench_function(stem, |b| {
+            b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count())
+        });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("growth");
+    g.sample_size(20);
+    for n in [8usize, 32, 128, 512] {
+        let s = Scene::from_json(&common::disks_scene(n, 1)).expect("disk scene");
+        let es = edges(&s, 5.0, 256, 2);
+        let t = std::time::Instant::now();
+        let cert = certifier(s);
+        eprintln!("disks-{n}: covers built in {:.3} s ({} cells)", t.elapsed().as_secs_f64(), cert.index().cells);
+        let sizes: Vec<f64> = cert.index().cover_hulls().iter().flatten().map(|h| h[0].1 - h[0].0).collect();
+        let mut c = Vec::new();
+        let mut total = 0;
+        for e in &es {
+            let bb =
+                riskplan::verify::piece_bbox(riskplan::certify::PieceRef { t0: e.t0, t1: e.t1, coeffs: &e.coeffs });
+            cert.index().candidates(bb.as_deref(), e.t0, e.t1, &mut c);
+            total += c.len();
+        }
+        eprintln!(
+            "  mean cover width {:.2}, max {:.2}; candidates per edge {:.2}",
+            sizes.iter().sum::<f64>() / sizes.len() as f64,
+            sizes.iter().cloned().fold(0.0, f64::max),
+            total as f64 / es.len() as f64
+        );
+        g.bench_function(format!("disks-{n}"), |b| {
+            b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count())
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

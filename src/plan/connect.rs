@@ -1,0 +1,239 @@
+//! The default static planner: bidirectional RRT (RRT-Connect, Kuffner & LaValle 2000)
+//! with every edge certified (eq. 15), then certified shortcutting and C¹ corner blends
+//! ([`super::smooth`]). Docs: docs/design.md §6.5.
+//!
+//! Two trees grow from start and goal. Each iteration extends one tree by one step
+//! towards a uniform sample (or, with probability [`ConnectParams::goal_bias`], towards
+//! the other tree's root) and then pulls the other tree greedily towards the new vertex,
+//! step by step, until it reaches it (a path) or an edge is rejected; then the trees
+//! swap roles. The straight line from start to goal is tried first. Lengths come from
+//! the problem's [`Scale`]: the step is about the spacing of the obstacles.
+
+use super::scale::Scale;
+use super::smooth::{blend, shortcut, straight, time_at_constant_speed, SmoothStats};
+use super::{
+    check_endpoints, dist, nearest, CheckCounter, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome,
+    PlanStats, PlanStatus, Planner, Problem, Termination,
+};
+use crate::scene::{Piece, Trajectory};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::time::Instant;
+
+/// Options of the connect planner.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConnectParams {
+    /// Steering step; `None`: [`Scale::connect_step`].
+    pub step: Option<f64>,
+    /// Probability of steering towards the other tree's root.
+    pub goal_bias: f64,
+    /// Cap on iterations.
+    pub max_iterations: u64,
+    /// Shortcut and blend the path (C¹ output).
+    pub smooth: bool,
+    /// Speed limit: the path's length over the horizon.
+    pub max_speed: Option<f64>,
+    /// Acceleration limit for the corner blends.
+    pub max_accel: Option<f64>,
+}
+
+impl Default for ConnectParams {
+    fn default() -> Self {
+        ConnectParams {
+            step: None,
+            goal_bias: 0.1,
+            max_iterations: 200_000,
+            smooth: true,
+            max_speed: None,
+            max_accel: None,
+        }
+    }
+}
+
+/// The connect planner.
+#[derive(Clone, Debug, Default)]
+pub struct ConnectRrt {
+    /// Options.
+    pub params: ConnectParams,
+}
+
+struct Tree {
+    verts: Vec<Vec<f64>>,
+    parent: Vec<usize>,
+}
+
+impl Tree {
+    fn root(p: Vec<f64>) -> Tree {
+        Tree { verts: vec![p], parent: vec![usize::MAX] }
+    }
+    fn add(&mut self, p: Vec<f64>, parent: usize) -> usize {
+        self.verts.push(p);
+        self.parent.push(parent);
+        self.verts.len() - 1
+    }
+    fn path_to_root(&self, mut i: usize) -> Vec<Vec<f64>> {
+        let mut out = vec![self.verts[i].clone()];
+        while self.parent[i] != usize::MAX {
+            i = self.parent[i];
+            out.push(self.verts[i].clone());
+        }
+        out
+    }
+}
+
+fn steer(from: &[f64], to: &[f64], step: f64) -> Vec<f64> {
+    let d = dist(from, to);
+    if d <= step {
+        to.to_vec()
+    } else {
+        from.iter().zip(to).map(|(a, b)| a + step * (b - a) / d).collect()
+    }
+}
+
+/// Checks the speed limit of a static plan: its length over the horizon.
+pub fn out_of_reach(p: &Problem, max_speed: Option<f64>) -> Option<NoPlanReason> {
+    let v = max_speed?;
+    let d = dist(&p.start, &p.goal);
+    let duration = p.horizon.1 - p.horizon.0;
+    (d > v * duration).then_some(NoPlanReason::OutOfReach { distance: d, max_speed: v, duration })
+}
+
+impl Planner for ConnectRrt {
+    fn name(&self) -> &'static str {
+        "rrt-sos"
+    }
+
+    fn solve(
+        &mut self,
+        p: &Problem,
+        checker: &dyn MotionChecker,
+        term: &Termination,
+    ) -> Result<PlanOutcome, PlanError> {
+        let t_start = Instant::now();
+        if p.is_dynamic() {
+            return Err(PlanError::InvalidOption {
+                option: "planner".into(),
+                message: "the scene has moving obstacles: use the layered (dynamic) planner".into(),
+            });
+        }
+        check_endpoints(p, checker)?;
+        let mut stats =
+            PlanStats { checker: checker.name().to_string(), seed: p.seed, attempts: 1, ..Default::default() };
+        if let Some(r) = out_of_reach(p, self.params.max_speed) {
+            stats.planning_time_s = t_start.elapsed().as_secs_f64();
+            return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
+        }
+        checker.prepare(term);
+        let step = self.params.step.unwrap_or_else(|| Scale::of(p).connect_step());
+        let counter = CheckCounter::default();
+        let seg = |a: &[f64], b: &[f64]| Piece::segment(a, b, p.horizon.0, p.horizon.1);
+        let ok = |a: &[f64], b: &[f64]| counter.check(checker, &seg(a, b)) == Motion::Accepted;
+        let ws = &p.scene.workspace;
+        let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
+        let mut trees = [Tree::root(p.start.clone()), Tree::root(p.goal.clone())];
+        let mut tree_edges = Vec::new();
+        let mut found: Option<Vec<Vec<f64>>> = ok(&p.start, &p.goal).then(|| vec![p.start.clone(), p.goal.clone()]);
+        let mut status = PlanStatus::Exhausted;
+        let mut a = 0usize; // the tree being extended
+        while found.is_none() {
+            if term.should_stop() {
+                status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
+                break;
+            }
+            if stats.iterations >= self.params.max_iterations {
+                break;
+            }
+            stats.iterations += 1;
+            let b = 1 - a;
+            let q: Vec<f64> = if rng.random_bool(self.params.goal_bias) {
+                trees[b].verts[0].clone()
+            } else {
+                ws.lower.iter().zip(&ws.upper).map(|(&l, &u)| rng.random_range(l..=u)).collect()
+            };
+            let v = nearest(&trees[a].verts, &q);
+            let new = steer(&trees[a].verts[v], &q, step);
+            if dist(&new, &trees[a].verts[v]) == 0.0 || !ok(&trees[a].verts[v], &new) {
+                a = b;
+                continue;
+            }
+            tree_edges.push((trees[a].verts[v].clone(), new.clone()));
+            let k = trees[a].add(new.clone(), v);
+            // connect: pull tree b towards `new`
+            let mut cur = nearest(&trees[b].verts, &new);
+            loop {
+                let s = steer(&trees[b].verts[cur], &new, step);
+                if !ok(&trees[b].verts[cur], &s) {
+                    break;
+                }
+                tree_edges.push((trees[b].verts[cur].clone(), s.clone()));
+                let reached = s == new;
+                cur = trees[b].add(s, cur);
+                if reached {
+                    let mut from_a = trees[a].path_to_root(k);
+                    from_a.reverse();
+                    let from_b = trees[b].path_to_root(cur);
+                    // `new` is the last of from_a and the first of from_b
+                    from_a.extend(from_b.into_iter().skip(1));
+                    if a == 1 {
+                        from_a.reverse();
+                    }
+                    found = Some(from_a);
+                    break;
+                }
+            }
+            a = b;
+        }
+        stats.vertices = (trees[0].verts.len() + trees[1].verts.len()) as u64;
+        let mut trajectory = None;
+        let mut reason = None;
+        if let Some(points) = found {
+            stats.time_to_feasible_s = Some(t_start.elapsed().as_secs_f64());
+            stats.feasible_path_length = Some(points.windows(2).map(|w| dist(&w[0], &w[1])).sum());
+            let timed = time_at_constant_speed(&points, p.horizon);
+            let pieces = if self.params.smooth {
+                let t_imp = Instant::now();
+                let mut sm = SmoothStats { waypoints_before: timed.len(), ..Default::default() };
+                let short = shortcut(timed.clone(), p.horizon, false, None, checker, &counter, &mut rng, term);
+                sm.waypoints_after = short.len();
+                let out = blend(&short, self.params.max_accel, checker, &counter, &mut sm);
+                stats.improve_time_s = t_imp.elapsed().as_secs_f64();
+                stats.path_length = Some(short.windows(2).map(|w| dist(&w[0].1, &w[1].1)).sum());
+                stats.smoothing = Some(sm);
+                out
+            } else {
+                let pieces = straight(&timed);
+                stats.path_length = stats.feasible_path_length;
+                pieces
+                    .iter()
+                    .all(|pc| !checker.sound() || counter.check(checker, pc) == Motion::Accepted)
+                    .then_some(pieces)
+            };
+            match pieces {
+                Some(pieces) => {
+                    let length = stats.path_length.unwrap_or(0.0);
+                    if let Some(v) = self.params.max_speed.filter(|v| length > v * (p.horizon.1 - p.horizon.0)) {
+                        reason = Some(NoPlanReason::OutOfReach {
+                            distance: length,
+                            max_speed: v,
+                            duration: p.horizon.1 - p.horizon.0,
+                        });
+                    } else {
+                        trajectory = Some(Trajectory::new(pieces));
+                        status = PlanStatus::Exact;
+                    }
+                }
+                None => status = PlanStatus::Exhausted,
+            }
+        }
+        let (checked, accepted, secs) = counter.totals();
+        stats.edges_checked = checked;
+        stats.edges_accepted = accepted;
+        stats.checker_time_s = secs;
+        stats.planning_time_s = t_start.elapsed().as_secs_f64();
+        let certified = trajectory.is_some() && checker.sound();
+        if trajectory.is_none() && reason.is_none() {
+            reason = Some(NoPlanReason::from_status(status, &stats, term));
+        }
+        Ok(PlanOutcome { status, trajectory, certified, stats, tree: tree_edges, reason })
+    }
+}
