@@ -114,26 +114,37 @@ impl McModel {
     /// Hit counts `hits[point][obstacle]` of `P ≥ 0` over `samples` scenarios shared by
     /// all points. Each point is `(x1..xn, t)`.
     pub fn hits(&self, points: &[Vec<f64>], samples: u64, seed: u64) -> Vec<Vec<u64>> {
+        self.hits_and_any(points, samples, seed).0
+    }
+
+    /// [`McModel::hits`], and per point the number of scenarios in which *any*
+    /// obstacle contains it (the joint event; parameters shared between obstacles are
+    /// one random variable, so correlations are kept).
+    pub fn hits_and_any(&self, points: &[Vec<f64>], samples: u64, seed: u64) -> (Vec<Vec<u64>>, Vec<u64>) {
         let reduced: Vec<Vec<Vec<ParamTerm>>> =
             points.iter().map(|xt| (0..self.polys.len()).map(|o| self.reduce(o, xt)).collect()).collect();
         let mut rng = ChaCha12Rng::seed_from_u64(seed);
         let mut w = vec![0.0; self.samplers.len()];
         let mut hits = vec![vec![0u64; self.polys.len()]; points.len()];
+        let mut any = vec![0u64; points.len()];
         for _ in 0..samples {
             for (slot, (_, s)) in w.iter_mut().zip(&self.samplers) {
                 *slot = s.sample(&mut rng);
             }
             for (pi, per_point) in reduced.iter().enumerate() {
+                let mut hit_any = false;
                 for (oi, terms) in per_point.iter().enumerate() {
                     let v: f64 =
                         terms.iter().map(|(c, m)| m.iter().fold(*c, |acc, &(i, e)| acc * w[i].powi(e as i32))).sum();
                     if v >= 0.0 {
                         hits[pi][oi] += 1;
+                        hit_any = true;
                     }
                 }
+                any[pi] += u64::from(hit_any);
             }
         }
-        hits
+        (hits, any)
     }
 
     /// Per-obstacle estimates of Prob(P(x, ω, t) ≥ 0) at one point.

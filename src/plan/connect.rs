@@ -190,23 +190,41 @@ impl Planner for ConnectRrt {
             stats.time_to_feasible_s = Some(t_start.elapsed().as_secs_f64());
             stats.feasible_path_length = Some(points.windows(2).map(|w| dist(&w[0], &w[1])).sum());
             let timed = time_at_constant_speed(&points, p.horizon);
+            // a re-check of the very pieces returned (a sampling checker's re-check would
+            // only redraw scenarios: skipped)
+            let accept = |pieces: Vec<Piece>| {
+                (!checker.sound() || pieces.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted))
+                    .then_some(pieces)
+            };
             let pieces = if self.params.smooth {
                 let t_imp = Instant::now();
                 let mut sm = SmoothStats { waypoints_before: timed.len(), ..Default::default() };
                 let short = shortcut(timed.clone(), p.horizon, false, None, checker, &counter, &mut rng, term);
                 sm.waypoints_after = short.len();
-                let out = blend(&short, self.params.max_accel, checker, &counter, &mut sm);
+                let short_len: f64 = short.windows(2).map(|w| dist(&w[0].1, &w[1].1)).sum();
+                // the blended path; else the shortcut polyline; else the tree's path
+                let out = match blend(&short, self.params.max_accel, checker, &counter, &mut sm) {
+                    Some(b) => {
+                        stats.path_length = Some(short_len);
+                        Some(b)
+                    }
+                    None => match accept(straight(&short)) {
+                        Some(s) => {
+                            stats.path_length = Some(short_len);
+                            Some(s)
+                        }
+                        None => {
+                            stats.path_length = stats.feasible_path_length;
+                            accept(straight(&timed))
+                        }
+                    },
+                };
                 stats.improve_time_s = t_imp.elapsed().as_secs_f64();
-                stats.path_length = Some(short.windows(2).map(|w| dist(&w[0].1, &w[1].1)).sum());
                 stats.smoothing = Some(sm);
                 out
             } else {
-                let pieces = straight(&timed);
                 stats.path_length = stats.feasible_path_length;
-                pieces
-                    .iter()
-                    .all(|pc| !checker.sound() || counter.check(checker, pc) == Motion::Accepted)
-                    .then_some(pieces)
+                accept(straight(&timed))
             };
             match pieces {
                 Some(pieces) => {

@@ -391,7 +391,10 @@ impl Planner for LayeredRrt {
                 let mut sm = SmoothStats { waypoints_before: w.len(), ..Default::default() };
                 let short = shortcut(w, p.horizon, true, self.params.max_speed, checker, &counter, &mut rng, term);
                 sm.waypoints_after = short.len();
-                let smoothed = blend(&short, self.params.max_accel, checker, &counter, &mut sm);
+                let smoothed = blend(&short, self.params.max_accel, checker, &counter, &mut sm).or_else(|| {
+                    let s = super::smooth::straight(&short);
+                    (!checker.sound() || s.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted)).then_some(s)
+                });
                 stats.improve_time_s = t_imp.elapsed().as_secs_f64();
                 if smoothed.is_some() {
                     stats.path_length = Some(short.windows(2).map(|x| dist(&x[0].1, &x[1].1)).sum());

@@ -260,13 +260,13 @@ pub struct PlanStats {
     /// Seed.
     pub seed: u64,
     /// Pieces of the layered planner's successful rung (or the last tried).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub pieces: Option<usize>,
     /// What shortcutting and blending did.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub smoothing: Option<smooth::SmoothStats>,
     /// The risk level Δᵢ of each obstacle in a joint risk mode (obstacle id, Δᵢ).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub risk_allocation: Option<Vec<(String, f64)>>,
 }
 

@@ -59,6 +59,21 @@ impl Audit {
 /// Fails only when the scene's parameters cannot be sampled (a `moments`
 /// distribution).
 pub fn audit_trajectory(scene: &Scene, traj: &Trajectory, delta: f64, o: &AuditOptions) -> Result<Audit, SceneError> {
+    audit(scene, traj, delta, o, false)
+}
+
+/// Audits `traj` for the joint risk mode: the probability that *any* obstacle contains
+/// the point, at each audited point, against Δ (exceedances name the obstacle `any`).
+pub fn audit_trajectory_joint(
+    scene: &Scene,
+    traj: &Trajectory,
+    delta: f64,
+    o: &AuditOptions,
+) -> Result<Audit, SceneError> {
+    audit(scene, traj, delta, o, true)
+}
+
+fn audit(scene: &Scene, traj: &Trajectory, delta: f64, o: &AuditOptions, joint: bool) -> Result<Audit, SceneError> {
     let model = scene.mc_model()?;
     let n = o.times_per_piece.max(2);
     let points: Vec<Vec<f64>> = traj
@@ -73,15 +88,22 @@ pub fn audit_trajectory(scene: &Scene, traj: &Trajectory, delta: f64, o: &AuditO
             })
         })
         .collect();
-    let hits = model.hits(&points, o.samples, o.seed);
+    let (hits, any) = model.hits_and_any(&points, o.samples, o.seed);
     let mut audit = Audit { max_estimate: 0.0, exceedances: Vec::new(), audited: 0 };
-    for (p, h) in points.iter().zip(&hits) {
-        for (ob, &k) in scene.obstacles.iter().zip(h) {
-            audit.audited += 1;
-            audit.max_estimate = audit.max_estimate.max(k as f64 / o.samples as f64);
-            let (lower, _) = clopper_pearson(k, o.samples, o.confidence);
-            if lower > delta {
-                audit.exceedances.push(Exceedance { obstacle: ob.id.clone(), point: p.clone(), lower });
+    let mut record = |name: &str, p: &Vec<f64>, k: u64| {
+        audit.audited += 1;
+        audit.max_estimate = audit.max_estimate.max(k as f64 / o.samples as f64);
+        let (lower, _) = clopper_pearson(k, o.samples, o.confidence);
+        if lower > delta {
+            audit.exceedances.push(Exceedance { obstacle: name.to_string(), point: p.clone(), lower });
+        }
+    };
+    for ((p, h), &a) in points.iter().zip(&hits).zip(&any) {
+        if joint {
+            record("any", p, a);
+        } else {
+            for (ob, &k) in scene.obstacles.iter().zip(h) {
+                record(&ob.id, p, k);
             }
         }
     }

@@ -25,7 +25,7 @@ use num_traits::Signed;
 use serde::{Deserialize, Serialize};
 use std::sync::{Arc, OnceLock};
 
-pub use audit::{audit_trajectory, Audit, AuditOptions, Exceedance};
+pub use audit::{audit_trajectory, audit_trajectory_joint, Audit, AuditOptions, Exceedance};
 pub use index::{compiled, piece_bbox, scene_center, KernelCache, SceneIndex};
 pub use workspace::{check_workspace, WorkspaceStatus};
 
