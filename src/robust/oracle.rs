@@ -266,7 +266,7 @@ impl<'a> Model<'a> {
         if g.lower.len() != g.dim || g.upper.len() != g.dim || g.start.len() != g.dim || g.goal.len() != g.dim {
             return Err(OracleError::BadScene("coordinates of the wrong dimension".into()));
         }
-        if !(g.horizon.0 < g.horizon.1) {
+        if g.horizon.0.partial_cmp(&g.horizon.1) != Some(std::cmp::Ordering::Less) {
             return Err(OracleError::BadScene("empty horizon".into()));
         }
         let obs = g.obstacles.iter().map(ObstacleMoments::new).collect::<Result<Vec<_>, _>>()?;

@@ -143,7 +143,7 @@ pub fn gauss_from_moments(m: &[f64], n: usize) -> Result<Rule, QuadratureError> 
 pub fn standardise(raw: &[f64]) -> Result<(f64, f64, Vec<f64>), QuadratureError> {
     let c = raw[1];
     let var = raw[2] - c * c;
-    if !(var >= 0.0) {
+    if var.is_nan() || var < 0.0 {
         return Err(QuadratureError::NotMoments(format!("variance {var} < 0")));
     }
     let s = var.sqrt();
@@ -205,7 +205,7 @@ pub fn rule(d: &Dist) -> Result<Rule, QuadratureError> {
     let k = 2 * NODES - 1; // highest moment the rule needs
     match d {
         Dist::Uniform { low, high } => {
-            if !(low < high) {
+            if low.partial_cmp(high) != Some(std::cmp::Ordering::Less) {
                 return Err(bad("uniform", "low must be < high"));
             }
             // z ~ U[−1, 1]: E[z^j] = 1/(j+1) for even j, 0 for odd j.
@@ -213,7 +213,7 @@ pub fn rule(d: &Dist) -> Result<Rule, QuadratureError> {
             Ok(affine(gauss_from_moments(&z, NODES)?, 0.5 * (low + high), 0.5 * (high - low)))
         }
         Dist::Normal { mean, std } => {
-            if !(*std >= 0.0) {
+            if std.is_nan() || *std < 0.0 {
                 return Err(bad("normal", "std must be ≥ 0"));
             }
             if *std == 0.0 {
@@ -238,13 +238,13 @@ pub fn rule(d: &Dist) -> Result<Rule, QuadratureError> {
             Ok(affine(from_raw(&gamma_raw(*shape, k))?, 0.0, *scale))
         }
         Dist::Exponential { rate } => {
-            if !(*rate > 0.0) {
+            if rate.is_nan() || *rate <= 0.0 {
                 return Err(bad("exponential", "needs rate > 0"));
             }
             Ok(affine(from_raw(&gamma_raw(1.0, k))?, 0.0, 1.0 / rate))
         }
         Dist::Laplace { mean, scale } => {
-            if !(*scale > 0.0) {
+            if scale.is_nan() || *scale <= 0.0 {
                 return Err(bad("laplace", "needs scale > 0"));
             }
             // standard Laplace (b = 1): E[z^j] = j! for even j, 0 for odd j.
@@ -253,7 +253,7 @@ pub fn rule(d: &Dist) -> Result<Rule, QuadratureError> {
             Ok(affine(gauss_from_moments(&z, NODES)?, *mean, *scale))
         }
         Dist::Discrete { values, weights } => {
-            if values.is_empty() || values.len() != weights.len() || weights.iter().any(|w| !(*w >= 0.0)) {
+            if values.is_empty() || values.len() != weights.len() || weights.iter().any(|w| w.is_nan() || *w < 0.0) {
                 return Err(bad("discrete", "needs as many non-negative weights as values"));
             }
             // The atoms themselves are an exact rule.

@@ -435,6 +435,9 @@ fn row(label: &str, rs: &[&SceneRecord]) -> String {
     )
 }
 
+/// A row of the summary: its label and which records it counts.
+type Group = (String, Box<dyn Fn(&SceneRecord) -> bool>);
+
 /// The Markdown summary of a suite run.
 pub fn summary_table(records: &[SceneRecord]) -> String {
     let mut out = vec![
@@ -443,7 +446,7 @@ pub fn summary_table(records: &[SceneRecord]) -> String {
     ];
     let all: Vec<&SceneRecord> = records.iter().collect();
     out.push(row("all", &all));
-    let mut groups: Vec<(String, Box<dyn Fn(&SceneRecord) -> bool>)> = vec![];
+    let mut groups: Vec<Group> = vec![];
     for dim in [2usize, 3] {
         for moving in [false, true] {
             groups.push((
