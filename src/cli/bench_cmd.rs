@@ -42,7 +42,9 @@ pub enum Suite {
 /// connectivity check at 1.5·Δ), then planned by rrt-sos with default options, its plan
 /// audited by Monte Carlo (the generator's true distributions for `moments`
 /// parameters) and its pieces certified by the exact and the SOS method. Prints a
-/// summary by scene class; one JSON line per scene (with the scene) goes to --out.
+/// summary by scene class; one JSON line per scene (with the scene) goes to --out. The
+/// scenes' speed limits (planner.max_speed) are used by the oracle but not yet passed to
+/// the planner.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
     /// Which suite to run.

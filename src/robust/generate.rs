@@ -142,6 +142,11 @@ pub enum Dist {
 /// The eight families, in the order the generator cycles through them.
 pub const FAMILIES: [&str; 8] = ["uniform", "normal", "beta", "gamma", "exponential", "laplace", "discrete", "moments"];
 
+/// Only every MOMENTS_SCENE_EVERY-th scene (by index) uses `moments` parameters, so
+/// that most plans are audited by the crate's own Monte Carlo (which cannot sample
+/// them) and the rest by the runner's audit of the true distributions.
+pub const MOMENTS_SCENE_EVERY: usize = 4;
+
 /// Raw moments listed for a `moments` parameter: six (the oracle's 3-node rule needs
 /// five; the format needs 2·degree = 4).
 pub const MOMENTS_LISTED: usize = 6;
@@ -672,6 +677,8 @@ fn draw_dist(rng: &mut ChaCha12Rng, family: &str) -> Dist {
 struct Builder<'a> {
     rng: &'a mut ChaCha12Rng,
     family_counter: usize,
+    /// Whether this scene may use `moments` parameters (see [`MOMENTS_SCENE_EVERY`]).
+    allow_moments: bool,
     obstacle: usize,
     params: Vec<ParamSpec>,
 }
@@ -683,8 +690,12 @@ impl Builder<'_> {
         if sd == 0.0 || self.params.len() >= 3 {
             return Unc::fixed(mean);
         }
-        let family = FAMILIES[self.family_counter % FAMILIES.len()];
+        let mut family = FAMILIES[self.family_counter % FAMILIES.len()];
         self.family_counter += 1;
+        if family == "moments" && !self.allow_moments {
+            family = FAMILIES[self.family_counter % FAMILIES.len()];
+            self.family_counter += 1;
+        }
         let dist = draw_dist(self.rng, family);
         let (m, s) = dist.mean_sd();
         let scale = q(sd / s);
@@ -706,6 +717,8 @@ struct ObstaclePlan {
     rel_sd: f64,
     /// semi-axes for ellipsoids (overrides random ones)
     axes: Option<Vec<f64>>,
+    /// may use `moments` parameters
+    allow_moments: bool,
 }
 
 fn build_obstacle(
@@ -742,7 +755,8 @@ fn build_obstacle(
     let a: Vec<f64> = acc.iter().map(|x| q(*x)).collect();
     let motion = Motion { kind: p.motion, c0, v, a };
 
-    let mut b = Builder { rng, family_counter: *family_counter, obstacle: index, params: vec![] };
+    let allow_moments = p.allow_moments;
+    let mut b = Builder { rng, family_counter: *family_counter, allow_moments, obstacle: index, params: vec![] };
     let s = p.size;
     let rel = p.rel_sd;
     let (shape, bound, feature) = match p.shape {
@@ -883,6 +897,7 @@ pub fn generate(seed: u64, index: usize) -> GeneratedScene {
     let times: Vec<f64> =
         (0..CLEARANCE_TIMES).map(|k| horizon.0 + len * k as f64 / (CLEARANCE_TIMES - 1) as f64).collect();
     let mut family_counter = index * 3;
+    let allow_moments = index % MOMENTS_SCENE_EVERY == 0;
     let mut obstacles: Vec<ObstacleSpec> = vec![];
     let n_max = if dim == 2 { 8 } else { 6 };
     let n_random = rng.random_range(1..=n_max);
@@ -902,6 +917,7 @@ pub fn generate(seed: u64, index: usize) -> GeneratedScene {
                 travel: min_side * 0.2,
                 rel_sd: 0.03,
                 axes: None,
+                allow_moments,
             };
             let mut o = build_obstacle(rng, &mut family_counter, 0, &plan, horizon);
             // re-anchor so that c(t) = p exactly at the endpoint's time
@@ -943,6 +959,7 @@ pub fn generate(seed: u64, index: usize) -> GeneratedScene {
                     travel: 0.0,
                     rel_sd: 0.02,
                     axes: Some(axes),
+                    allow_moments,
                 };
                 let o = build_obstacle(rng, &mut family_counter, obstacles.len(), &plan, horizon);
                 obstacles.push(o);
@@ -991,7 +1008,7 @@ pub fn generate(seed: u64, index: usize) -> GeneratedScene {
         let travel = min_side * unif(rng, 0.1, 0.5);
         for _ in 0..PLACEMENT_TRIES {
             let centre: Vec<f64> = (0..dim).map(|d| unif(rng, lower[d], upper[d])).collect();
-            let plan = ObstaclePlan { shape, size, centre, motion, travel, rel_sd, axes: None };
+            let plan = ObstaclePlan { shape, size, centre, motion, travel, rel_sd, axes: None, allow_moments };
             let mut fc = family_counter;
             let o = build_obstacle(rng, &mut fc, obstacles.len(), &plan, horizon);
             let margin = ENDPOINT_CLEARANCE * min_side;
@@ -1045,7 +1062,7 @@ mod tests {
         let mut motions = BTreeSet::new();
         let mut intents = BTreeSet::new();
         let (mut wmin, mut wmax) = (f64::INFINITY, 0.0f64);
-        let (mut speed, mut feasible, mut two_d) = (0, 0, 0);
+        let (mut speed, mut feasible, mut two_d, mut moments_scenes) = (0, 0, 0, 0);
         for i in 0..SUITE {
             let g = generate(1, i);
             let text = g.json();
@@ -1065,6 +1082,7 @@ mod tests {
             intents.insert(format!("{:?}", g.intent));
             feasible += g.intent.feasible() as usize;
             speed += g.max_speed.is_some() as usize;
+            moments_scenes += g.has_moments_param() as usize;
             wmin = wmin.min(g.width());
             wmax = wmax.max(g.width());
             for d in 0..g.dim {
@@ -1081,6 +1099,7 @@ mod tests {
         assert!((90..=106).contains(&feasible), "{feasible}");
         assert!((15..=45).contains(&speed), "{speed}");
         assert!((60..=100).contains(&two_d), "{two_d}");
+        assert!((10..=SUITE / MOMENTS_SCENE_EVERY).contains(&moments_scenes), "{moments_scenes}");
     }
 
     /// The structured P and the polynomial text agree (evaluated by the crate's parser

@@ -16,7 +16,8 @@
 //! A* search over the 8-/26-connected graph. *Feasible* needs clearance: every cell of
 //! the path and all its neighbours safe at the tightened level Δ·[`TIGHT_FACTOR`],
 //! every edge safe at that level at [`EDGE_SUBSTEPS`] − 1 interior points, and the
-//! straight connections from start and goal to their cells safe at ≥
+//! straight connections from start and goal to cells up to [`CONNECTION_REACH`] cells
+//! away safe at level Δ (the endpoints themselves need only Δ) at ≥
 //! [`CONNECTION_SAMPLES`] points. *Infeasible* when start or goal is unsafe at Δ
 //! ([`InfeasibleReason::EndpointUnsafe`]), or when no path exists even in the graph of
 //! cells safe at the relaxed level min(Δ·[`RELAX_FACTOR`], [`RELAX_CAP`]) with no
@@ -25,7 +26,9 @@
 //! max_speed·(t_f − t₀) (it is timed at constant speed).
 //!
 //! **Moving obstacles**: a time-expanded grid: [`MOVING_CELLS_2D`] / [`MOVING_CELLS_3D`]
-//! cells on the longest side and [`LAYERS`] time layers over the horizon. A move goes
+//! cells on the longest side and [`LAYERS`] time layers over the horizon (enough that
+//! no obstacle moves more than a cell per layer and, without a speed limit, that the
+//! strict reach covers [`LAYER_SLACK`] times the start–goal distance, within the range). A move goes
 //! from a cell at layer k to a cell at layer k+1 (staying included) whose centre is
 //! within max_speed·dt (scenes with a speed limit) — without a limit within half the
 //! workspace diagonal per layer, the "generous reach" — and, for the strict search, at
@@ -72,6 +75,12 @@ pub const EDGE_SUBSTEPS: usize = 4;
 pub const REACH_CAP_2D: i64 = 3;
 /// Largest strict-search move per layer in cells per axis, 3-D.
 pub const REACH_CAP_3D: i64 = 2;
+/// Static scenes: start and goal connect to allowed cells up to this many cells (per
+/// axis) from their own cell.
+pub const CONNECTION_REACH: i64 = 2;
+/// Without a speed limit, enough layers that the strict search's reach (the cap per
+/// layer) covers this multiple of the start–goal distance in cells (detours).
+pub const LAYER_SLACK: f64 = 1.6;
 /// Smallest number of check points on a straight connection from start or goal.
 pub const CONNECTION_SAMPLES: usize = 16;
 /// Default budget of fresh point classifications of one strict search; beyond it the
@@ -313,13 +322,15 @@ impl<'a> Model<'a> {
             .map(|o| o.spec.id.clone())
     }
 
-    /// Whether the straight motion from (a, ta) to (b, tb) is safe at the tightened level
-    /// at `n` + 1 evenly spaced points, ends included.
-    fn segment_tight(&mut self, a: &[f64], ta: f64, b: &[f64], tb: f64, n: usize) -> bool {
+    /// Whether the straight motion from an endpoint (a, ta) to a cell centre (b, tb) is
+    /// safe at level Δ at `n` + 1 evenly spaced points, ends included. Level Δ, not the
+    /// tightened one: the endpoint itself need only be safe at Δ, and the cell it
+    /// connects to is checked with clearance at the tightened level.
+    fn connection_safe(&mut self, a: &[f64], ta: f64, b: &[f64], tb: f64, n: usize) -> bool {
         (0..=n).all(|j| {
             let s = j as f64 / n as f64;
             let x: Vec<f64> = a.iter().zip(b).map(|(a, b)| a + s * (b - a)).collect();
-            self.mask(&x, ta + s * (tb - ta)) & SAFE_TIGHT != 0
+            self.mask(&x, ta + s * (tb - ta)) & SAFE_DELTA != 0
         })
     }
 }
@@ -525,8 +536,13 @@ fn resolution(g: &GeneratedScene) -> (usize, usize) {
                 .sum::<f64>()
         })
         .fold(0.0, f64::max);
-    let layers = ((travel / h).ceil() as usize).clamp(LAYERS.0, LAYERS.1);
-    (cells, layers)
+    let mut layers = (travel / h).ceil();
+    if g.max_speed.is_none() {
+        let cap = if g.dim == 2 { REACH_CAP_2D } else { REACH_CAP_3D } as f64;
+        let cheb = g.start.iter().zip(&g.goal).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / h;
+        layers = layers.max((LAYER_SLACK * cheb / cap).ceil());
+    }
+    (cells, (layers as usize).clamp(LAYERS.0, LAYERS.1))
 }
 
 fn judge_static(
@@ -548,14 +564,14 @@ fn judge_static(
     let connect = |grid: &mut Grid, m: &mut Model<'_>, p: &[f64]| -> Vec<(usize, f64)> {
         let c = grid.cell_of(p);
         let mut out = vec![];
-        for off in offsets(g.dim, 1, true) {
+        for off in offsets(g.dim, CONNECTION_REACH, true) {
             let j: Vec<i64> = c.iter().zip(&off).map(|(a, b)| a + b).collect();
             if !grid.in_bounds(&j) || !grid.allowed(m, &j, 0, &around) {
                 continue;
             }
             let x = grid.centre(&j);
             let len = dist(p, &x);
-            if m.segment_tight(p, t0, &x, t0, conn(len)) {
+            if m.connection_safe(p, t0, &x, t0, conn(len)) {
                 out.push((grid.id(&j), len));
             }
         }
@@ -787,7 +803,7 @@ fn moving_search(
         let len = dist(&g.start, &x);
         if (limit && len > reach)
             || !grid.allowed(m, &j, 1, around)
-            || !m.segment_tight(&g.start, t0, &x, t0 + dt, conn(len))
+            || !m.connection_safe(&g.start, t0, &x, t0 + dt, conn(len))
         {
             continue;
         }
@@ -806,7 +822,9 @@ fn moving_search(
         if k == k_last - 1 {
             // last move: cell → goal at tf
             let len = dist(&x, &g.goal);
-            if (!limit || len <= reach) && cheb(&i, &gcell) <= r && m.segment_tight(&x, tf - dt, &g.goal, tf, conn(len))
+            if (!limit || len <= reach)
+                && cheb(&i, &gcell) <= r
+                && m.connection_safe(&x, tf - dt, &g.goal, tf, conn(len))
             {
                 let mut states = vec![s];
                 while let Some(&p) = parent.get(states.last().unwrap_or(&s)) {
