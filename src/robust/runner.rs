@@ -85,7 +85,8 @@ impl PlanRecord {
 #[derive(Clone, Debug, Serialize)]
 pub struct AuditRecord {
     /// `crate` (`verify::audit_trajectory`) or `own` (sampling the true distributions
-    /// of a scene with a `moments` parameter).
+    /// of a scene with a `moments` parameter): which audit `max_estimate` and
+    /// `over_delta` come from.
     pub method: &'static str,
     /// Largest estimated risk at one point for one obstacle.
     pub max_estimate: f64,
@@ -95,6 +96,19 @@ pub struct AuditRecord {
     pub samples: u64,
     /// Why no audit was made (an error).
     pub error: Option<String>,
+    /// The runner's own audit ([`own_audit`]: true distributions, P evaluated from the
+    /// structure, same points), made for every plan as a cross-check: its largest
+    /// estimate.
+    pub own_max_estimate: f64,
+    /// The own audit's verdict (lower bound over Δ somewhere).
+    pub own_over_delta: bool,
+}
+
+impl AuditRecord {
+    /// The crate's audit and the own audit disagree about "over Δ".
+    pub fn disagree(&self) -> bool {
+        self.method == "crate" && self.error.is_none() && self.over_delta != self.own_over_delta
+    }
 }
 
 /// Exact versus SOS certification of a plan's pieces.
@@ -153,6 +167,8 @@ pub struct SceneRecord {
     pub audit: Option<AuditRecord>,
     /// Exact versus SOS.
     pub certify: Option<CertifyRecord>,
+    /// The planned trajectory (to reproduce the audit and the certification).
+    pub trajectory: Option<Trajectory>,
     /// The scene JSON (to reproduce).
     pub scene: Value,
 }
@@ -222,6 +238,7 @@ pub fn run_scene(g: &GeneratedScene, o: &RunOptions) -> SceneRecord {
         plan: None,
         audit: None,
         certify: None,
+        trajectory: None,
         scene: g.json_value(),
     };
     let t = Instant::now();
@@ -266,6 +283,7 @@ pub fn run_scene(g: &GeneratedScene, o: &RunOptions) -> SceneRecord {
     if let Some(tr) = traj {
         rec.audit = Some(audit(g, &scene, &tr, o));
         rec.certify = certify_counts(g, &scene, &tr);
+        rec.trajectory = Some(tr);
     }
     rec
 }
@@ -297,6 +315,7 @@ fn audit_points(tr: &Trajectory, n: usize) -> Vec<(Vec<f64>, f64)> {
 }
 
 fn audit(g: &GeneratedScene, scene: &Scene, tr: &Trajectory, o: &RunOptions) -> AuditRecord {
+    let (own_max_estimate, own_over_delta) = own_audit(&g.obstacles, g.delta, &audit_points(tr, o.audit_times), o);
     if !g.has_moments_param() {
         let opts = AuditOptions {
             times_per_piece: o.audit_times,
@@ -311,6 +330,8 @@ fn audit(g: &GeneratedScene, scene: &Scene, tr: &Trajectory, o: &RunOptions) -> 
                 over_delta: a.exceeds(),
                 samples: o.audit_samples,
                 error: None,
+                own_max_estimate,
+                own_over_delta,
             },
             Err(e) => AuditRecord {
                 method: "crate",
@@ -318,11 +339,20 @@ fn audit(g: &GeneratedScene, scene: &Scene, tr: &Trajectory, o: &RunOptions) -> 
                 over_delta: false,
                 samples: o.audit_samples,
                 error: Some(e.to_string()),
+                own_max_estimate,
+                own_over_delta,
             },
         };
     }
-    let (max_estimate, over_delta) = own_audit(&g.obstacles, g.delta, &audit_points(tr, o.audit_times), o);
-    AuditRecord { method: "own", max_estimate, over_delta, samples: o.audit_samples, error: None }
+    AuditRecord {
+        method: "own",
+        max_estimate: own_max_estimate,
+        over_delta: own_over_delta,
+        samples: o.audit_samples,
+        error: None,
+        own_max_estimate,
+        own_over_delta,
+    }
 }
 
 /// Monte Carlo audit from the generator's true distributions and structured P: the
@@ -414,6 +444,8 @@ fn row(label: &str, rs: &[&SceneRecord]) -> String {
     let times: Vec<f64> = rs.iter().filter(planned).filter_map(|r| r.plan.as_ref().map(|p| p.time_s)).collect();
     let audited: Vec<&AuditRecord> = rs.iter().filter_map(|r| r.audit.as_ref()).collect();
     let over = audited.iter().filter(|a| a.over_delta).count();
+    let own_over = audited.iter().filter(|a| a.own_over_delta).count();
+    let disagree = audited.iter().filter(|a| a.disagree()).count();
     let infeasible: Vec<&&SceneRecord> = rs.iter().filter(|r| r.label() == "infeasible").collect();
     let typed = infeasible.iter().filter(|r| r.plan.as_ref().is_some_and(|p| p.typed_refusal())).count();
     let deadline = infeasible
@@ -429,7 +461,7 @@ fn row(label: &str, rs: &[&SceneRecord]) -> String {
     let fmt = |v: Option<f64>| v.map(|x| format!("{x:.2}")).unwrap_or_else(|| "–".into());
     let maxt = times.iter().cloned().reduce(f64::max);
     format!(
-        "| {label} | {} | {feas} | {infeas} | {amb}{} | {plans_on_feasible}/{feas}{pct} | {} | {} | {over}/{} | {typed}/{} ({deadline} deadline) | {planned_infeasible} | {exact}/{pieces} | {sos}/{exact} |",
+        "| {label} | {} | {feas} | {infeas} | {amb}{} | {plans_on_feasible}/{feas}{pct} | {} | {} | {over}/{} | {own_over} ({disagree}) | {typed}/{} ({deadline} deadline) | {planned_infeasible} | {exact}/{pieces} | {sos}/{exact} |",
         rs.len(),
         if err > 0 { format!(" (+{err} oracle errors)") } else { String::new() },
         fmt(median(times)),
@@ -445,8 +477,8 @@ type Group = (String, Box<dyn Fn(&SceneRecord) -> bool>);
 /// The Markdown summary of a suite run.
 pub fn summary_table(records: &[SceneRecord]) -> String {
     let mut out = vec![
-        "| class | scenes | feasible | infeasible | ambiguous | plans among feasible (target ≥ 95 %) | median plan time (s) | max plan time (s) | plans over Δ (target 0) | infeasible with typed refusal (target all) | plans on infeasible | pieces exact-certified, rel. margin ≥ 1e-4 | of those SOS-certified |".to_string(),
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
+        "| class | scenes | feasible | infeasible | ambiguous | plans among feasible (target ≥ 95 %) | median plan time (s) | max plan time (s) | plans over Δ (target 0) | own audit over Δ (disagreeing) | infeasible with typed refusal (target all) | plans on infeasible | pieces exact-certified, rel. margin ≥ 1e-4 | of those SOS-certified |".to_string(),
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
     ];
     let all: Vec<&SceneRecord> = records.iter().collect();
     out.push(row("all", &all));
@@ -506,7 +538,10 @@ pub fn summary_table(records: &[SceneRecord]) -> String {
     }
     out.push(
         "A typed refusal is a `PlanError` or the planner's limits spent (`Exhausted`); a deadline is not one. \
-         Plans over Δ: the audit's Clopper–Pearson lower bound (99 %) exceeds Δ at some point for some obstacle."
+         Plans over Δ: the audit's Clopper–Pearson lower bound (99 %) exceeds Δ at some point for some obstacle \
+         (the crate's `audit_trajectory`, or the own audit for scenes with a `moments` parameter); the own audit \
+         (true distributions, P evaluated from the generator's structure, never expanded) is run on every plan \
+         as a cross-check, with the count of plans where the two disagree."
             .into(),
     );
     out.join("\n")
