@@ -33,6 +33,8 @@ pub mod mc;
 pub mod moments;
 pub mod plan;
 pub mod poly;
+#[cfg(feature = "cli")]
+pub mod robust;
 pub mod scene;
 pub mod sdp;
 #[cfg(feature = "proto")]

@@ -1,44 +1,79 @@
-//! `riskplan bench`: planners as experiments (after OMPL's Benchmark): every planning
-//! scene × planner × seed, with the paper's times beside ours and a Monte Carlo audit
-//! of each returned plan. Prints a Markdown table and writes JSON lines.
+//! `riskplan bench`: planners as experiments (after OMPL's Benchmark). Two suites:
+//! `paper` — every planning scene × planner × seed, with the paper's times beside ours
+//! and a Monte Carlo audit of each returned plan; `robustness` — generated scenes
+//! judged by an independent oracle, planned with the default options, audited and
+//! certified (`riskplan::robust`). Each prints a Markdown table and writes JSON lines.
 
 use super::util::{load_scene, print_out, time_limit_arg, CliError};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use riskplan::app::{PlanRequest, PlannerKind};
+use riskplan::robust::{generate, run_scene, summary_table, OracleOptions, RunOptions};
 use riskplan::verify::{audit_trajectory, AuditOptions};
 use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// Benchmark the planners on the reference planning scenes.
+/// Which benchmark suite.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Suite {
+    /// The paper's reference planning scenes (scenes/), every planner, several seeds.
+    Paper,
+    /// Generated scenes (2-D/3-D, static/moving, every distribution, intentionally
+    /// infeasible ones) judged by an independent oracle, planned with default options.
+    Robustness,
+}
+
+/// Benchmark the planners: on the paper's reference scenes, or on a generated
+/// robustness suite.
 ///
-/// For each scene with a start and goal: rrt-sos (time to a feasible plan; on static
-/// scenes also with the improve step) and the Monte Carlo baseline mc-rrt, over
-/// --seeds seeds; medians are reported next to the paper's run times. Every plan is
-/// audited by Monte Carlo: the largest estimated probability of collision with any
-/// obstacle at --audit-times times per piece (--audit-samples scenarios), and the
-/// count of plans whose Clopper–Pearson lower bound (99%) exceeds Δ.
+/// --suite paper (default): for each scene of --scenes with a start and goal: rrt-sos
+/// (time to a feasible plan; on static scenes also with the improve step) and the Monte
+/// Carlo baseline mc-rrt, over --seeds seeds; medians are reported next to the paper's
+/// run times. Every plan is audited by Monte Carlo: the largest estimated probability of
+/// collision with any obstacle at --audit-times times per piece (--audit-samples
+/// scenarios), and the count of plans whose Clopper–Pearson lower bound (99%) exceeds Δ.
+///
+/// --suite robustness: --count scenes generated from --suite-seed (2-D and 3-D, widths
+/// 1–100 anywhere within ±1000, static and moving obstacles, disks, ellipses and
+/// nonconvex quartics, every distribution family, about 18 % intentionally infeasible).
+/// Each is judged feasible / infeasible / ambiguous by an oracle independent of the
+/// crate's moment and certification code (a clearance grid search at Δ/2, a relaxed
+/// connectivity check at 1.5·Δ), then planned by rrt-sos with default options, its plan
+/// audited by Monte Carlo (the generator's true distributions for `moments`
+/// parameters) and its pieces certified by the exact and the SOS method. Prints a
+/// summary by scene class; one JSON line per scene (with the scene) goes to --out. The
+/// scenes' speed limits (planner.max_speed) are used by the oracle but not yet passed to
+/// the planner.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// Directory of scene files (default: the paper's experiments in the repository's scenes/).
+    /// Which suite to run.
+    #[arg(long, value_enum, default_value_t = Suite::Paper)]
+    suite: Suite,
+    /// Directory of scene files (paper suite; default: the paper's experiments in the repository's scenes/).
     #[arg(long, default_value = "scenes")]
     scenes: PathBuf,
-    /// Seeds per planner and scene.
+    /// Seeds per planner and scene (paper suite).
     #[arg(long, default_value_t = 5)]
     seeds: u64,
-    /// Time limit per run, seconds.
-    #[arg(long, default_value_t = 60.0)]
-    time_limit: f64,
-    /// Monte Carlo scenarios per audited point.
-    #[arg(long, default_value_t = 20_000)]
-    audit_samples: u64,
-    /// Audited times per piece.
-    #[arg(long, default_value_t = 50)]
-    audit_times: usize,
-    /// JSON lines of every run.
-    #[arg(long, default_value = "bench-planners.jsonl")]
-    out: PathBuf,
+    /// Generated scenes (robustness suite).
+    #[arg(long, default_value_t = 120)]
+    count: usize,
+    /// Seed of the generated scenes (robustness suite); scene i of a seed is always the same.
+    #[arg(long, default_value_t = 1)]
+    suite_seed: u64,
+    /// Time limit per run, seconds [default: 60 for the paper suite, 10 per scene for robustness].
+    #[arg(long)]
+    time_limit: Option<f64>,
+    /// Monte Carlo scenarios per audited point [default: 20000 paper, 4000 robustness].
+    #[arg(long)]
+    audit_samples: Option<u64>,
+    /// Audited times per piece [default: 50 paper, 20 robustness].
+    #[arg(long)]
+    audit_times: Option<usize>,
+    /// JSON lines of every run [default: bench-planners.jsonl, or bench-robustness.jsonl].
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 fn median(mut v: Vec<f64>) -> Option<f64> {
@@ -62,25 +97,92 @@ fn host() -> String {
 }
 
 pub fn run(a: BenchArgs) -> Result<i32, CliError> {
-    let time_limit = time_limit_arg(a.time_limit)?;
+    match a.suite {
+        Suite::Paper => run_paper(a),
+        Suite::Robustness => run_robustness(a),
+    }
+}
+
+fn git_rev() -> String {
+    std::process::Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default()
+}
+
+fn run_robustness(a: BenchArgs) -> Result<i32, CliError> {
+    let seconds = a.time_limit.unwrap_or(10.0);
+    let opts = RunOptions {
+        time_limit: time_limit_arg(seconds)?,
+        audit_samples: a.audit_samples.unwrap_or(4000),
+        audit_times: a.audit_times.unwrap_or(20),
+        audit_seed: 7,
+        oracle: OracleOptions::default(),
+    };
+    let out = a.out.unwrap_or_else(|| PathBuf::from("bench-robustness.jsonl"));
+    let mut log = std::fs::File::create(&out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
+    let (host, rev) = (host(), git_rev());
+    let t_gen = std::time::Instant::now();
+    let scenes: Vec<_> = (0..a.count).map(|i| generate(a.suite_seed, i)).collect();
+    let gen_s = t_gen.elapsed().as_secs_f64();
+    let mut records = Vec::with_capacity(scenes.len());
+    for g in &scenes {
+        let rec = run_scene(g, &opts);
+        let plan = rec.plan.as_ref();
+        eprintln!(
+            "[{}/{}] {} {}-D {} {}: oracle {} ({:.2} s); plan {} ({:.2} s){}",
+            g.index + 1,
+            a.count,
+            g.name,
+            g.dim,
+            if rec.moving { "moving" } else { "static" },
+            rec.shape_mix,
+            rec.label(),
+            rec.oracle.as_ref().map(|o| o.time_s).unwrap_or(0.0),
+            if plan.is_some_and(|p| p.planned) { "found" } else { "none" },
+            plan.map(|p| p.time_s).unwrap_or(0.0),
+            rec.audit.as_ref().filter(|a| a.over_delta).map(|_| " OVER Δ").unwrap_or(""),
+        );
+        let mut v = serde_json::to_value(&rec).map_err(|e| CliError(e.to_string()))?;
+        v["host"] = json!(host);
+        v["git"] = json!(rev);
+        v["time_limit_s"] = json!(seconds);
+        writeln!(log, "{v}").map_err(|e| CliError(e.to_string()))?;
+        records.push(rec);
+    }
+    let oracle_s: f64 = records.iter().filter_map(|r| r.oracle.as_ref()).map(|o| o.time_s).sum();
+    let header = format!(
+        "Host: {host}; git {rev}; robustness suite seed {}, {} scenes; time limit {seconds} s; audit {} scenarios × {} times per piece; generation {gen_s:.2} s, oracle {oracle_s:.2} s in total.\n",
+        a.suite_seed,
+        a.count,
+        opts.audit_samples,
+        opts.audit_times
+    );
+    print_out(&(header + &summary_table(&records)))?;
+    Ok(0)
+}
+
+fn run_paper(a: BenchArgs) -> Result<i32, CliError> {
+    let time_limit_s = a.time_limit.unwrap_or(60.0);
+    let audit_samples = a.audit_samples.unwrap_or(20_000);
+    let audit_times = a.audit_times.unwrap_or(50);
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("bench-planners.jsonl"));
+    let time_limit = time_limit_arg(time_limit_s)?;
     let mut files: Vec<PathBuf> = std::fs::read_dir(&a.scenes)
         .map_err(|e| CliError(format!("--scenes {}: {e}", a.scenes.display())))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "json"))
         .collect();
     files.sort();
-    let mut log = std::fs::File::create(&a.out).map_err(|e| CliError(format!("{}: {e}", a.out.display())))?;
+    let mut log = std::fs::File::create(&out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
     let host = host();
-    let rev = std::process::Command::new("git")
-        .args(["rev-parse", "--short", "HEAD"])
-        .output()
-        .ok()
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-        .unwrap_or_default();
+    let rev = git_rev();
     let mut table = vec![
         format!(
             "Host: {host}; git {rev}; {} seeds; time limit {} s; audit {} scenarios × {} times per piece.",
-            a.seeds, a.time_limit, a.audit_samples, a.audit_times
+            a.seeds, time_limit_s, audit_samples, audit_times
         ),
         String::new(),
         "| scene | planner | solved | median time (s) | paper (s) | median length | max MC risk | plans over Δ (99%) |"
@@ -109,14 +211,14 @@ pub fn run(a: BenchArgs) -> Result<i32, CliError> {
             for seed in 1..=a.seeds {
                 let request = PlanRequest { planner, improve, seed, time_limit, ..PlanRequest::default() };
                 let (_, out) = request.run(scene.clone(), None).map_err(|e| CliError(e.to_string()))?;
-                let mut rec = json!({"scene": scene.name, "planner": label, "seed": seed, "host": host, "git": rev, "time_limit_s": a.time_limit, "status": out.status, "certified": out.certified, "stats": out.stats});
+                let mut rec = json!({"scene": scene.name, "planner": label, "seed": seed, "host": host, "git": rev, "time_limit_s": time_limit_s, "status": out.status, "certified": out.certified, "stats": out.stats});
                 if let Some(t) = &out.trajectory {
                     solved += 1;
                     times.push(out.stats.planning_time_s);
                     lens.push(out.stats.path_length.unwrap_or(f64::NAN));
                     let opts = AuditOptions {
-                        times_per_piece: a.audit_times,
-                        samples: a.audit_samples,
+                        times_per_piece: audit_times,
+                        samples: audit_samples,
                         seed: 7 + seed,
                         ..AuditOptions::default()
                     };
@@ -125,7 +227,7 @@ pub fn run(a: BenchArgs) -> Result<i32, CliError> {
                     let (w, ex) = (audit.max_estimate, audit.exceeds());
                     worst = worst.max(w);
                     over += ex as usize;
-                    rec["audit"] = json!({"max_risk_estimate": w, "exceeds_delta_99": ex, "samples": a.audit_samples});
+                    rec["audit"] = json!({"max_risk_estimate": w, "exceeds_delta_99": ex, "samples": audit_samples});
                 }
                 writeln!(log, "{rec}").map_err(|e| CliError(e.to_string()))?;
             }

@@ -1,0 +1,548 @@
+//! The robustness suite's runner: per scene the oracle's judgement, a plan with the
+//! default options, a Monte Carlo audit of the plan, and the exact-versus-SOS
+//! certification counts; then a Markdown summary. Pure computation: the CLI
+//! (`riskplan bench --suite robustness`) writes the records and prints the table.
+
+use super::generate::{GeneratedScene, ObstacleSpec};
+use super::oracle::{judge, InfeasibleReason, Judgement, ObstacleMoments, OracleOptions, OracleReport};
+use crate::app::{no_plan_reason, PlanRequest};
+use crate::mc::clopper_pearson;
+use crate::plan::{PlanError, PlanStatus};
+use crate::scene::{Scene, Trajectory};
+use crate::verify::{audit_trajectory, verify, AuditOptions, Method, Status};
+use rand::SeedableRng;
+use rand_chacha::ChaCha12Rng;
+use serde::Serialize;
+use serde_json::Value;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// A piece counts as certified "with margin" when every constraint's proven margin,
+/// relative to the constraint's value scale on the piece, is at least this.
+pub const RELATIVE_MARGIN: f64 = 1e-4;
+/// Times per piece at which the value scale of a constraint is sampled: the scale is
+/// the largest |value| of the constraint (−E[P], or E[P]² − (1−Δ)E[P²]) at these
+/// evenly spaced times, computed by the oracle's quadrature (a proxy for the size of
+/// the restricted polynomial's coefficients).
+pub const SCALE_SAMPLES: usize = 9;
+/// Two-sided confidence of the audits' Clopper–Pearson intervals: the lower end is a
+/// one-sided 99 % bound.
+pub const AUDIT_CONFIDENCE: f64 = 0.98;
+
+/// How to run the suite.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunOptions {
+    /// Planner time limit per scene.
+    pub time_limit: Duration,
+    /// Monte Carlo scenarios per audited point.
+    pub audit_samples: u64,
+    /// Audited times per piece.
+    pub audit_times: usize,
+    /// Seed of the audits' scenarios.
+    pub audit_seed: u64,
+    /// Oracle options.
+    pub oracle: OracleOptions,
+}
+
+/// The oracle's part of a record.
+#[derive(Clone, Debug, Serialize)]
+pub struct OracleRecord {
+    /// The report (judgement, grid, evaluations).
+    #[serde(flatten)]
+    pub report: OracleReport,
+    /// Wall time, seconds.
+    pub time_s: f64,
+}
+
+/// The planner's part of a record.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct PlanRecord {
+    /// A trajectory was returned.
+    pub planned: bool,
+    /// Wall time of the request, seconds.
+    pub time_s: f64,
+    /// The outcome's status (no error).
+    pub status: Option<PlanStatus>,
+    /// The `PlanError` variant, if the request was refused.
+    pub error_kind: Option<String>,
+    /// The refusal or no-plan reason, as text.
+    pub reason: Option<String>,
+    /// Length of the path.
+    pub path_length: Option<f64>,
+    /// Pieces of the trajectory.
+    pub pieces: usize,
+}
+
+impl PlanRecord {
+    /// A definite typed refusal: a `PlanError`, or the planner's own limits spent
+    /// (`Exhausted`); running into the deadline is not a reason.
+    pub fn typed_refusal(&self) -> bool {
+        !self.planned && (self.error_kind.is_some() || self.status == Some(PlanStatus::Exhausted))
+    }
+}
+
+/// The audit of a plan.
+#[derive(Clone, Debug, Serialize)]
+pub struct AuditRecord {
+    /// `crate` (`verify::audit_trajectory`) or `own` (sampling the true distributions
+    /// of a scene with a `moments` parameter): which audit `max_estimate` and
+    /// `over_delta` come from.
+    pub method: &'static str,
+    /// Largest estimated risk at one point for one obstacle.
+    pub max_estimate: f64,
+    /// Some point's Clopper–Pearson lower bound (99 %) exceeds Δ.
+    pub over_delta: bool,
+    /// Scenarios per point.
+    pub samples: u64,
+    /// Why no audit was made (an error).
+    pub error: Option<String>,
+    /// The runner's own audit ([`own_audit`]: true distributions, P evaluated from the
+    /// structure, same points), made for every plan as a cross-check: its largest
+    /// estimate.
+    pub own_max_estimate: f64,
+    /// The own audit's verdict (lower bound over Δ somewhere).
+    pub own_over_delta: bool,
+}
+
+impl AuditRecord {
+    /// The crate's audit and the own audit disagree about "over Δ".
+    pub fn disagree(&self) -> bool {
+        self.method == "crate" && self.error.is_none() && self.over_delta != self.own_over_delta
+    }
+}
+
+/// Exact versus SOS certification of a plan's pieces.
+#[derive(Clone, Debug, Serialize)]
+pub struct CertifyRecord {
+    /// Pieces.
+    pub pieces: usize,
+    /// Pieces the exact method certifies with relative margin ≥ [`RELATIVE_MARGIN`].
+    pub exact_with_margin: usize,
+    /// Of those, pieces the SOS method certifies too.
+    pub sos_also: usize,
+    /// Smallest relative margin over the exact-certified pieces.
+    pub min_relative_margin: Option<f64>,
+    /// Wall time of both verifications, seconds.
+    pub time_s: f64,
+}
+
+/// Everything about one scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneRecord {
+    /// Index in the suite.
+    pub index: usize,
+    /// Suite seed.
+    pub seed: u64,
+    /// Scene name.
+    pub name: String,
+    /// 2 or 3.
+    pub dim: usize,
+    /// Some obstacle moves.
+    pub moving: bool,
+    /// Shape classes present.
+    pub shape_mix: String,
+    /// Largest workspace side.
+    pub width: f64,
+    /// Width band label.
+    pub width_band: &'static str,
+    /// Obstacles.
+    pub obstacles: usize,
+    /// Δ.
+    pub delta: f64,
+    /// Speed limit.
+    pub max_speed: Option<f64>,
+    /// Has a `moments` parameter.
+    pub moments_param: bool,
+    /// The generator's intent.
+    pub intent: super::generate::Intent,
+    /// The scene failed to load (a generator or parser bug).
+    pub load_error: Option<String>,
+    /// The oracle (None if it failed: see `oracle_error`).
+    pub oracle: Option<OracleRecord>,
+    /// Why the oracle failed.
+    pub oracle_error: Option<String>,
+    /// The plan.
+    pub plan: Option<PlanRecord>,
+    /// The audit of the plan.
+    pub audit: Option<AuditRecord>,
+    /// Exact versus SOS.
+    pub certify: Option<CertifyRecord>,
+    /// The planned trajectory (to reproduce the audit and the certification).
+    pub trajectory: Option<Trajectory>,
+    /// The scene JSON (to reproduce).
+    pub scene: Value,
+}
+
+impl SceneRecord {
+    /// The oracle's label (`feasible`, `infeasible`, `ambiguous`, or `error`).
+    pub fn label(&self) -> &'static str {
+        self.oracle.as_ref().map(|o| o.report.judgement.label()).unwrap_or("error")
+    }
+}
+
+/// Width bands of the summary.
+pub fn width_band(w: f64) -> &'static str {
+    if w < 3.0 {
+        "width 1–3"
+    } else if w < 10.0 {
+        "width 3–10"
+    } else if w < 30.0 {
+        "width 10–30"
+    } else {
+        "width 30–100"
+    }
+}
+
+/// Whether [`plan_request`] passes the scene's speed limit to the planner (not yet: the
+/// request has no such field).
+pub const SPEED_LIMIT_PASSED: bool = false;
+
+/// The plan request of a generated scene: default options and the time limit.
+pub fn plan_request(g: &GeneratedScene, time_limit: Duration) -> PlanRequest {
+    // MAX_SPEED: `PlanRequest` has no speed-limit field yet (another engineer is adding
+    // `planner.max_speed` to the scene format). When it exists, pass `g.max_speed` here
+    // — this is the one place to change; until then the planner ignores the limit.
+    let _ = g.max_speed;
+    PlanRequest { time_limit, ..Default::default() }
+}
+
+fn error_kind(e: &PlanError) -> &'static str {
+    match e {
+        PlanError::InvalidRequest { .. } => "InvalidRequest",
+        PlanError::OutsideWorkspace { .. } => "OutsideWorkspace",
+        PlanError::UnsafeEndpoint { .. } => "UnsafeEndpoint",
+        PlanError::InvalidOption { .. } => "InvalidOption",
+    }
+}
+
+/// Runs one scene: oracle, plan, audit, certification counts.
+pub fn run_scene(g: &GeneratedScene, o: &RunOptions) -> SceneRecord {
+    let text = g.json();
+    let mut rec = SceneRecord {
+        index: g.index,
+        seed: g.seed,
+        name: g.name.clone(),
+        dim: g.dim,
+        moving: g.moving(),
+        shape_mix: g.shape_mix(),
+        width: g.width(),
+        width_band: width_band(g.width()),
+        obstacles: g.obstacles.len(),
+        delta: g.delta,
+        max_speed: g.max_speed,
+        moments_param: g.has_moments_param(),
+        intent: g.intent,
+        load_error: None,
+        oracle: None,
+        oracle_error: None,
+        plan: None,
+        audit: None,
+        certify: None,
+        trajectory: None,
+        scene: g.json_value(),
+    };
+    let t = Instant::now();
+    match judge(g, &o.oracle) {
+        Ok(report) => rec.oracle = Some(OracleRecord { report, time_s: t.elapsed().as_secs_f64() }),
+        Err(e) => rec.oracle_error = Some(e.to_string()),
+    }
+    let scene = match Scene::from_json(&text) {
+        Ok(s) => Arc::new(s),
+        Err(e) => {
+            rec.load_error = Some(e.to_string());
+            return rec;
+        }
+    };
+    let request = plan_request(g, o.time_limit);
+    let t = Instant::now();
+    let result = request.run(scene.clone(), None);
+    let mut plan = PlanRecord { time_s: t.elapsed().as_secs_f64(), ..Default::default() };
+    let traj = match result {
+        Err(e) => {
+            plan.error_kind = Some(error_kind(&e).into());
+            plan.reason = Some(e.to_string());
+            None
+        }
+        Ok((_, out)) => {
+            plan.status = Some(out.status);
+            match out.trajectory {
+                Some(tr) => {
+                    plan.planned = true;
+                    plan.pieces = tr.pieces.len();
+                    plan.path_length = out.stats.path_length.or_else(|| Some(path_length(&tr)));
+                    Some(tr)
+                }
+                None => {
+                    plan.reason = Some(no_plan_reason(&out, o.time_limit));
+                    None
+                }
+            }
+        }
+    };
+    rec.plan = Some(plan);
+    if let Some(tr) = traj {
+        rec.audit = Some(audit(g, &scene, &tr, o));
+        rec.certify = certify_counts(g, &scene, &tr);
+        rec.trajectory = Some(tr);
+    }
+    rec
+}
+
+/// Length of a trajectory (sampled, 32 points per piece).
+fn path_length(tr: &Trajectory) -> f64 {
+    tr.pieces
+        .iter()
+        .map(|p| {
+            let pts: Vec<Vec<f64>> = (0..=32).map(|k| p.at(p.t0 + (p.t1 - p.t0) * k as f64 / 32.0)).collect();
+            pts.windows(2)
+                .map(|w| w[0].iter().zip(&w[1]).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt())
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+fn audit_points(tr: &Trajectory, n: usize) -> Vec<(Vec<f64>, f64)> {
+    let n = n.max(2);
+    tr.pieces
+        .iter()
+        .flat_map(|pc| {
+            (0..n).map(move |k| {
+                let t = pc.t0 + (pc.t1 - pc.t0) * k as f64 / (n - 1) as f64;
+                (pc.at(t), t)
+            })
+        })
+        .collect()
+}
+
+fn audit(g: &GeneratedScene, scene: &Scene, tr: &Trajectory, o: &RunOptions) -> AuditRecord {
+    let (own_max_estimate, own_over_delta) = own_audit(&g.obstacles, g.delta, &audit_points(tr, o.audit_times), o);
+    if !g.has_moments_param() {
+        let opts = AuditOptions {
+            times_per_piece: o.audit_times,
+            samples: o.audit_samples,
+            seed: o.audit_seed,
+            confidence: AUDIT_CONFIDENCE,
+        };
+        return match audit_trajectory(scene, tr, g.delta, &opts) {
+            Ok(a) => AuditRecord {
+                method: "crate",
+                max_estimate: a.max_estimate,
+                over_delta: a.exceeds(),
+                samples: o.audit_samples,
+                error: None,
+                own_max_estimate,
+                own_over_delta,
+            },
+            Err(e) => AuditRecord {
+                method: "crate",
+                max_estimate: f64::NAN,
+                over_delta: false,
+                samples: o.audit_samples,
+                error: Some(e.to_string()),
+                own_max_estimate,
+                own_over_delta,
+            },
+        };
+    }
+    AuditRecord {
+        method: "own",
+        max_estimate: own_max_estimate,
+        over_delta: own_over_delta,
+        samples: o.audit_samples,
+        error: None,
+        own_max_estimate,
+        own_over_delta,
+    }
+}
+
+/// Monte Carlo audit from the generator's true distributions and structured P: the
+/// same scenarios at every point; a point is over Δ when the Clopper–Pearson lower
+/// bound of an obstacle's collision probability there exceeds Δ.
+pub fn own_audit(obstacles: &[ObstacleSpec], delta: f64, points: &[(Vec<f64>, f64)], o: &RunOptions) -> (f64, bool) {
+    let mut rng = ChaCha12Rng::seed_from_u64(o.audit_seed);
+    let scenarios: Vec<Vec<Vec<f64>>> = (0..o.audit_samples)
+        .map(|_| obstacles.iter().map(|ob| ob.params.iter().map(|p| p.dist.sample(&mut rng)).collect()).collect())
+        .collect();
+    let (mut worst, mut over) = (0.0f64, false);
+    for (x, t) in points {
+        for (k, ob) in obstacles.iter().enumerate() {
+            let hits = scenarios.iter().filter(|s| ob.eval(x, *t, &s[k]) >= 0.0).count() as u64;
+            worst = worst.max(hits as f64 / o.audit_samples as f64);
+            let (lower, _) = clopper_pearson(hits, o.audit_samples, AUDIT_CONFIDENCE);
+            over |= lower > delta;
+        }
+    }
+    (worst, over)
+}
+
+fn certify_counts(g: &GeneratedScene, scene: &Scene, tr: &Trajectory) -> Option<CertifyRecord> {
+    let t = Instant::now();
+    let moments: Vec<ObstacleMoments> = g.obstacles.iter().map(ObstacleMoments::new).collect::<Result<_, _>>().ok()?;
+    let exact = verify(scene, tr, &scene.risk, Method::Exact, &Default::default());
+    let mut ok = vec![false; tr.pieces.len()];
+    let mut min_rel: Option<f64> = None;
+    for (pi, (pr, pc)) in exact.pieces.iter().zip(&tr.pieces).enumerate() {
+        if !pr.safe {
+            continue;
+        }
+        let times: Vec<f64> =
+            (0..SCALE_SAMPLES).map(|k| pc.t0 + (pc.t1 - pc.t0) * k as f64 / (SCALE_SAMPLES - 1) as f64).collect();
+        let mut piece_min = f64::INFINITY;
+        for (orep, om) in pr.obstacles.iter().zip(&moments) {
+            let vals: Vec<(f64, f64)> = times
+                .iter()
+                .map(|&tt| {
+                    let (ep, ep2) = om.at(&pc.at(tt), tt);
+                    (-ep, ep * ep - (1.0 - g.delta) * ep2)
+                })
+                .collect();
+            for c in &orep.constraints {
+                let scale =
+                    vals.iter().map(|(a, b)| if c.name == "mean" { a.abs() } else { b.abs() }).fold(0.0, f64::max);
+                let rel = match c.margin {
+                    Some(mg) if c.status == Status::Safe && scale > 0.0 => mg / scale,
+                    _ => f64::NEG_INFINITY,
+                };
+                piece_min = piece_min.min(rel);
+            }
+        }
+        if piece_min >= RELATIVE_MARGIN {
+            ok[pi] = true;
+            min_rel = Some(min_rel.map_or(piece_min, |m: f64| m.min(piece_min)));
+        }
+    }
+    let exact_with_margin = ok.iter().filter(|&&b| b).count();
+    let sos_also = if exact_with_margin > 0 {
+        let sos = verify(scene, tr, &scene.risk, Method::Sos, &Default::default());
+        sos.pieces.iter().zip(&ok).filter(|(p, &k)| k && p.safe).count()
+    } else {
+        0
+    };
+    Some(CertifyRecord {
+        pieces: tr.pieces.len(),
+        exact_with_margin,
+        sos_also,
+        min_relative_margin: min_rel,
+        time_s: t.elapsed().as_secs_f64(),
+    })
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
+}
+
+fn row(label: &str, rs: &[&SceneRecord]) -> String {
+    let count = |l: &str| rs.iter().filter(|r| r.label() == l).count();
+    let (feas, infeas, amb, err) = (count("feasible"), count("infeasible"), count("ambiguous"), count("error"));
+    let planned = |r: &&&SceneRecord| r.plan.as_ref().is_some_and(|p| p.planned);
+    let plans_on_feasible = rs.iter().filter(|r| r.label() == "feasible").filter(planned).count();
+    let times: Vec<f64> = rs.iter().filter(planned).filter_map(|r| r.plan.as_ref().map(|p| p.time_s)).collect();
+    let audited: Vec<&AuditRecord> = rs.iter().filter_map(|r| r.audit.as_ref()).collect();
+    let over = audited.iter().filter(|a| a.over_delta).count();
+    let own_over = audited.iter().filter(|a| a.own_over_delta).count();
+    let disagree = audited.iter().filter(|a| a.disagree()).count();
+    let infeasible: Vec<&&SceneRecord> = rs.iter().filter(|r| r.label() == "infeasible").collect();
+    let typed = infeasible.iter().filter(|r| r.plan.as_ref().is_some_and(|p| p.typed_refusal())).count();
+    let deadline = infeasible
+        .iter()
+        .filter(|r| r.plan.as_ref().is_some_and(|p| !p.planned && p.status == Some(PlanStatus::DeadlineReached)))
+        .count();
+    let planned_infeasible = infeasible.iter().filter(|r| r.plan.as_ref().is_some_and(|p| p.planned)).count();
+    let pieces: usize = rs.iter().filter_map(|r| r.certify.as_ref()).map(|c| c.pieces).sum();
+    let exact: usize = rs.iter().filter_map(|r| r.certify.as_ref()).map(|c| c.exact_with_margin).sum();
+    let sos: usize = rs.iter().filter_map(|r| r.certify.as_ref()).map(|c| c.sos_also).sum();
+    let pct =
+        if feas > 0 { format!(" ({:.0} %)", 100.0 * plans_on_feasible as f64 / feas as f64) } else { String::new() };
+    let fmt = |v: Option<f64>| v.map(|x| format!("{x:.2}")).unwrap_or_else(|| "–".into());
+    let maxt = times.iter().cloned().reduce(f64::max);
+    format!(
+        "| {label} | {} | {feas} | {infeas} | {amb}{} | {plans_on_feasible}/{feas}{pct} | {} | {} | {over}/{} | {own_over} ({disagree}) | {typed}/{} ({deadline} deadline) | {planned_infeasible} | {exact}/{pieces} | {sos}/{exact} |",
+        rs.len(),
+        if err > 0 { format!(" (+{err} oracle errors)") } else { String::new() },
+        fmt(median(times)),
+        fmt(maxt),
+        audited.len(),
+        infeasible.len(),
+    )
+}
+
+/// A row of the summary: its label and which records it counts.
+type Group = (String, Box<dyn Fn(&SceneRecord) -> bool>);
+
+/// The Markdown summary of a suite run.
+pub fn summary_table(records: &[SceneRecord]) -> String {
+    let mut out = vec![
+        "| class | scenes | feasible | infeasible | ambiguous | plans among feasible (target ≥ 95 %) | median plan time (s) | max plan time (s) | plans over Δ (target 0) | own audit over Δ (disagreeing) | infeasible with typed refusal (target all) | plans on infeasible | pieces exact-certified, rel. margin ≥ 1e-4 | of those SOS-certified |".to_string(),
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
+    ];
+    let all: Vec<&SceneRecord> = records.iter().collect();
+    out.push(row("all", &all));
+    let mut groups: Vec<Group> = vec![];
+    for dim in [2usize, 3] {
+        for moving in [false, true] {
+            groups.push((
+                format!("{dim}-D {}", if moving { "moving" } else { "static" }),
+                Box::new(move |r: &SceneRecord| r.dim == dim && r.moving == moving),
+            ));
+        }
+    }
+    let mut mixes: Vec<String> = records.iter().map(|r| r.shape_mix.clone()).collect();
+    mixes.sort();
+    mixes.dedup();
+    for mix in mixes {
+        let m = mix.clone();
+        groups.push((format!("shapes {mix}"), Box::new(move |r: &SceneRecord| r.shape_mix == m)));
+    }
+    for band in ["width 1–3", "width 3–10", "width 10–30", "width 30–100"] {
+        groups.push((band.into(), Box::new(move |r: &SceneRecord| r.width_band == band)));
+    }
+    groups.push(("with speed limit".into(), Box::new(|r: &SceneRecord| r.max_speed.is_some())));
+    groups.push(("with a moments parameter".into(), Box::new(|r: &SceneRecord| r.moments_param)));
+    for (label, f) in groups {
+        let rs: Vec<&SceneRecord> = records.iter().filter(|r| f(r)).collect();
+        if !rs.is_empty() {
+            out.push(row(&label, &rs));
+        }
+    }
+    // infeasible reasons of the oracle and generator intents
+    let mut reasons: std::collections::BTreeMap<String, usize> = Default::default();
+    for r in records {
+        let key = match r.oracle.as_ref().map(|o| &o.report.judgement) {
+            Some(Judgement::Infeasible { reason }) => match reason {
+                InfeasibleReason::EndpointUnsafe { .. } => "endpoint_unsafe",
+                InfeasibleReason::Disconnected => "disconnected",
+                InfeasibleReason::OutOfReach { .. } => "out_of_reach",
+            },
+            _ => continue,
+        };
+        *reasons.entry(format!("{key} (intent {:?})", r.intent)).or_default() += 1;
+    }
+    out.push(String::new());
+    out.push(format!(
+        "Oracle infeasibility reasons: {}.",
+        reasons.iter().map(|(k, v)| format!("{k}: {v}")).collect::<Vec<_>>().join(", ")
+    ));
+    let intended_feasible_not = records.iter().filter(|r| r.intent.feasible() && r.label() != "feasible").count();
+    out.push(format!("Intended feasible but not judged feasible by the oracle: {intended_feasible_not}."));
+    if !SPEED_LIMIT_PASSED {
+        out.push(
+            "The planner is not given the scenes' speed limits yet (runner::plan_request): it may plan on \
+             out-of-reach scenes, and such plans count under \"plans on infeasible\"."
+                .into(),
+        );
+    }
+    out.push(
+        "A typed refusal is a `PlanError` or the planner's limits spent (`Exhausted`); a deadline is not one. \
+         Plans over Δ: the audit's Clopper–Pearson lower bound (99 %) exceeds Δ at some point for some obstacle \
+         (the crate's `audit_trajectory`, or the own audit for scenes with a `moments` parameter); the own audit \
+         (true distributions, P evaluated from the generator's structure, never expanded) is run on every plan \
+         as a cross-check, with the count of plans where the two disagree."
+            .into(),
+    );
+    out.join("\n")
+}
