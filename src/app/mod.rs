@@ -58,9 +58,11 @@ pub enum RiskMode {
     /// The probability of colliding with any obstacle at each instant is at most Δ:
     /// obstacle `i` gets Δᵢ with Σ Δᵢ = Δ (Boole's inequality), Δᵢ = Δ/N.
     JointUniform,
-    /// As `JointUniform`, with more of Δ for the obstacles near the start–goal line
-    /// (weight `1/(1 + d/L)`, `d` the distance of the obstacle's proven cover from the
-    /// line, `L` the workspace's largest side).
+    /// As `JointUniform`, with Δ split by need: each obstacle first gets what the start
+    /// and the goal need (1.01 × its Cantelli bound there), the rest by weight
+    /// `1/(1 + d/L)`, `d` the distance of the obstacle's proven cover from the
+    /// start–goal line, `L` the workspace's largest side: more for the obstacles that
+    /// constrain the path.
     JointWeighted,
 }
 
@@ -311,11 +313,47 @@ pub fn allocate(p: &Problem, mode: RiskMode) -> Result<Vec<RiskLevel>, PlanError
                 .collect()
         }
     };
+    // floors: what each obstacle needs at the start (t0) and the goal (tf) — the
+    // Cantelli bound there (weighted mode only); the rest of Δ is split by weight
+    let point = |v: &[f64], t: f64| -> Option<Vec<BigRational>> {
+        let mut x: Vec<BigRational> = v.iter().map(|&c| BigRational::from_float(c)).collect::<Option<_>>()?;
+        x.push(BigRational::from_float(t)?);
+        Some(x)
+    };
+    let (Some(a), Some(b)) = (point(&p.start, p.horizon.0), point(&p.goal, p.horizon.1)) else {
+        return Err(PlanError::InvalidRequest { field: "start".into(), message: "not finite".into() });
+    };
+    // strictly above the bound (the endpoint must be strictly inside), by 1 %
+    let margin = BigRational::new(101.into(), 100.into());
+    let needs: Vec<(BigRational, BigRational)> = if mode == RiskMode::JointWeighted {
+        p.scene
+            .obstacles
+            .iter()
+            .map(|o| (o.contour.risk_at(&a).bound * &margin, o.contour.risk_at(&b).bound * &margin))
+            .collect()
+    } else {
+        vec![(BigRational::from_integer(0.into()), BigRational::from_integer(0.into())); n]
+    };
+    let floors: Vec<BigRational> = needs.iter().map(|(s, g)| s.clone().max(g.clone())).collect();
+    let floor_sum: BigRational = floors.iter().sum();
+    if floor_sum >= delta {
+        // the endpoints alone need more than Δ: name the obstacle that needs the most
+        let worst = floors.iter().enumerate().max_by(|x, y| x.1.cmp(y.1)).map(|(i, _)| i).unwrap_or(0);
+        let (which, point, t) = if needs[worst].0 >= needs[worst].1 {
+            ("start", p.start.clone(), p.horizon.0)
+        } else {
+            ("goal", p.goal.clone(), p.horizon.1)
+        };
+        let obstacle = p.scene.obstacles[worst].id.clone();
+        return Err(PlanError::UnsafeEndpoint { which: which.into(), point, t, obstacle });
+    }
+    let rest = &delta - &floor_sum;
     let total: BigRational = weights.iter().sum();
     weights
         .iter()
-        .map(|w| {
-            RiskLevel::new(&delta * w / &total)
+        .zip(&floors)
+        .map(|(w, f)| {
+            RiskLevel::new(f + &rest * w / &total)
                 .map_err(|e| PlanError::InvalidOption { option: "risk_mode".into(), message: e.to_string() })
         })
         .collect()

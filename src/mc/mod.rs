@@ -81,13 +81,23 @@ pub struct McModel {
     nvars: usize,
     polys: Vec<Poly<f64>>,
     samplers: Vec<(Var, Sampler)>,
+    center: Vec<f64>,
 }
 
 impl McModel {
     /// From obstacle polynomials over all `nvars` scene variables and one sampler per
-    /// parameter.
-    pub fn new(layout: Layout, nvars: usize, polys: Vec<Poly<f64>>, samplers: Vec<(Var, Sampler)>) -> Self {
-        McModel { layout, nvars, polys, samplers }
+    /// parameter. The polynomials are in centred variables `(x − c, t − t_c)` with
+    /// `center = (c, t_c)` (an empty centre: the origin): far from the origin the
+    /// expanded polynomial's terms cancel by many orders of magnitude in `f64`, so the
+    /// scene centres them exactly before rounding (docs/design.md §7.1).
+    pub fn new(
+        layout: Layout,
+        nvars: usize,
+        polys: Vec<Poly<f64>>,
+        samplers: Vec<(Var, Sampler)>,
+        center: Vec<f64>,
+    ) -> Self {
+        McModel { layout, nvars, polys, samplers, center }
     }
 
     /// Number of obstacles.
@@ -99,7 +109,8 @@ impl McModel {
     fn reduce(&self, obstacle: usize, xt: &[f64]) -> Vec<ParamTerm> {
         let mut p = self.polys[obstacle].clone();
         for v in 0..self.layout.xt_len() {
-            p = p.partial_eval(v as Var, xt.get(v).unwrap_or(&0.0));
+            let value = xt.get(v).unwrap_or(&0.0) - self.center.get(v).unwrap_or(&0.0);
+            p = p.partial_eval(v as Var, &value);
         }
         let index: Vec<usize> = {
             let mut idx = vec![usize::MAX; self.nvars];

@@ -35,6 +35,8 @@ pub struct ConnectParams {
     pub max_speed: Option<f64>,
     /// Acceleration limit for the corner blends.
     pub max_accel: Option<f64>,
+    /// Candidate paths grown before shortcutting keeps the shortest (smoothing only).
+    pub candidates: usize,
 }
 
 impl Default for ConnectParams {
@@ -46,6 +48,7 @@ impl Default for ConnectParams {
             smooth: true,
             max_speed: None,
             max_accel: None,
+            candidates: 4,
         }
     }
 }
@@ -98,6 +101,85 @@ pub fn out_of_reach(p: &Problem, max_speed: Option<f64>) -> Option<NoPlanReason>
     (d > v * duration).then_some(NoPlanReason::OutOfReach { distance: d, max_speed: v, duration })
 }
 
+/// Each further candidate path may take this many times the first one's time.
+pub const CANDIDATE_TIME_FACTOR: u32 = 4;
+
+/// ... and at least this long.
+pub const MIN_CANDIDATE_TIME: std::time::Duration = std::time::Duration::from_millis(5);
+
+impl ConnectRrt {
+    /// Grows a fresh pair of trees until they connect (the path from start to goal), or
+    /// `Err` with the status when `term` or the iteration cap stops it.
+    #[allow(clippy::too_many_arguments)]
+    fn grow(
+        &self,
+        p: &Problem,
+        step: f64,
+        ok: &dyn Fn(&[f64], &[f64]) -> bool,
+        rng: &mut ChaCha8Rng,
+        term: &Termination,
+        stats: &mut PlanStats,
+        tree_edges: &mut Vec<(Vec<f64>, Vec<f64>)>,
+    ) -> Result<Vec<Vec<f64>>, PlanStatus> {
+        let ws = &p.scene.workspace;
+        let mut trees = [Tree::root(p.start.clone()), Tree::root(p.goal.clone())];
+        let mut a = 0usize; // the tree being extended
+        let result = loop {
+            if term.should_stop() {
+                break Err(if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached });
+            }
+            if stats.iterations >= self.params.max_iterations {
+                break Err(PlanStatus::Exhausted);
+            }
+            stats.iterations += 1;
+            let b = 1 - a;
+            let q: Vec<f64> = if rng.random_bool(self.params.goal_bias) {
+                trees[b].verts[0].clone()
+            } else {
+                ws.lower.iter().zip(&ws.upper).map(|(&l, &u)| rng.random_range(l..=u)).collect()
+            };
+            let v = nearest(&trees[a].verts, &q);
+            let new = steer(&trees[a].verts[v], &q, step);
+            if dist(&new, &trees[a].verts[v]) == 0.0 || !ok(&trees[a].verts[v], &new) {
+                a = b;
+                continue;
+            }
+            tree_edges.push((trees[a].verts[v].clone(), new.clone()));
+            let k = trees[a].add(new.clone(), v);
+            // connect: pull tree b towards `new`
+            let mut cur = nearest(&trees[b].verts, &new);
+            let mut path = None;
+            loop {
+                let s = steer(&trees[b].verts[cur], &new, step);
+                if !ok(&trees[b].verts[cur], &s) {
+                    break;
+                }
+                tree_edges.push((trees[b].verts[cur].clone(), s.clone()));
+                let reached = s == new;
+                cur = trees[b].add(s, cur);
+                if reached {
+                    let mut from_a = trees[a].path_to_root(k);
+                    from_a.reverse();
+                    let from_b = trees[b].path_to_root(cur);
+                    // `new` is the last of from_a and the first of from_b
+                    from_a.extend(from_b.into_iter().skip(1));
+                    if a == 1 {
+                        from_a.reverse();
+                    }
+                    path = Some(from_a);
+                    break;
+                }
+            }
+            if let Some(path) = path {
+                break Ok(path);
+            }
+            a = b;
+        };
+        stats.vertices += (trees[0].verts.len() + trees[1].verts.len()) as u64;
+        result
+    }
+}
+
 impl Planner for ConnectRrt {
     fn name(&self) -> &'static str {
         "rrt-sos"
@@ -130,60 +212,29 @@ impl Planner for ConnectRrt {
         let ok = |a: &[f64], b: &[f64]| counter.check(checker, &seg(a, b)) == Motion::Accepted;
         let ws = &p.scene.workspace;
         let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
-        let mut trees = [Tree::root(p.start.clone()), Tree::root(p.goal.clone())];
         let mut tree_edges = Vec::new();
-        let mut found: Option<Vec<Vec<f64>>> = ok(&p.start, &p.goal).then(|| vec![p.start.clone(), p.goal.clone()]);
         let mut status = PlanStatus::Exhausted;
-        let mut a = 0usize; // the tree being extended
-        while found.is_none() {
-            if term.should_stop() {
-                status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
-                break;
+        let direct = ok(&p.start, &p.goal);
+        let mut found: Option<Vec<Vec<f64>>> = direct.then(|| vec![p.start.clone(), p.goal.clone()]);
+        if found.is_none() {
+            match self.grow(p, step, &ok, &mut rng, term, &mut stats, &mut tree_edges) {
+                Ok(path) => found = Some(path),
+                Err(s) => status = s,
             }
-            if stats.iterations >= self.params.max_iterations {
-                break;
-            }
-            stats.iterations += 1;
-            let b = 1 - a;
-            let q: Vec<f64> = if rng.random_bool(self.params.goal_bias) {
-                trees[b].verts[0].clone()
-            } else {
-                ws.lower.iter().zip(&ws.upper).map(|(&l, &u)| rng.random_range(l..=u)).collect()
-            };
-            let v = nearest(&trees[a].verts, &q);
-            let new = steer(&trees[a].verts[v], &q, step);
-            if dist(&new, &trees[a].verts[v]) == 0.0 || !ok(&trees[a].verts[v], &new) {
-                a = b;
-                continue;
-            }
-            tree_edges.push((trees[a].verts[v].clone(), new.clone()));
-            let k = trees[a].add(new.clone(), v);
-            // connect: pull tree b towards `new`
-            let mut cur = nearest(&trees[b].verts, &new);
-            loop {
-                let s = steer(&trees[b].verts[cur], &new, step);
-                if !ok(&trees[b].verts[cur], &s) {
-                    break;
-                }
-                tree_edges.push((trees[b].verts[cur].clone(), s.clone()));
-                let reached = s == new;
-                cur = trees[b].add(s, cur);
-                if reached {
-                    let mut from_a = trees[a].path_to_root(k);
-                    from_a.reverse();
-                    let from_b = trees[b].path_to_root(cur);
-                    // `new` is the last of from_a and the first of from_b
-                    from_a.extend(from_b.into_iter().skip(1));
-                    if a == 1 {
-                        from_a.reverse();
-                    }
-                    found = Some(from_a);
-                    break;
-                }
-            }
-            a = b;
         }
-        stats.vertices = (trees[0].verts.len() + trees[1].verts.len()) as u64;
+        // more candidate paths (fresh trees), each within a few times the first's time:
+        // the shortest after shortcutting is kept (a tree may find a long way round)
+        let mut others = Vec::new();
+        if found.is_some() && !direct && self.params.smooth {
+            let first = t_start.elapsed();
+            for _ in 1..self.params.candidates {
+                let sub = term.clone().earliest((first * CANDIDATE_TIME_FACTOR).max(MIN_CANDIDATE_TIME));
+                match self.grow(p, step, &ok, &mut rng, &sub, &mut stats, &mut tree_edges) {
+                    Ok(path) => others.push(path),
+                    Err(_) => break,
+                }
+            }
+        }
         let mut trajectory = None;
         let mut reason = None;
         if let Some(points) = found {
@@ -196,26 +247,37 @@ impl Planner for ConnectRrt {
                 (!checker.sound() || pieces.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted))
                     .then_some(pieces)
             };
+            let length = |w: &[super::smooth::Waypoint]| w.windows(2).map(|x| dist(&x[0].1, &x[1].1)).sum::<f64>();
             let pieces = if self.params.smooth {
                 let t_imp = Instant::now();
                 let mut sm = SmoothStats { waypoints_before: timed.len(), ..Default::default() };
-                let short = shortcut(timed.clone(), p.horizon, false, None, checker, &counter, &mut rng, term);
-                sm.waypoints_after = short.len();
-                let short_len: f64 = short.windows(2).map(|w| dist(&w[0].1, &w[1].1)).sum();
+                let mut short = shortcut(timed.clone(), p.horizon, false, None, checker, &counter, &mut rng, term);
+                for other in &others {
+                    let t = time_at_constant_speed(other, p.horizon);
+                    let s = shortcut(t, p.horizon, false, None, checker, &counter, &mut rng, term);
+                    if length(&s) < length(&short) {
+                        short = s;
+                    }
+                }
+                let short_len = length(&short);
                 // the blended path; else the shortcut polyline; else the tree's path
-                let out = match blend(&short, self.params.max_accel, checker, &counter, &mut sm) {
+                let out = match blend(&short, (&ws.lower, &ws.upper), self.params.max_accel, checker, &counter, &mut sm)
+                {
                     Some(b) => {
                         stats.path_length = Some(short_len);
                         Some(b)
                     }
-                    None => match accept(straight(&short)) {
+                    None => match {
+                        sm.corners_sharp = short.len().saturating_sub(2);
+                        accept(straight(&short, &ws.lower, &ws.upper))
+                    } {
                         Some(s) => {
                             stats.path_length = Some(short_len);
                             Some(s)
                         }
                         None => {
                             stats.path_length = stats.feasible_path_length;
-                            accept(straight(&timed))
+                            accept(straight(&timed, &ws.lower, &ws.upper))
                         }
                     },
                 };
@@ -224,7 +286,7 @@ impl Planner for ConnectRrt {
                 out
             } else {
                 stats.path_length = stats.feasible_path_length;
-                accept(straight(&timed))
+                accept(straight(&timed, &ws.lower, &ws.upper))
             };
             match pieces {
                 Some(pieces) => {

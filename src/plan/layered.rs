@@ -391,8 +391,10 @@ impl Planner for LayeredRrt {
                 let mut sm = SmoothStats { waypoints_before: w.len(), ..Default::default() };
                 let short = shortcut(w, p.horizon, true, self.params.max_speed, checker, &counter, &mut rng, term);
                 sm.waypoints_after = short.len();
-                let smoothed = blend(&short, self.params.max_accel, checker, &counter, &mut sm).or_else(|| {
-                    let s = super::smooth::straight(&short);
+                let bounds = (ws.lower.as_slice(), ws.upper.as_slice());
+                let smoothed = blend(&short, bounds, self.params.max_accel, checker, &counter, &mut sm).or_else(|| {
+                    sm.corners_sharp = short.len().saturating_sub(2);
+                    let s = super::smooth::straight(&short, &ws.lower, &ws.upper);
                     (!checker.sound() || s.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted)).then_some(s)
                 });
                 stats.improve_time_s = t_imp.elapsed().as_secs_f64();

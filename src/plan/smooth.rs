@@ -79,9 +79,42 @@ pub fn time_at_constant_speed(points: &[Vec<f64>], horizon: (f64, f64)) -> Vec<W
     out
 }
 
-/// Straight pieces through the waypoints.
-pub fn straight(w: &[Waypoint]) -> Vec<Piece> {
-    w.windows(2).map(|p| Piece::segment(&p[0].1, &p[1].1, p[0].0, p[1].0)).collect()
+/// Straight pieces through the waypoints, kept in the box `[lower, upper]` at their ends.
+pub fn straight(w: &[Waypoint], lower: &[f64], upper: &[f64]) -> Vec<Piece> {
+    w.windows(2).map(|p| inside(Piece::segment(&p[0].1, &p[1].1, p[0].0, p[1].0), lower, upper)).collect()
+}
+
+/// Ulps a straight piece's constant coefficient may move to keep its ends in the box.
+pub const MAX_NUDGE_ULPS: usize = 16;
+
+/// A straight piece whose end lies on the workspace boundary can overshoot it by a
+/// rounding of its coefficients (`c0 + c1·t1` need not be the end point exactly), and
+/// the exact workspace check then rightly rejects it. This moves each coordinate's
+/// constant coefficient by a few ulps towards the inside until both ends are in the box,
+/// exactly; positions change by ulps, far below the trajectory format's continuity
+/// tolerance.
+pub fn inside(mut piece: Piece, lower: &[f64], upper: &[f64]) -> Piece {
+    use num_rational::BigRational;
+    let q = |v: f64| BigRational::from_float(v);
+    let (Some(t0), Some(t1)) = (q(piece.t0), q(piece.t1)) else { return piece };
+    for (d, c) in piece.coeffs.iter_mut().enumerate() {
+        if c.len() != 2 {
+            continue;
+        }
+        let (Some(lo), Some(hi)) = (q(lower[d]), q(upper[d])) else { continue };
+        for _ in 0..MAX_NUDGE_ULPS {
+            let (Some(c0), Some(c1)) = (q(c[0]), q(c[1])) else { break };
+            let ends = [&c0 + &c1 * &t0, &c0 + &c1 * &t1];
+            if ends.iter().any(|e| *e > hi) {
+                c[0] = c[0].next_down();
+            } else if ends.iter().any(|e| *e < lo) {
+                c[0] = c[0].next_up();
+            } else {
+                break;
+            }
+        }
+    }
+    piece
 }
 
 /// Shortcuts a path. `timed = false` (static obstacles): the path is geometric, pieces
@@ -208,14 +241,16 @@ pub fn eased_segment(a: &[f64], b: &[f64], t0: f64, t1: f64, s0: f64, s1: f64) -
 /// Returns `None` when a straight piece of the input itself is rejected.
 pub fn blend(
     w: &[Waypoint],
+    workspace: (&[f64], &[f64]),
     max_accel: Option<f64>,
     checker: &dyn MotionChecker,
     counter: &CheckCounter,
     stats: &mut SmoothStats,
 ) -> Option<Vec<Piece>> {
     let n = w.len();
+    let (lower, upper) = workspace;
     if n < 3 {
-        let pieces = straight(w);
+        let pieces = straight(w, lower, upper);
         return pieces.iter().all(|p| counter.check(checker, p) == Motion::Accepted).then_some(pieces);
     }
     let vel = |i: usize| -> Vec<f64> {
@@ -282,7 +317,7 @@ pub fn blend(
             // keep the segment's geometry, scale the end speeds (σ' = 1 is the segment's own speed)
             eased_segment(&a, &b, ta, tb, if stop0 { 0.0 } else { 1.0 }, if stop1 { 0.0 } else { 1.0 })
         } else {
-            Piece::segment(&a, &b, ta, tb)
+            inside(Piece::segment(&a, &b, ta, tb), lower, upper)
         };
         if (stop0 || stop1) && counter.check(checker, &piece) != Motion::Accepted {
             // the eased timing is rejected (a moving obstacle): leave the corners sharp
@@ -291,7 +326,7 @@ pub fn blend(
                     corners[idx] = Corner::Sharp;
                 }
             }
-            piece = Piece::segment(&a, &b, ta, tb);
+            piece = inside(Piece::segment(&a, &b, ta, tb), lower, upper);
         }
         if tb > ta || stop0 || stop1 {
             if counter.check(checker, &piece) != Motion::Accepted {

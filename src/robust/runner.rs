@@ -193,17 +193,14 @@ pub fn width_band(w: f64) -> &'static str {
     }
 }
 
-/// Whether [`plan_request`] passes the scene's speed limit to the planner (not yet: the
-/// request has no such field).
-pub const SPEED_LIMIT_PASSED: bool = false;
+/// Whether [`plan_request`] passes the scene's speed limit to the planner.
+pub const SPEED_LIMIT_PASSED: bool = true;
 
 /// The plan request of a generated scene: default options and the time limit.
 pub fn plan_request(g: &GeneratedScene, time_limit: Duration) -> PlanRequest {
-    // MAX_SPEED: `PlanRequest` has no speed-limit field yet (another engineer is adding
-    // `planner.max_speed` to the scene format). When it exists, pass `g.max_speed` here
-    // — this is the one place to change; until then the planner ignores the limit.
-    let _ = g.max_speed;
-    PlanRequest { time_limit, ..Default::default() }
+    // the scene's planner block carries the same limit; passing it explicitly makes the
+    // request self-describing
+    PlanRequest { time_limit, max_speed: g.max_speed, ..Default::default() }
 }
 
 fn error_kind(e: &PlanError) -> &'static str {

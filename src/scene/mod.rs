@@ -272,8 +272,13 @@ impl Scene {
             let s = p.dist.sampler().map_err(|e| SceneError { path: format!("params.{}", p.name), kind: e.into() })?;
             samplers.push((p.var, s));
         }
-        let polys = self.obstacles.iter().map(|o| o.poly.map_coeffs(rational_to_f64)).collect();
-        Ok(McModel::new(self.layout(), self.vars.len(), polys, samplers))
+        let center = crate::verify::scene_center(self);
+        let polys = self
+            .obstacles
+            .iter()
+            .map(|o| crate::certify::fast::shift(&o.poly, &center).map_coeffs(rational_to_f64))
+            .collect();
+        Ok(McModel::new(self.layout(), self.vars.len(), polys, samplers, center))
     }
 }
 
