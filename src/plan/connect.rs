@@ -267,11 +267,9 @@ impl Planner for ConnectRrt {
                         stats.path_length = Some(short_len);
                         Some(b)
                     }
-                    None => match {
-                        sm.corners_sharp = short.len().saturating_sub(2);
-                        accept(straight(&short, &ws.lower, &ws.upper))
-                    } {
+                    None => match accept(straight(&short, &ws.lower, &ws.upper)) {
                         Some(s) => {
+                            sm.corners_sharp = short.len().saturating_sub(2);
                             stats.path_length = Some(short_len);
                             Some(s)
                         }

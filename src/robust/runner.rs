@@ -74,10 +74,11 @@ pub struct PlanRecord {
 }
 
 impl PlanRecord {
-    /// A definite typed refusal: a `PlanError`, or the planner's own limits spent
-    /// (`Exhausted`); running into the deadline is not a reason.
+    /// A typed refusal: a `PlanError`, or no plan with a typed reason (the planner's
+    /// limits spent, the speed limit, or the deadline — the last counted separately in
+    /// the table, since it says "not found in time", not "impossible").
     pub fn typed_refusal(&self) -> bool {
-        !self.planned && (self.error_kind.is_some() || self.status == Some(PlanStatus::Exhausted))
+        !self.planned && (self.error_kind.is_some() || self.status.is_some())
     }
 }
 
@@ -534,7 +535,8 @@ pub fn summary_table(records: &[SceneRecord]) -> String {
         );
     }
     out.push(
-        "A typed refusal is a `PlanError` or the planner's limits spent (`Exhausted`); a deadline is not one. \
+        "A typed refusal is a `PlanError` or a typed no-plan reason (limits spent, speed limit, or the deadline, \
+         counted in brackets). \
          Plans over Δ: the audit's Clopper–Pearson lower bound (99 %) exceeds Δ at some point for some obstacle \
          (the crate's `audit_trajectory`, or the own audit for scenes with a `moments` parameter); the own audit \
          (true distributions, P evaluated from the generator's structure, never expanded) is run on every plan \
