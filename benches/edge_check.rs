@@ -4,7 +4,8 @@
 //!   the obstacle (inside its cover, so the compiled restriction and both proofs run);
 //! - `edges/<scene>`: 256 seeded random edges of the planner's length; the time is per
 //!   batch, divide by 256 for an edge and by the obstacle count for an obstacle;
-//! - `growth/disks-<n>`: the same on the constant-density disk family (8 … 512 disks).
+//! - `growth/disks-<n>`: the same on the constant-density disk family (8 … 512 disks);
+//! - `first_plan/disks-<n>`: the default planner's first certified plan on that family.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
@@ -82,6 +83,29 @@ fn bench(c: &mut Criterion) {
         g.bench_function(format!("disks-{n}"), |b| {
             b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count())
         });
+    }
+    g.finish();
+
+    // time to the first certified plan on the same family (covers warm: built once per
+    // scene and Δ and cached with the scene, like the contours); no smoothing
+    let mut g = c.benchmark_group("first_plan");
+    g.sample_size(10);
+    for n in [8usize, 32, 128, 512] {
+        let s = Arc::new(Scene::from_json(&common::disks_scene(n, 1)).expect("disk scene"));
+        let request = riskplan::app::PlanRequest { smooth: false, ..Default::default() };
+        let (_, out) = request.run(s.clone(), None).expect("plan");
+        assert!(out.certified, "disks-{n}: {:?}", out.reason);
+        let smoothed = riskplan::app::PlanRequest::default().run(s.clone(), None).expect("plan").1;
+        eprintln!(
+            "disks-{n}: first plan {:.4} s, {} edges, checker {:.4} s; with smoothing {:.4} s, length {:.1} → {:.1}",
+            out.stats.planning_time_s,
+            out.stats.edges_checked,
+            out.stats.checker_time_s,
+            smoothed.stats.planning_time_s,
+            out.stats.path_length.unwrap_or(f64::NAN),
+            smoothed.stats.path_length.unwrap_or(f64::NAN)
+        );
+        g.bench_function(format!("disks-{n}"), |b| b.iter(|| request.run(s.clone(), None).expect("plan").1.certified));
     }
     g.finish();
 }

@@ -48,7 +48,7 @@ impl PlannerKind {
     }
 }
 
-/// What Δ bounds (docs/design.md §3.1).
+/// What Δ bounds (docs/design.md §3.6).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum RiskMode {
     /// The paper's: the probability of colliding with each obstacle, at each instant, is
@@ -286,7 +286,7 @@ pub fn no_plan_reason(out: &PlanOutcome, limit: Duration) -> String {
     }
 }
 
-/// The risk level of each obstacle for `mode` (docs/design.md §3.1): Δ for each in the
+/// The risk level of each obstacle for `mode` (docs/design.md §3.6): Δ for each in the
 /// paper's mode; in a joint mode exact rationals with Σ Δᵢ = Δ, so that by Boole's
 /// inequality the probability of colliding with any obstacle at an instant is ≤ Δ.
 pub fn allocate(p: &Problem, mode: RiskMode) -> Result<Vec<RiskLevel>, PlanError> {

@@ -1,5 +1,5 @@
 //! The compiled restriction: contour polynomials prepared once per obstacle so that
-//! restricting them to a trajectory piece allocates nothing (docs/design.md §5.1, §5.6).
+//! restricting them to a trajectory piece allocates nothing (docs/design.md §5.1, §5.10).
 //!
 //! [`super::restrict_interval`] composes the contour polynomials with a piece through
 //! general polynomial objects, a heap allocation per product; for a planner's edge
@@ -124,7 +124,7 @@ const UNIT_ROUNDOFF: f64 = 1.1102230246251565e-16;
 const UNDERFLOW_SLACK: f64 = 1e-290;
 
 /// A univariate polynomial in τ computed in plain `f64` with a running bound on its
-/// rounding error (docs/design.md §5.6): beside each coefficient `v` it carries `a`,
+/// rounding error (docs/design.md §5.10): beside each coefficient `v` it carries `a`,
 /// the same computation on the absolute values of every input, and `k`, a bound on the
 /// number of roundings on any path from an input to a coefficient. Each computed
 /// coefficient is `Σ ±(Π inputs)·Π_{j≤k}(1+δ_j)` with `|δ_j| ≤ u`, so it errs from the

@@ -1,4 +1,4 @@
-//! Proven outer boxes of an obstacle's unsafe set (docs/design.md §5.6): the
+//! Proven outer boxes of an obstacle's unsafe set (docs/design.md §5.10): the
 //! conservative pre-filter of the motion checker.
 //!
 //! For an obstacle and a risk level Δ, the unsafe set at time t is where either

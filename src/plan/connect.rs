@@ -1,6 +1,6 @@
 //! The default static planner: bidirectional RRT (RRT-Connect, Kuffner & LaValle 2000)
 //! with every edge certified (eq. 15), then certified shortcutting and C¹ corner blends
-//! ([`super::smooth`]). Docs: docs/design.md §6.5.
+//! ([`super::smooth`]). Docs: docs/design.md §6.6.
 //!
 //! Two trees grow from start and goal. Each iteration extends one tree by one step
 //! towards a uniform sample (or, with probability [`ConnectParams::goal_bias`], towards

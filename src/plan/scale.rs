@@ -1,4 +1,4 @@
-//! Scale-free defaults (docs/design.md §6.6): every length a planner uses is derived
+//! Scale-free defaults (docs/design.md §6.7): every length a planner uses is derived
 //! from the problem — the workspace extent, the start–goal distance, the number of
 //! obstacles — and every time from the horizon, so that a scene and its copy scaled,
 //! shifted and with its horizon shifted behave alike in their own units. The paper's

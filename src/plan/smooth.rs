@@ -1,4 +1,4 @@
-//! Certified path post-processing (docs/design.md §6.7): shortcutting and C¹ corner
+//! Certified path post-processing (docs/design.md §6.8): shortcutting and C¹ corner
 //! blends, after OMPL's `PathSimplifier`.
 //!
 //! A plan arrives as waypoints with times, straight at constant velocity in between.

@@ -227,6 +227,9 @@ impl Scene {
             };
             obstacles.push(Obstacle { id: o.id.clone(), text: o.poly.clone(), poly, contour });
         }
+        if let Some(b) = &file.planner {
+            validate_planner_block(b)?;
+        }
         let start = validate_point("start", &file.start, &workspace)?;
         let goal = validate_point("goal", &file.goal, &workspace)?;
         if start.is_some() != goal.is_some() {
@@ -280,6 +283,44 @@ impl Scene {
             .collect();
         Ok(McModel::new(self.layout(), self.vars.len(), polys, samplers, center))
     }
+}
+
+/// The planner block's numbers: limits positive and finite, `rlim` and widths positive,
+/// `pieces` between 1 and 1000 (docs/formats.md §1.6).
+fn validate_planner_block(b: &PlannerBlock) -> Result<(), SceneError> {
+    let positive = |path: &str, v: Option<f64>| match v {
+        Some(x) if !(x > 0.0 && x.is_finite()) => Err(err(path, format!("must be a positive number, got {x}"))),
+        _ => Ok(()),
+    };
+    positive("planner.max_speed", b.max_speed)?;
+    positive("planner.max_accel", b.max_accel)?;
+    if let Some(r) = &b.rrt_sos {
+        positive("planner.rrt_sos.rlim", r.rlim)?;
+        if let Some(p) = r.pieces {
+            if !(1..=1000).contains(&p) {
+                return Err(err("planner.rrt_sos.pieces", format!("must be between 1 and 1000, got {p}")));
+            }
+        }
+        if let Some(w) = &r.width {
+            for (k, v) in [("start", w.start), ("step", w.step), ("stop", w.stop)] {
+                positive(&format!("planner.rrt_sos.width.{k}"), v)?;
+            }
+            for (i, v) in w.values.iter().flatten().enumerate() {
+                positive(&format!("planner.rrt_sos.width.values[{i}]"), Some(*v))?;
+            }
+        }
+        for (k, v) in [
+            ("samples_per_stripe", r.samples_per_stripe),
+            ("iter_per_stripe", r.iter_per_stripe),
+            ("max_vertices_per_layer", r.max_vertices_per_layer),
+            ("max_iterations_per_layer", r.max_iterations_per_layer),
+        ] {
+            if v == Some(0) {
+                return Err(err(format!("planner.rrt_sos.{k}"), "must be ≥ 1"));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Contours by (dimension, polynomial text, distributions of its parameters), shared

@@ -1,4 +1,4 @@
-//! The motion checker's fast path (docs/design.md §5.6): compiled contours, proven
+//! The motion checker's fast path (docs/design.md §5.10): compiled contours, proven
 //! covers of each obstacle's unsafe set, and a grid so that an edge meets only the
 //! obstacles near it.
 //!

@@ -407,7 +407,7 @@ pub fn point_safe_with(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -
 /// the piece stays in the workspace. Stops at the first failure; the lower-degree
 /// mean constraint is tried first.
 ///
-/// Fast path (docs/design.md §5.6): the workspace is proven from the piece's
+/// Fast path (docs/design.md §5.10): the workspace is proven from the piece's
 /// Bernstein bounding box (exact check otherwise); obstacles whose proven cover the
 /// box misses are skipped ([`SceneIndex`]); the rest are decided on the compiled
 /// restriction, with the exact rational fallback for undecided cases.

@@ -200,6 +200,11 @@ def test_invalid_scene_bad_change(client, name3):
     (dict(certifier="bogus"), "certifier"),
     (dict(planner="astar"), "planner"),
     (dict(start=[-1, -1, 0], goal=[1, 1, 0]), "start"),
+    (dict(max_speed=-1.0), "max_speed"),
+    (dict(max_speed=0.0), "max_speed"),
+    (dict(max_accel=-2.0), "max_accel"),
+    (dict(risk_mode="everything"), "risk_mode"),
+    (dict(improve=True), "improve"),
 ])
 def test_invalid_request_plan(client, name3, options, field):
     kwargs = dict(time_limit=1.0)

@@ -136,6 +136,24 @@ def test_plan_with_explicit_start_goal_and_options(client, scene3, unique):
     np.testing.assert_allclose(plan.waypoints()[-1], [0.9, -1], atol=1e-9)
 
 
+def test_plan_options_of_issue_10(client, scene3, unique):
+    """Smoothing (C¹ pieces, degree ≤ 2), the paper's planner, a speed limit that cannot
+    be met (a typed no_plan naming it), and the joint risk mode with its allocation."""
+    name = unique()
+    applied(client, name, scene3)
+    smooth = client.plan(name, time_limit=PLAN_LIMIT)
+    assert smooth.certified and smooth.stats["smoothing"]["corners_sharp"] == 0
+    assert max(len(c) for p in smooth.raw["pieces"] for c in p["coeffs"]) <= 3
+    paper = client.plan(name, planner="rrt-sos-paper", time_limit=PLAN_LIMIT)
+    assert paper.certified and paper.planner == "rrt-sos-paper" and paper.stats["smoothing"] is None
+    with pytest.raises(riskplan.NoPlanError, match="out of reach"):
+        client.plan(name, time_limit=PLAN_LIMIT, max_speed=0.5)   # 2.83 to cover in 1 time unit
+    joint = client.plan(name, time_limit=PLAN_LIMIT, risk_mode="joint")
+    assert joint.certified
+    assert len(joint.stats["risk_allocation"]) == 1
+    assert joint.stats["risk_allocation"][0][1] == pytest.approx(joint.risk)
+
+
 def test_verify_the_plan_is_safe(client, scene3, unique):
     name = unique()
     rev = applied(client, name, scene3)

@@ -312,10 +312,15 @@ class Client:
     def plan(self, name: str, start: Optional[Sequence[float]] = None, goal: Optional[Sequence[float]] = None,
              planner: Optional[str] = "rrt-sos", time_limit: Optional[float] = 10.0, seed: Optional[int] = 1,
              timeout: Optional[float] = None, **options: Any) -> Plan:
-        """Plans on scene ``name`` (``plan_request``). ``options``: ``pieces``,
-        ``improve``, ``delta``, ``certifier`` (any other key is sent as is, and the
-        server rejects it as ``malformed_payload``). ``None`` leaves a field out (the
-        server's default). Raises :class:`NoPlanError` when no plan is found in time."""
+        """Plans on scene ``name`` (``plan_request``). ``planner``: ``rrt-sos`` (the
+        default: certified, smoothed), ``rrt-sos-paper`` (the paper's RRT-SOS) or
+        ``mc-rrt`` (uncertified baseline). ``options``: ``pieces``, ``improve``,
+        ``delta``, ``certifier``, ``max_speed``, ``max_accel``, ``smooth`` (bool),
+        ``risk_mode`` (``per-obstacle``, ``joint`` or ``joint-weighted``; the Δᵢ used are
+        in ``plan.stats["risk_allocation"]``). Any other key is sent as is, and the server
+        rejects it as ``malformed_payload``. ``None`` leaves a field out (the server's
+        default). Raises :class:`NoPlanError` when no plan is found in time, with the
+        typed reason in its message."""
         request: Json = {}
         if start is not None:
             request["start"] = [float(v) for v in start]
