@@ -228,6 +228,98 @@ impl<const N: usize> EPoly<N> {
     }
 }
 
+/// Error-free sum: `a + b = s + e` exactly (Knuth's TwoSum).
+fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let s = a + b;
+    let bb = s - a;
+    (s, (a - (s - bb)) + (b - bb))
+}
+
+/// The centred coordinates of a piece, `y_d(τ) = x_d(t0 + hτ) − c_d` and
+/// `s(τ) = t0 + hτ − t_c`, as coefficients with their rounding data
+/// `(value, |terms|, roundings)` for [`EPoly`] (docs/design.md §5.10). Computed once
+/// per piece and shared by every obstacle compiled around the same centre.
+///
+/// The constant term of a coordinate cancels: a workspace at x ≈ 1000 gives
+/// `c0 + c1·t0 − c ≈ 0.5` from terms of size 1000, and a running bound built on the
+/// terms' sizes would carry 1000 into every power of y. So it is computed without
+/// that loss: for straight pieces by error-free transformations (`c1·t0 = p + e1`
+/// exactly by a fused multiply-add, `c0 + p = s + e2` and `s − c = s2 + e3` by TwoSum,
+/// then `y0 = s2 + (e1 + e2 + e3)`: three roundings of terms whose sizes add up to
+/// about `|y0|`); for curved pieces exactly in rationals, then rounded once.
+#[derive(Clone, Debug)]
+pub struct Substitution {
+    coeffs: [[(f64, f64, u32); MAX_SUB_LEN]; 9],
+    len: [usize; 9],
+    nv: usize,
+    piece_degree: usize,
+}
+
+/// Coefficients of one substituted coordinate: a piece of degree ≤ 8 (the trajectory
+/// format's limit) gives at most 9.
+const MAX_SUB_LEN: usize = 9;
+
+impl Substitution {
+    /// The substitution of `piece` around `center` (space, then time); `None` for more
+    /// than 8 coordinates, a piece of degree above 8, or non-finite numbers.
+    pub fn new(piece: PieceRef<'_>, center: &[f64]) -> Option<Substitution> {
+        let nv = center.len();
+        if nv > 9 || nv == 0 {
+            return None;
+        }
+        let mut out = Substitution { coeffs: [[(0.0, 0.0, 0); MAX_SUB_LEN]; 9], len: [0; 9], nv, piece_degree: 0 };
+        let (t0, t1) = (piece.t0, piece.t1);
+        let h = t1 - t0; // one rounding
+        for d in 0..nv - 1 {
+            let row: &[f64] = piece.coeffs.get(d).map(|r| r.as_slice()).unwrap_or(&[]);
+            if row.len() > MAX_SUB_LEN {
+                return None;
+            }
+            out.piece_degree = out.piece_degree.max(row.len().saturating_sub(1));
+            let c = center[d];
+            match row.len() {
+                0 | 1 => {
+                    let c0 = row.first().copied().unwrap_or(0.0);
+                    let (s, e) = two_sum(c0, -c);
+                    out.coeffs[d][0] = (s + e, s.abs() + e.abs(), 1);
+                    out.len[d] = 1;
+                }
+                2 => {
+                    let (c0, c1) = (row[0], row[1]);
+                    let p = c1 * t0;
+                    let e1 = c1.mul_add(t0, -p);
+                    let (s, e2) = two_sum(c0, p);
+                    let (s2, e3) = two_sum(s, -c);
+                    let y0 = s2 + (e1 + e2 + e3);
+                    out.coeffs[d][0] = (y0, s2.abs() + e1.abs() + e2.abs() + e3.abs(), 3);
+                    let y1 = c1 * h;
+                    out.coeffs[d][1] = (y1, (c1 * h).abs(), 2);
+                    out.len[d] = 2;
+                }
+                _ => {
+                    // exactly in rationals, then each coefficient rounded once
+                    let q = |v: f64| BigRational::from_float(v);
+                    let (Some(qt0), Some(qt1), Some(qc)) = (q(t0), q(t1), q(c)) else { return None };
+                    let coeffs: Option<Vec<BigRational>> = row.iter().map(|&v| q(v)).collect();
+                    let poly = crate::poly::UPoly::new(coeffs?).compose_affine(&qt0, &(&qt1 - &qt0));
+                    let poly = poly.sub(&crate::poly::UPoly::constant(qc));
+                    for (k, slot) in out.coeffs[d].iter_mut().enumerate().take(row.len()) {
+                        let v = crate::poly::rational_to_f64(&poly.coeff(k));
+                        *slot = (v, v.abs(), 1);
+                    }
+                    out.len[d] = row.len();
+                }
+            }
+        }
+        let (s, e) = two_sum(t0, -center[nv - 1]);
+        out.coeffs[nv - 1][0] = (s + e, s.abs() + e.abs(), 1);
+        out.coeffs[nv - 1][1] = (h, h.abs(), 1);
+        out.len[nv - 1] = 2;
+        let finite = out.coeffs.iter().flatten().all(|(v, a, _)| v.is_finite() && a.is_finite());
+        finite.then_some(out)
+    }
+}
+
 /// A node of a Horner tree: `Σ_k coeffs[k]·v^k` with each coefficient a tree over the
 /// later variables.
 #[derive(Clone, Debug)]
@@ -483,38 +575,37 @@ impl CompiledContour {
     /// and Cantelli constraints restricted to a piece (`1−Δ` given as its nearest float
     /// and whether that float is exact), computed in `f64` with a running error bound
     /// ([`EPoly`]) in the smallest stack buffer that holds them; `None` beyond
-    /// [`CAPACITY`] or on overflow.
+    /// [`CAPACITY`] or on overflow. `subs` are the piece's centred coordinates
+    /// ([`Substitution::new`] with this contour's centre).
     pub fn with_constraints<R>(
         &self,
-        piece: PieceRef<'_>,
+        subs: &Substitution,
         one_minus_delta: (f64, bool),
         f: impl FnOnce(&[Interval], &[Interval]) -> R,
     ) -> Option<R> {
         fn run<const N: usize, R>(
             c: &CompiledContour,
-            piece: PieceRef<'_>,
+            sub: &Substitution,
             omd: (f64, bool),
             f: impl FnOnce(&[Interval], &[Interval]) -> R,
         ) -> Option<R> {
             let nv = c.center.len();
-            if nv > 9 {
+            if nv != sub.nv {
                 return None;
             }
-            // centred coordinates: y_d(τ) = x_d(t0 + hτ) − c_d, s(τ) = t0 + hτ − t_c;
-            // h = t1 − t0 is itself rounded (one rounding)
-            let mut lin = EPoly::<N>::linear(piece.t0, piece.t1 - piece.t0);
-            lin.a[1] = (piece.t1 - piece.t0).abs().max(piece.t1.abs() + piece.t0.abs());
-            lin.k = 1;
             let mut subs = [EPoly::<N>::zero(); 9];
-            for (d, sub) in subs.iter_mut().enumerate().take(nv - 1) {
-                let row: &[f64] = piece.coeffs.get(d).map(|r| r.as_slice()).unwrap_or(&[]);
-                let mut acc = EPoly::zero();
-                for &cf in row.iter().rev() {
-                    acc = acc.mul(&lin)?.add_signed(&EPoly::exact(cf), 1.0);
+            for (d, e) in subs.iter_mut().enumerate().take(nv) {
+                let len = sub.len[d];
+                if len > N {
+                    return None;
                 }
-                *sub = acc.add_signed(&EPoly::exact(c.center[d]), -1.0);
+                for (k, &(v, a, r)) in sub.coeffs[d][..len].iter().enumerate() {
+                    e.v[k] = v;
+                    e.a[k] = a;
+                    e.k = e.k.max(r);
+                }
+                e.len = len;
             }
-            subs[nv - 1] = lin.add_signed(&EPoly::exact(c.center[nv - 1]), -1.0);
             let subs = &subs[..nv];
             let e1 = c.mean.compose_e(subs)?;
             let e2 = c.second.compose_e(subs)?;
@@ -527,14 +618,13 @@ impl CompiledContour {
             }
             Some(f(&b2[..n2], &b1[..n1]))
         }
-        let need =
-            self.restricted_degree(piece.coeffs.iter().map(|r| r.len().saturating_sub(1)).max().unwrap_or(0)) + 1;
+        let need = self.restricted_degree(subs.piece_degree) + 1;
         if need <= 8 {
-            run::<8, R>(self, piece, one_minus_delta, f)
+            run::<8, R>(self, subs, one_minus_delta, f)
         } else if need <= 16 {
-            run::<16, R>(self, piece, one_minus_delta, f)
+            run::<16, R>(self, subs, one_minus_delta, f)
         } else {
-            run::<CAPACITY, R>(self, piece, one_minus_delta, f)
+            run::<CAPACITY, R>(self, subs, one_minus_delta, f)
         }
     }
 
@@ -551,6 +641,7 @@ mod tests {
     use crate::certify::compose::restrict_exact;
     use crate::contour::Layout;
     use crate::poly::{parse, VarTable};
+    use num_traits::Signed;
     use proptest::prelude::*;
 
     fn contour(text: &str, dim: usize) -> RiskContour {
@@ -610,10 +701,38 @@ mod tests {
             let omd = BigRational::from_integer(1.into()) - &delta;
             let f = crate::poly::rational_to_f64(&omd);
             let fe = BigRational::from_float(f).is_some_and(|e| e == omd);
-            let checked = cc.with_constraints(piece, (f, fe), |g2, g1| {
+            let subs = Substitution::new(piece, &cc.center).unwrap();
+            let checked = cc.with_constraints(&subs, (f, fe), |g2, g1| {
                 encloses(g1, &exact.cantelli).and_then(|_| encloses(g2, &exact.mean))
             }).unwrap();
             prop_assert!(checked.is_ok(), "{:?}", checked);
+        }
+    }
+
+    proptest! {
+        /// Each substituted coefficient is within `k·u·a` of the exact one (the model
+        /// [`EPoly`] builds on), for straight pieces (error-free transformations) and
+        /// curved ones (exact rationals), far from the origin and at shifted times.
+        #[test]
+        fn substitution_coefficients_meet_their_error_model(
+            c in prop::collection::vec(-1e3f64..1e3, 3), slope in -5f64..5.0, curve in -1f64..1.0,
+            t0 in -50f64..50.0, h in 1e-3f64..10.0, center in prop::collection::vec(-1e3f64..1e3, 3),
+        ) {
+            let coeffs = vec![vec![c[0], slope], vec![c[1], slope * 0.3, curve]];
+            let piece = PieceRef { t0, t1: t0 + h, coeffs: &coeffs };
+            let sub = Substitution::new(piece, &center).unwrap();
+            let q = |v: f64| BigRational::from_float(v).unwrap();
+            for d in 0..2 {
+                let exact = crate::poly::UPoly::new(coeffs[d].iter().map(|&v| q(v)).collect())
+                    .compose_affine(&q(t0), &(q(t0 + h) - q(t0)))
+                    .sub(&crate::poly::UPoly::constant(q(center[d])));
+                for k in 0..sub.len[d] {
+                    let (v, a, r) = sub.coeffs[d][k];
+                    let err = (q(v) - exact.coeff(k)).abs();
+                    let bound = q(a * r as f64 * UNIT_ROUNDOFF * (1.0 + 1e-12) + 1e-300);
+                    prop_assert!(err <= bound, "coordinate {d}, τ^{k}: error {} > bound {}", crate::poly::rational_to_f64(&err), crate::poly::rational_to_f64(&bound));
+                }
+            }
         }
     }
 

@@ -259,6 +259,7 @@ impl Planner for ConnectRrt {
                         short = s;
                     }
                 }
+                sm.waypoints_after = short.len();
                 let short_len = length(&short);
                 // the blended path; else the shortcut polyline; else the tree's path
                 let out = match blend(&short, (&ws.lower, &ws.upper), self.params.max_accel, checker, &counter, &mut sm)

@@ -392,11 +392,13 @@ impl Planner for LayeredRrt {
                 let short = shortcut(w, p.horizon, true, self.params.max_speed, checker, &counter, &mut rng, term);
                 sm.waypoints_after = short.len();
                 let bounds = (ws.lower.as_slice(), ws.upper.as_slice());
-                let smoothed = blend(&short, bounds, self.params.max_accel, checker, &counter, &mut sm).or_else(|| {
-                    sm.corners_sharp = short.len().saturating_sub(2);
-                    let s = super::smooth::straight(&short, &ws.lower, &ws.upper);
-                    (!checker.sound() || s.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted)).then_some(s)
-                });
+                let smoothed =
+                    blend(&short, bounds, self.params.max_accel, checker, &counter, &mut sm, term).or_else(|| {
+                        sm.corners_sharp = short.len().saturating_sub(2);
+                        let s = super::smooth::straight(&short, &ws.lower, &ws.upper);
+                        (!checker.sound() || s.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted))
+                            .then_some(s)
+                    });
                 stats.improve_time_s = t_imp.elapsed().as_secs_f64();
                 if smoothed.is_some() {
                     stats.path_length = Some(short.windows(2).map(|x| dist(&x[0].1, &x[1].1)).sum());

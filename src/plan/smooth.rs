@@ -246,6 +246,7 @@ pub fn blend(
     checker: &dyn MotionChecker,
     counter: &CheckCounter,
     stats: &mut SmoothStats,
+    term: &Termination,
 ) -> Option<Vec<Piece>> {
     let n = w.len();
     let (lower, upper) = workspace;
@@ -271,6 +272,10 @@ pub fn blend(
         let jump = dist(&vin, &vout);
         if jump == 0.0 {
             corners[i] = Corner::Blend(0.0);
+            continue;
+        }
+        if term.expired() {
+            // past the deadline: no more blend attempts, the corner stays sharp
             continue;
         }
         let max_delta = BLEND_SHARE * (w[i].0 - w[i - 1].0).min(w[i + 1].0 - w[i].0);

@@ -14,7 +14,7 @@ mod audit;
 mod index;
 mod workspace;
 
-use crate::certify::fast::CompiledContour;
+use crate::certify::fast::{CompiledContour, Substitution};
 use crate::certify::{bernstein, restrict_exact, restrict_interval, sos, PieceRef, Undecided, Verdict};
 use crate::contour::RiskLevel;
 use crate::plan::{Motion, MotionChecker, Termination};
@@ -465,20 +465,23 @@ impl SceneCertifier {
         self.index.get_or_init(|| SceneIndex::cached(&self.scene, &self.deltas, &|| false))
     }
 
-    /// Whether obstacle `i` is proven safe on a piece (Exact method, fast path).
-    fn obstacle_safe(&self, i: usize, pr: PieceRef<'_>) -> bool {
+    /// Whether obstacle `i` is proven safe on a piece (Exact method, fast path; `subs`:
+    /// the piece's centred coordinates, shared by all obstacles).
+    fn obstacle_safe(&self, i: usize, pr: PieceRef<'_>, subs: Option<&Substitution>) -> bool {
         let o = &self.scene.obstacles[i];
         let delta = self.deltas[i].rational();
         if self.method == Method::Exact {
-            let fast = self.compiled[i].with_constraints(pr, self.one_minus[i], |g2, g1| {
-                for g in [g2, g1] {
-                    match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
-                        Verdict::Safe { .. } => {}
-                        Verdict::Unsafe(_) => return Some(false),
-                        Verdict::Undecided(_) => return None,
+            let fast = subs.and_then(|subs| {
+                self.compiled[i].with_constraints(subs, self.one_minus[i], |g2, g1| {
+                    for g in [g2, g1] {
+                        match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
+                            Verdict::Safe { .. } => {}
+                            Verdict::Unsafe(_) => return Some(false),
+                            Verdict::Undecided(_) => return None,
+                        }
                     }
-                }
-                Some(true)
+                    Some(true)
+                })
             });
             match fast {
                 Some(Some(v)) => return v,
@@ -547,8 +550,12 @@ impl MotionChecker for SceneCertifier {
         }
         let mut cands = Vec::new();
         self.index().candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
+        let subs = match (cands.is_empty(), self.compiled.first()) {
+            (false, Some(c)) => Substitution::new(pr, &c.center),
+            _ => None,
+        };
         for i in cands {
-            if !self.obstacle_safe(i, pr) {
+            if !self.obstacle_safe(i, pr, subs.as_ref()) {
                 return Motion::Rejected;
             }
         }

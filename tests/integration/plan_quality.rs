@@ -186,3 +186,74 @@ fn joint_risk_bounds_the_probability_of_any_collision() {
     }
     assert!(planned >= 4, "joint-weighted planned on {planned} of 6 scenes");
 }
+
+/// Relative margins below this are not asked of the SOS method (issue 10): its
+/// certificate is a floating-point SDP solution re-checked rigorously, so a margin at
+/// the solver's tolerance may be lost.
+const SOS_RELATIVE_MARGIN: f64 = 1e-4;
+
+/// Issue 10, item 6: on a static scene with a quartic obstacle, the workspace near
+/// x ≈ 12 and the horizon [10, 13], the SOS method certifies every piece that the exact
+/// method certifies with a relative margin ≥ 1e-4 (the restriction is centred before the
+/// SDP; it used to be rejected by the re-check). Pieces: the default plan's, and straight
+/// segments passing the obstacle at several distances.
+#[test]
+fn sos_certifies_pieces_away_from_the_origin() {
+    use riskplan::verify::{verify, Method, Status};
+    let text = r#"{
+        "format": "riskplan-scene/1", "name": "quartic-at-12", "dim": 2,
+        "workspace": {"lower": [10, -2], "upper": [14, 2]}, "horizon": [10, 13], "risk": 0.1,
+        "params": {"w": {"dist": "uniform", "low": 0.9, "high": 1.1}},
+        "obstacles": [{"id": "quartic", "poly": "0.3*w*(1 + 0.5*(x1 - 12)) - (x1 - 12)^4 - x2^4 - 0.5*(x1 - 12)^2*x2^2"}],
+        "start": [10.2, -1.6], "goal": [13.8, 1.6]
+    }"#;
+    let s = Arc::new(Scene::from_json(text).unwrap());
+    let (plan_t, _) = plan(&s, PlanRequest::default());
+    let mut pieces = plan_t.pieces.clone();
+    for k in 0..40 {
+        // horizontal and slanted segments passing above and below the obstacle, nearer and nearer
+        let y = 1.95 - 1.1 * (k / 2) as f64 / 19.0;
+        let y = if k % 2 == 0 { y } else { -y };
+        let seg = riskplan::scene::Piece::segment(&[10.0, y], &[14.0, y * (1.0 - 0.01 * k as f64)], 10.0, 13.0);
+        pieces.push(riskplan::plan::smooth::inside(seg, &s.workspace.lower, &s.workspace.upper));
+    }
+    let (mut asked, mut sos_ok) = (0, 0);
+    for p in &pieces {
+        let t = Trajectory::new(vec![p.clone()]);
+        let exact = verify(&s, &t, &s.risk, Method::Exact, &Default::default());
+        if !exact.safe {
+            continue;
+        }
+        // the constraint's scale: its largest value along the piece (f64, 9 times)
+        let c = &exact.pieces[0].obstacles[0].constraints;
+        let scale = (0..=8)
+            .map(|k| {
+                let t = p.t0 + (p.t1 - p.t0) * k as f64 / 8.0;
+                let mut x = p.at(t);
+                x.push(t);
+                let (m, e2) = s.obstacles[0].contour.moments_f64(&x);
+                (m * m - 0.9 * e2).abs().max(m.abs())
+            })
+            .fold(0.0, f64::max);
+        let margin = c.iter().filter_map(|r| r.margin).fold(f64::INFINITY, f64::min);
+        if margin < SOS_RELATIVE_MARGIN * scale {
+            continue;
+        }
+        asked += 1;
+        let sos = verify(&s, &t, &s.risk, Method::Sos, &Default::default());
+        if sos.safe {
+            sos_ok += 1;
+        } else {
+            let why: Vec<_> = sos.pieces[0].obstacles[0]
+                .constraints
+                .iter()
+                .filter(|r| r.status != Status::Safe)
+                .map(|r| (r.name.clone(), r.reason.clone()))
+                .collect();
+            println!("SOS rejects a piece exact certifies with margin {margin:e} (scale {scale:e}): {why:?}");
+        }
+    }
+    println!("SOS certifies {sos_ok} of {asked} pieces certified by exact with relative margin ≥ 1e-4");
+    assert!(asked >= 20, "only {asked} pieces to compare");
+    assert!(sos_ok * 100 >= asked * 99, "SOS certifies {sos_ok} of {asked}");
+}
