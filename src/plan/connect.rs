@@ -262,8 +262,9 @@ impl Planner for ConnectRrt {
                 sm.waypoints_after = short.len();
                 let short_len = length(&short);
                 // the blended path; else the shortcut polyline; else the tree's path
-                let out = match blend(&short, (&ws.lower, &ws.upper), self.params.max_accel, checker, &counter, &mut sm)
-                {
+                let blended =
+                    blend(&short, (&ws.lower, &ws.upper), self.params.max_accel, checker, &counter, &mut sm, term);
+                let out = match blended {
                     Some(b) => {
                         stats.path_length = Some(short_len);
                         Some(b)
