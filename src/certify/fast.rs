@@ -270,6 +270,7 @@ impl Substitution {
         let mut out = Substitution { coeffs: [[(0.0, 0.0, 0); MAX_SUB_LEN]; 9], len: [0; 9], nv, piece_degree: 0 };
         let (t0, t1) = (piece.t0, piece.t1);
         let h = t1 - t0; // one rounding
+        #[allow(clippy::needless_range_loop)] // d indexes the piece's rows, the centre and the output
         for d in 0..nv - 1 {
             let row: &[f64] = piece.coeffs.get(d).map(|r| r.as_slice()).unwrap_or(&[]);
             if row.len() > MAX_SUB_LEN {
