@@ -11,9 +11,10 @@ mkdir -p docs/figures
 "${RP[@]}" contour --scene "$S/example-a1-2d.json" --mc 5000 --out docs/figures/example-a1-2d-contours.svg
 "${RP[@]}" contour --scene "$S/illustrative-2.json" --time 0 0.5 1 --mc 5000 --out docs/figures/illustrative-2-contours.svg
 "${RP[@]}" contour --scene "$S/example-a2-3d.json" --slice x3=0 --mc 5000 --out docs/figures/example-a2-3d-slice-x3-0.svg
-# plans: RRT-SOS on every planning scene (seed 1)
-"${RP[@]}" plan --scene "$S/illustrative-3.json" --improve --out /dev/null --figure docs/figures/plan-illustrative-3.svg
-for s in illustrative-4 example-b-lane-change example-c-delivery example-d1-cluttered-2d example-d2-cluttered-3d; do
+# plans: the default rrt-sos on every planning scene (seed 1); the paper's RRT-SOS with improve
+"${RP[@]}" plan --scene "$S/illustrative-3.json" --planner rrt-sos-paper --improve --out /dev/null \
+  --figure docs/figures/plan-illustrative-3-paper-improve.svg
+for s in illustrative-3 illustrative-4 example-b-lane-change example-c-delivery example-d1-cluttered-2d example-d2-cluttered-3d; do
   "${RP[@]}" plan --scene "$S/$s.json" --out /dev/null --figure "docs/figures/plan-$s.svg"
 done
 "${RP[@]}" plan --scene "$S/illustrative-3.json" --planner mc-rrt --out /dev/null --figure docs/figures/plan-illustrative-3-mc-rrt.svg

@@ -312,7 +312,11 @@ impl LayeredRrt {
 
 impl Planner for LayeredRrt {
     fn name(&self) -> &'static str {
-        "rrt-sos"
+        if self.params.local {
+            "rrt-sos"
+        } else {
+            "rrt-sos-paper"
+        }
     }
 
     fn solve(

@@ -152,7 +152,7 @@ fn path_length(points: &[Vec<f64>]) -> f64 {
 
 impl Planner for StaticRrt {
     fn name(&self) -> &'static str {
-        "rrt-sos"
+        "rrt-sos-paper"
     }
 
     fn solve(
