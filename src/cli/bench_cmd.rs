@@ -185,7 +185,7 @@ fn run_paper(a: BenchArgs) -> Result<i32, CliError> {
             a.seeds, time_limit_s, audit_samples, audit_times
         ),
         String::new(),
-        "| scene | planner | solved | median time to first plan (s) | median time (s) | paper (s) | median length | max MC risk | plans over Δ (99%) |"
+        "| scene | planner | solved | median time to first plan (ms) | median time (s) | paper (s) | median length | max MC risk | plans over Δ (99%) |"
             .into(),
         "|---|---|---|---|---|---|---|---|---|".into(),
     ];
@@ -240,7 +240,7 @@ fn run_paper(a: BenchArgs) -> Result<i32, CliError> {
                 "| {} | {label} | {solved}/{} | {} | {} | {paper_time} | {} | {worst:.4} | {over}/{solved} |",
                 scene.name,
                 a.seeds,
-                fmt(median(first)),
+                median(first).map(|x| format!("{:.3}", x * 1e3)).unwrap_or_else(|| "–".into()),
                 fmt(median(times)),
                 fmt(median(lens))
             ));

@@ -59,7 +59,7 @@ enum ClientCommand {
         /// Scene name on the server.
         #[arg(long)]
         scene: String,
-        /// rrt-sos or mc-rrt.
+        /// rrt-sos (default), rrt-sos-paper or mc-rrt.
         #[arg(long, default_value = "rrt-sos")]
         planner: String,
         /// Time limit, seconds.
@@ -71,9 +71,21 @@ enum ClientCommand {
         /// Pieces (layered planner).
         #[arg(long)]
         pieces: Option<u64>,
-        /// Improve step (static scenes).
+        /// Improve step (rrt-sos-paper on static scenes).
         #[arg(long)]
         improve: bool,
+        /// Speed limit (default: the scene's planner.max_speed).
+        #[arg(long)]
+        max_speed: Option<f64>,
+        /// Acceleration limit of the corner blends (default: the scene's planner.max_accel).
+        #[arg(long)]
+        max_accel: Option<f64>,
+        /// Return the raw tree path (no shortcut, no blends).
+        #[arg(long)]
+        no_smooth: bool,
+        /// per-obstacle (default), joint or joint-weighted.
+        #[arg(long)]
+        risk_mode: Option<String>,
         /// Write the trajectory here instead of stdout.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -202,13 +214,29 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             show(&client.apply(&scene, &req).await.map_err(err)?)?;
             Ok(0)
         }
-        ClientCommand::Plan { scene, planner, time_limit, seed, pieces, improve, out } => {
+        ClientCommand::Plan {
+            scene,
+            planner,
+            time_limit,
+            seed,
+            pieces,
+            improve,
+            max_speed,
+            max_accel,
+            no_smooth,
+            risk_mode,
+            out,
+        } => {
             let req = PlanRequest {
                 planner: Some(planner),
                 time_limit: Some(time_limit),
                 seed: Some(seed),
                 pieces,
                 improve: Some(improve),
+                max_speed,
+                max_accel,
+                smooth: Some(!no_smooth),
+                risk_mode,
                 ..Default::default()
             };
             match client.plan(&scene, &req).await {

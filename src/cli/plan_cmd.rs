@@ -43,7 +43,7 @@ pub struct PlanArgs {
     /// Planner.
     #[arg(long, default_value = "rrt-sos", value_parser = planner_parser())]
     planner: PlannerKind,
-    /// Run the improve step (static scenes): shortest path over all certified edges between tree vertices.
+    /// Run the improve step of rrt-sos-paper on a static scene: shortest path over all certified edges between tree vertices.
     #[arg(long)]
     improve: bool,
     /// Seed of the planner's RNG (same seed, same plan).

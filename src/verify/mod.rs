@@ -570,10 +570,27 @@ impl MotionChecker for SceneCertifier {
     }
 
     fn check_point(&self, x: &[f64], t: f64) -> Motion {
-        if point_safe_with(&self.scene, x, t, &self.deltas) {
-            Motion::Accepted
-        } else {
-            Motion::Rejected
+        if !self.scene.workspace.contains(x) {
+            return Motion::Rejected;
         }
+        // obstacles whose proven cover misses the point are safe there; the others are
+        // decided exactly
+        let bbox: Vec<(f64, f64)> = x.iter().map(|&v| (v, v)).collect();
+        let mut cands = Vec::new();
+        self.index().candidates(Some(&bbox), t, t, &mut cands);
+        let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else {
+            return Motion::Rejected;
+        };
+        let Some(tq) = BigRational::from_float(t) else { return Motion::Rejected };
+        xt.push(tq);
+        for i in cands {
+            let one_minus = BigRational::from_integer(1.into()) - self.deltas[i].rational();
+            let r = self.scene.obstacles[i].contour.risk_at(&xt);
+            let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
+            if !(r.mean.is_negative() && g1.is_positive()) {
+                return Motion::Rejected;
+            }
+        }
+        Motion::Accepted
     }
 }
