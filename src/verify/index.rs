@@ -205,7 +205,13 @@ impl SceneIndex {
             };
             let mut slabs = Vec::with_capacity(slab_times.len());
             let mut static_bounds = None;
+            let mut stopped = false;
             for t in slab_times {
+                // a moving obstacle's slabs are the largest step between two questions
+                if dynamic && stop() {
+                    stopped = true;
+                    break;
+                }
                 let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
                 region.push(t);
                 // centre the bounds near the obstacle: interval bounds of a polynomial
@@ -226,7 +232,8 @@ impl SceneIndex {
                 };
                 slabs.push(Slab { t, cover });
             }
-            covers.push(ObstacleCovers { slabs: Some(slabs), timeless: !dynamic });
+            // an obstacle left without all its slabs is always checked
+            covers.push(ObstacleCovers { slabs: (!stopped).then_some(slabs), timeless: !dynamic });
         }
         let grid = (scene.obstacles.len() >= GRID_MIN_OBSTACLES).then(|| build_grid(scene, &covers));
         SceneIndex {
