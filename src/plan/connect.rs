@@ -192,12 +192,7 @@ impl Planner for ConnectRrt {
         term: &Termination,
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
-        if p.is_dynamic() {
-            return Err(PlanError::InvalidOption {
-                option: "planner".into(),
-                message: "the scene has moving obstacles: use the layered (dynamic) planner".into(),
-            });
-        }
+        super::static_only(p)?;
         check_endpoints(p, checker)?;
         let mut stats =
             PlanStats { checker: checker.name().to_string(), seed: p.seed, attempts: 1, ..Default::default() };

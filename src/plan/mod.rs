@@ -438,6 +438,18 @@ pub fn check_endpoints(p: &Problem, checker: &dyn MotionChecker) -> Result<(), P
     Ok(())
 }
 
+/// Refuses a scene with moving obstacles (the static planners' edges are judged over
+/// the whole horizon, which is sound only when nothing moves).
+pub fn static_only(p: &Problem) -> Result<(), PlanError> {
+    if p.is_dynamic() {
+        return Err(PlanError::InvalidOption {
+            option: "planner".into(),
+            message: "the scene has moving obstacles: use the layered (dynamic) planner".into(),
+        });
+    }
+    Ok(())
+}
+
 /// Euclidean distance.
 pub fn dist(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()

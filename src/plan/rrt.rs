@@ -163,12 +163,7 @@ impl Planner for StaticRrt {
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
         self.params.validate()?;
-        if p.is_dynamic() {
-            return Err(PlanError::InvalidOption {
-                option: "planner".into(),
-                message: "the scene has moving obstacles: use the layered (dynamic) planner".into(),
-            });
-        }
+        super::static_only(p)?;
         check_endpoints(p, checker)?;
         if let Some(r) = super::connect::out_of_reach(p, self.params.max_speed) {
             let stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
