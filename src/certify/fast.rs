@@ -178,6 +178,13 @@ impl<const N: usize> EPoly<N> {
         r
     }
     /// `self·o`, or `None` beyond the capacity.
+    ///
+    /// Roundings: each exact coefficient is a sum of terms carrying `(1+θ_kx)` and
+    /// `(1+θ_ky)` factors, so their product carries `(1+θ_(kx+ky))`; the float product
+    /// adds one rounding and the at most `min(len)` products summed into one
+    /// coefficient add `min(len) − 1`: `k = kx + ky + min(len)`. (An earlier
+    /// `max(kx, ky) + min(len) + 1` undercounted when both operands were computed —
+    /// see the test `product_of_two_computed_operands_is_enclosed`.)
     pub fn mul(&self, o: &EPoly<N>) -> Option<EPoly<N>> {
         if self.len == 0 || o.len == 0 {
             return Some(EPoly::zero());
@@ -186,7 +193,7 @@ impl<const N: usize> EPoly<N> {
         if len > N {
             return None;
         }
-        let mut r = EPoly { v: [0.0; N], a: [0.0; N], len, k: self.k.max(o.k) + self.len.min(o.len) as u32 + 1 };
+        let mut r = EPoly { v: [0.0; N], a: [0.0; N], len, k: self.k + o.k + self.len.min(o.len) as u32 };
         for i in 0..self.len {
             let (x, xa) = (self.v[i], self.a[i]);
             for j in 0..o.len {
@@ -670,6 +677,28 @@ mod tests {
             }
         }
         Ok(())
+    }
+
+    /// Squaring a value that has already been rounded ten times: each sum `1 + b`
+    /// rounds back to 1, so the float result is 1 while the exact value is
+    /// `(1 + 10b)² ≈ 1 + 2.2e-15`. The enclosure must hold it; a rounding count of
+    /// `max(kx, ky) + min(len) + 1` (the old rule) gave an interval that missed it.
+    #[test]
+    fn product_of_two_computed_operands_is_enclosed() {
+        let b = (1.0 - 2f64.powi(-10)) * 2f64.powi(-53);
+        let mut x = EPoly::<4>::exact(1.0);
+        for _ in 0..10 {
+            x = x.add_signed(&EPoly::exact(b), 1.0);
+        }
+        assert_eq!(x.v[0], 1.0, "every sum rounds back to 1");
+        let sq = x.mul(&x).unwrap();
+        let mut out = [ZERO; 4];
+        assert_eq!(sq.enclosure(&mut out), Some(1));
+        let exact_x = BigRational::from_integer(1.into())
+            + BigRational::from_float(b).unwrap() * BigRational::from_integer(10.into());
+        let exact = exact_x.clone() * exact_x;
+        let (lo, hi) = (BigRational::from_float(out[0].lo).unwrap(), BigRational::from_float(out[0].hi).unwrap());
+        assert!(lo <= exact && exact <= hi, "{:?} misses {}", out[0], exact);
     }
 
     proptest! {
