@@ -33,6 +33,7 @@ pub mod mc;
 pub mod moments;
 pub mod plan;
 pub mod poly;
+pub mod relax;
 #[cfg(feature = "cli")]
 pub mod robust;
 pub mod scene;

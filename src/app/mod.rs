@@ -6,7 +6,7 @@
 use crate::contour::RiskLevel;
 use crate::plan::{
     rrt_planner, McChecker, McCheckerParams, MotionChecker, PlanError, PlanOptions, PlanOutcome, Planner, Problem,
-    Termination,
+    Termination, TvSos, TvSosParams,
 };
 use crate::scene::Scene;
 use crate::verify::{Method, SceneCertifier};
@@ -32,11 +32,16 @@ pub enum PlannerKind {
     /// sampling edge check (K scenarios × W waypoints per edge): uncertified, its plans
     /// say `certified: false`.
     McRrt,
+    /// The paper's time-varying SOS planner (Section V-B): a moment relaxation over
+    /// straight pieces with convex–concave rank iterations, every piece of the
+    /// read-out certified; a retry ladder (seeds, iterations, pieces, tighter Δ_opt).
+    TvSos,
 }
 
 impl PlannerKind {
     /// Every planner, in the order help texts list them.
-    pub const ALL: [PlannerKind; 3] = [PlannerKind::RrtSos, PlannerKind::RrtSosPaper, PlannerKind::McRrt];
+    pub const ALL: [PlannerKind; 4] =
+        [PlannerKind::RrtSos, PlannerKind::RrtSosPaper, PlannerKind::McRrt, PlannerKind::TvSos];
 
     /// The name on the command line and on the wire.
     pub fn as_str(self) -> &'static str {
@@ -44,6 +49,7 @@ impl PlannerKind {
             PlannerKind::RrtSos => "rrt-sos",
             PlannerKind::RrtSosPaper => "rrt-sos-paper",
             PlannerKind::McRrt => "mc-rrt",
+            PlannerKind::TvSos => "tv-sos",
         }
     }
 }
@@ -231,12 +237,20 @@ impl PlanRequest {
             max_accel: self.max_accel,
             smooth: self.smooth,
         };
-        let planner = rrt_planner(&problem, self.planner == PlannerKind::RrtSosPaper, &options)?;
         let deltas = allocate(&problem, self.risk_mode)?;
+        let planner: Box<dyn Planner> = match self.planner {
+            PlannerKind::TvSos => Box::new(self.tv_sos(&problem, &deltas)?),
+            _ => rrt_planner(&problem, self.planner == PlannerKind::RrtSosPaper, &options)?,
+        };
         let checker: Box<dyn MotionChecker> = match self.planner {
             PlannerKind::RrtSos | PlannerKind::RrtSosPaper => {
                 Box::new(SceneCertifier::with_deltas(problem.scene.clone(), deltas.clone(), self.certifier))
             }
+            // a handful of pieces to check: covers would cost more than they save
+            PlannerKind::TvSos => Box::new(
+                SceneCertifier::with_deltas(problem.scene.clone(), deltas.clone(), self.certifier)
+                    .without_index_build(),
+            ),
             PlannerKind::McRrt => {
                 if self.risk_mode != RiskMode::PerObstacle {
                     return Err(PlanError::InvalidOption {
@@ -254,6 +268,32 @@ impl PlanRequest {
         let allocation = (self.risk_mode != RiskMode::PerObstacle)
             .then(|| problem.scene.obstacles.iter().zip(&deltas).map(|(o, d)| (o.id.clone(), d.to_f64())).collect());
         Ok(PreparedPlan { problem, planner, checker, allocation })
+    }
+
+    /// The time-varying SOS planner for this request: the scene's
+    /// `planner.time_varying_sos` values, the request's pieces and speed limit.
+    fn tv_sos(&self, problem: &Problem, deltas: &[RiskLevel]) -> Result<TvSos, PlanError> {
+        let block = problem.scene.file.planner.as_ref();
+        if self.improve {
+            return Err(PlanError::InvalidOption {
+                option: "improve".into(),
+                message: "applies to the paper's static RRT planner only (rrt-sos-paper)".into(),
+            });
+        }
+        if self.max_accel.is_some() {
+            return Err(PlanError::InvalidOption {
+                option: "max_accel".into(),
+                message: "tv-sos plans straight pieces without smoothing; max_accel applies to rrt-sos".into(),
+            });
+        }
+        let mut params = TvSosParams::paper(block.and_then(|b| b.time_varying_sos.as_ref()));
+        if let Some(s) = self.pieces {
+            params.pieces = s;
+            params.max_pieces = params.max_pieces.max(s);
+        }
+        params.max_speed = self.max_speed.or(block.and_then(|b| b.max_speed));
+        params.validate()?;
+        Ok(TvSos { params, deltas: Some(deltas.to_vec()) })
     }
 
     /// When to stop: this request's time limit from now, and `cancel` if given.
@@ -276,11 +316,15 @@ impl PlanRequest {
 /// Why an outcome has no trajectory, in one line (for replies and messages).
 pub fn no_plan_reason(out: &PlanOutcome, limit: Duration) -> String {
     match &out.reason {
-        Some(crate::plan::NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried }) => format!(
-            "no plan within the time limit of {} s ({iterations} iterations, {edges_checked} edges checked{})",
-            limit.as_secs_f64(),
-            if pieces_tried.is_empty() { String::new() } else { format!(", pieces tried {pieces_tried:?}") }
-        ),
+        Some(crate::plan::NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried, ladder })
+            if ladder.is_empty() =>
+        {
+            format!(
+                "no plan within the time limit of {} s ({iterations} iterations, {edges_checked} edges checked{})",
+                limit.as_secs_f64(),
+                if pieces_tried.is_empty() { String::new() } else { format!(", pieces tried {pieces_tried:?}") }
+            )
+        }
         Some(r) => r.message(),
         None => format!("no plan ({} iterations, {} edges checked)", out.stats.iterations, out.stats.edges_checked),
     }

@@ -18,12 +18,14 @@ pub mod scale;
 pub mod smooth;
 #[cfg(any(test, feature = "test-support"))]
 pub mod testing;
+mod tvsos;
 
 pub use connect::{ConnectParams, ConnectRrt};
 pub use layered::{LayeredParams, LayeredRrt};
 pub use mc_checker::{McChecker, McCheckerParams};
 pub use rrt::{RrtParams, StaticRrt};
 pub use sampling::StripeSampler;
+pub use tvsos::{TvSos, TvSosParams};
 
 use crate::contour::RiskLevel;
 use crate::scene::{Piece, Scene, Trajectory};
@@ -268,6 +270,56 @@ pub struct PlanStats {
     /// The risk level Δᵢ of each obstacle in a joint risk mode (obstacle id, Δᵢ).
     #[serde(default)]
     pub risk_allocation: Option<Vec<(String, f64)>>,
+    /// The SDPs of an optimisation planner (sizes of the last one built, totals of
+    /// all solves).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sdp: Option<SdpStats>,
+    /// The steps of an optimisation planner's retry ladder, in order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ladder: Vec<LadderStep>,
+    /// The average-risk bound of the standard SOS planner's trajectory: per obstacle,
+    /// the largest Cantelli bound of the time-averaged moments over its pieces
+    /// (Section V-A.2, a weak guarantee reported beside the certified one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub average_risk: Option<Vec<(String, f64)>>,
+}
+
+/// Sizes and solver totals of an optimisation planner's SDPs.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+pub struct SdpStats {
+    /// Variables of the last SDP built.
+    pub variables: usize,
+    /// Constraint rows of the last SDP built.
+    pub rows: usize,
+    /// PSD constraints of the last SDP built (Gram blocks and affine blocks).
+    pub psd_cones: usize,
+    /// Largest PSD side of the last SDP built.
+    pub largest_psd: usize,
+    /// Solves, in all.
+    pub solves: u64,
+    /// Interior-point iterations, in all.
+    pub ipm_iterations: u64,
+    /// Time inside the solver, seconds.
+    pub solver_time_s: f64,
+    /// Time building models and setting up solvers, seconds.
+    pub setup_time_s: f64,
+}
+
+/// One step of an optimisation planner's retry ladder.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+pub struct LadderStep {
+    /// Pieces.
+    pub pieces: usize,
+    /// Seed of the initial point.
+    pub seed: u64,
+    /// `η` of the tightened risk level `Δ_opt = η·Δ`.
+    pub eta: f64,
+    /// Convex–concave iterations run.
+    pub iterations: usize,
+    /// The last Dirac gap `Σ (E[z²] − E[z]²)` (normalised units).
+    pub dirac_gap: Option<f64>,
+    /// How it ended (`certified`, or why not).
+    pub outcome: String,
 }
 
 /// Why a planner returned no trajectory (a typed outcome, not an error).
@@ -293,6 +345,9 @@ pub enum NoPlanReason {
         /// Layered pieces tried (the ladder), if any.
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         pieces_tried: Vec<usize>,
+        /// An optimisation planner's ladder, step by step.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        ladder: Vec<LadderStep>,
     },
     /// The time limit passed first.
     DeadlineReached {
@@ -303,6 +358,9 @@ pub enum NoPlanReason {
         /// Layered pieces tried (the ladder), if any.
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         pieces_tried: Vec<usize>,
+        /// An optimisation planner's ladder, step by step.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        ladder: Vec<LadderStep>,
     },
     /// Cancelled.
     Cancelled,
@@ -315,10 +373,13 @@ impl NoPlanReason {
         match status {
             PlanStatus::Cancelled => NoPlanReason::Cancelled,
             _ if term.cancelled() => NoPlanReason::Cancelled,
-            PlanStatus::DeadlineReached => {
-                NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried: Vec::new() }
-            }
-            _ => NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried: Vec::new() },
+            PlanStatus::DeadlineReached => NoPlanReason::DeadlineReached {
+                iterations,
+                edges_checked,
+                pieces_tried: Vec::new(),
+                ladder: Vec::new(),
+            },
+            _ => NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried: Vec::new(), ladder: Vec::new() },
         }
     }
 
@@ -329,17 +390,28 @@ impl NoPlanReason {
                 "the goal is out of reach: {distance:.6} to cover in {duration} at max_speed {max_speed} (at most {:.6})",
                 max_speed * duration
             ),
-            NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried } => format!(
-                "no plan within the planner's limits ({iterations} iterations, {edges_checked} edges checked{})",
-                ladder_text(pieces_tried)
+            NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried, ladder } => format!(
+                "no plan within the planner's limits ({iterations} iterations, {edges_checked} edges checked{}{})",
+                ladder_text(pieces_tried),
+                steps_text(ladder)
             ),
-            NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried } => format!(
-                "no plan within the time limit ({iterations} iterations, {edges_checked} edges checked{})",
-                ladder_text(pieces_tried)
+            NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried, ladder } => format!(
+                "no plan within the time limit ({iterations} iterations, {edges_checked} edges checked{}{})",
+                ladder_text(pieces_tried),
+                steps_text(ladder)
             ),
             NoPlanReason::Cancelled => "the plan was cancelled".into(),
         }
     }
+}
+
+fn steps_text(l: &[LadderStep]) -> String {
+    if l.is_empty() {
+        return String::new();
+    }
+    let steps: Vec<String> =
+        l.iter().map(|s| format!("{} pieces, seed {}, η {}: {}", s.pieces, s.seed, s.eta, s.outcome)).collect();
+    format!("; ladder: {}", steps.join("; "))
 }
 
 fn ladder_text(p: &[usize]) -> String {

@@ -13,6 +13,12 @@ impl Var {
     pub fn index(self) -> usize {
         self.0
     }
+    /// The handle of variable `i` (for modelling code that keeps indices; a handle
+    /// that does not belong to the model it is used with is refused there with
+    /// [`SdpError::VarOutOfRange`]).
+    pub fn from_index(i: usize) -> Var {
+        Var(i)
+    }
 }
 
 /// `constant + Σ coeff · var`.

@@ -246,6 +246,17 @@ impl SceneIndex {
         }
     }
 
+    /// The index of `scene` at `deltas` if the scene's cache holds it (never builds).
+    pub fn peek(scene: &Scene, deltas: &[RiskLevel]) -> Option<Arc<SceneIndex>> {
+        let fp = Fingerprint::of(scene);
+        scene
+            .kernel
+            .indexes
+            .lock()
+            .ok()
+            .and_then(|v| v.iter().find(|(f, d, _)| *f == fp && d == deltas).map(|e| e.2.clone()))
+    }
+
     /// The index of `scene` at `deltas` from the scene's cache, built if absent.
     pub fn cached(scene: &Scene, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> Arc<SceneIndex> {
         let fp = Fingerprint::of(scene);

@@ -455,6 +455,18 @@ impl SceneCertifier {
         }
     }
 
+    /// A certifier that does not build covers for its own use: it uses the scene's
+    /// cached index when there is one and otherwise checks every obstacle on every
+    /// piece (sound either way). For planners that check a handful of pieces, for
+    /// which building the covers (milliseconds per moving obstacle) would cost more
+    /// than it saves.
+    pub fn without_index_build(self) -> Self {
+        let index = SceneIndex::peek(&self.scene, &self.deltas)
+            .unwrap_or_else(|| Arc::new(SceneIndex::build(&self.scene, &self.deltas, &|| true)));
+        let _ = self.index.set(index);
+        self
+    }
+
     /// The per-obstacle risk levels.
     pub fn deltas(&self) -> &[RiskLevel] {
         &self.deltas

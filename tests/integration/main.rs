@@ -14,6 +14,7 @@ mod cli_core;
 #[cfg(feature = "cli")]
 mod cli_plan;
 mod fuzz_replay;
+mod optimisation_planners;
 mod plan_quality;
 mod plan_scenes;
 #[cfg(feature = "service")]

@@ -1,0 +1,135 @@
+//! Issue 11: the paper's optimisation planners. Every plan is re-verified by both
+//! certification methods, by the independent exact oracle (the contours evaluated in
+//! rationals at many times of every piece) and by a seeded Monte Carlo audit (the
+//! probability of collision with each obstacle at each audited point ≤ Δ at 99 %).
+
+use crate::common;
+use crate::common::oracle;
+use riskplan::app::{PlanRequest, PlannerKind};
+use riskplan::plan::{NoPlanReason, PlanError};
+use riskplan::scene::{Scene, Trajectory};
+use riskplan::verify::{audit_trajectory, verify, AuditOptions, Method};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Checks a certified plan with everything that does not share the planner's code.
+fn reverify(s: &Scene, t: &Trajectory, what: &str) {
+    let report = verify(s, t, &s.risk, Method::Both, &Default::default());
+    assert!(report.safe, "{what}: verify --method both rejects the plan: {report:?}");
+    oracle::check_trajectory(s, &t.pieces, &s.risk).unwrap_or_else(|e| panic!("{what}: oracle: {e}"));
+    let opts = AuditOptions { times_per_piece: 40, samples: 4000, seed: 7, ..AuditOptions::default() };
+    let a = audit_trajectory(s, t, s.risk_f64(), &opts).unwrap();
+    assert!(!a.exceeds(), "{what}: Monte Carlo risk above Δ: {:?}", a.exceedances);
+}
+
+fn tv_sos(seed: u64) -> PlanRequest {
+    PlanRequest { planner: PlannerKind::TvSos, seed, time_limit: Duration::from_secs(30), ..PlanRequest::default() }
+}
+
+/// `tv-sos` returns certified plans on the paper's time-varying SOS examples, for
+/// several seeds, each re-verified.
+#[test]
+fn tv_sos_plans_are_certified_and_reverified() {
+    for name in ["illustrative-3", "illustrative-4", "example-b-lane-change"] {
+        let s = Arc::new(common::scene(name));
+        for seed in 1..=3 {
+            let (_, out) = tv_sos(seed).run(s.clone(), None).unwrap();
+            let t = out.trajectory.unwrap_or_else(|| panic!("{name} seed {seed}: no plan: {:?}", out.reason));
+            assert!(out.certified);
+            let sdp = out.stats.sdp.as_ref().expect("SDP stats");
+            assert!(sdp.solves >= 1 && sdp.variables > 0 && sdp.rows > 0 && sdp.psd_cones > 0);
+            assert_eq!(out.stats.ladder.last().map(|l| l.outcome.as_str()), Some("certified"));
+            println!(
+                "{name} seed {seed}: {:.1} ms, {} solves, length {:.4}",
+                out.stats.planning_time_s * 1e3,
+                sdp.solves,
+                out.stats.path_length.unwrap()
+            );
+            reverify(&s, &t, &format!("{name} seed {seed}"));
+        }
+    }
+}
+
+/// On the delivery scene (five pieces, three moving obstacles) the outcome is either a
+/// plan that re-verifies or a typed no-plan that carries the ladder's log — never an
+/// uncertified plan.
+#[test]
+fn tv_sos_never_returns_an_uncertified_plan() {
+    let s = Arc::new(common::scene("example-c-delivery"));
+    let req = PlanRequest { time_limit: Duration::from_secs(3), ..tv_sos(1) };
+    let (_, out) = req.run(s.clone(), None).unwrap();
+    match out.trajectory {
+        Some(t) => {
+            assert!(out.certified);
+            reverify(&s, &t, "example-c-delivery");
+        }
+        None => {
+            assert!(!out.certified);
+            let ladder = match out.reason {
+                Some(NoPlanReason::Exhausted { ladder, .. }) | Some(NoPlanReason::DeadlineReached { ladder, .. }) => {
+                    ladder
+                }
+                other => panic!("unexpected reason {other:?}"),
+            };
+            assert!(!ladder.is_empty(), "the ladder's log is reported");
+            assert!(ladder.iter().all(|l| l.outcome != "certified"));
+        }
+    }
+}
+
+/// The `tv-sos` path on illustrative-3 is within 3 % of the length of the best RRT-SOS
+/// path (the paper's planner with its improve step: Dijkstra over every certified pair
+/// of tree vertices).
+#[test]
+fn tv_sos_path_is_within_three_percent_of_the_improved_rrt_path() {
+    let s = Arc::new(common::scene("illustrative-3"));
+    let improved = PlanRequest {
+        planner: PlannerKind::RrtSosPaper,
+        improve: true,
+        time_limit: Duration::from_secs(120),
+        ..PlanRequest::default()
+    };
+    let (_, out) = improved.run(s.clone(), None).unwrap();
+    let best = out.stats.path_length.expect("improved path");
+    for seed in 1..=5 {
+        let (_, out) = tv_sos(seed).run(s.clone(), None).unwrap();
+        let len = out.stats.path_length.unwrap_or_else(|| panic!("seed {seed}: no plan: {:?}", out.reason));
+        println!("seed {seed}: tv-sos {len:.4} vs improved RRT-SOS {best:.4}");
+        assert!(len <= 1.03 * best, "seed {seed}: {len} > 1.03 × {best}");
+    }
+}
+
+/// Options that do not apply to `tv-sos` are refused with typed errors.
+#[test]
+fn tv_sos_bad_options_get_typed_errors() {
+    let s = Arc::new(common::scene("illustrative-3"));
+    for (req, option) in [
+        (PlanRequest { improve: true, ..tv_sos(1) }, "improve"),
+        (PlanRequest { max_accel: Some(1.0), ..tv_sos(1) }, "max_accel"),
+        (PlanRequest { pieces: Some(0), ..tv_sos(1) }, "pieces"),
+        (PlanRequest { pieces: Some(1000), ..tv_sos(1) }, "pieces"),
+        (PlanRequest { max_speed: Some(-1.0), ..tv_sos(1) }, "max_speed"),
+    ] {
+        match req.run(s.clone(), None) {
+            Err(PlanError::InvalidOption { option: o, .. }) => assert_eq!(o, option),
+            other => panic!("{option}: expected InvalidOption, got {other:?}"),
+        }
+    }
+    // a speed limit below what the distance needs: a typed out-of-reach no-plan
+    let (_, out) = PlanRequest { max_speed: Some(1.0), ..tv_sos(1) }.run(s, None).unwrap();
+    assert!(matches!(out.reason, Some(NoPlanReason::OutOfReach { .. })), "{:?}", out.reason);
+}
+
+/// A speed limit that allows the plan is kept by every piece.
+#[test]
+fn tv_sos_keeps_a_speed_limit() {
+    let s = Arc::new(common::scene("illustrative-3"));
+    let v = 3.3;
+    let (_, out) = PlanRequest { max_speed: Some(v), ..tv_sos(1) }.run(s.clone(), None).unwrap();
+    let t = out.trajectory.unwrap_or_else(|| panic!("no plan: {:?}", out.reason));
+    for p in &t.pieces {
+        let len = riskplan::plan::dist(&p.at(p.t0), &p.at(p.t1));
+        assert!(len <= v * (p.t1 - p.t0) * (1.0 + 1e-12), "piece speed {} > {v}", len / (p.t1 - p.t0));
+    }
+    reverify(&s, &t, "illustrative-3 with max_speed");
+}
