@@ -318,6 +318,9 @@ pub struct LadderStep {
     pub iterations: usize,
     /// The last Dirac gap `Σ (E[z²] − E[z]²)` (normalised units).
     pub dirac_gap: Option<f64>,
+    /// Started from the default RRT-SOS planner's path (else the perturbed straight line).
+    #[serde(default)]
+    pub from_rrt: bool,
     /// How it ended (`certified`, or why not).
     pub outcome: String,
 }

@@ -109,6 +109,11 @@ pub struct TvSosParams {
     pub localizing_order: Option<u32>,
 }
 
+/// After the first certified read-out the iterations go on while each certified
+/// read-out is shorter than the best so far by at least this fraction; the shortest
+/// certified read-out is returned.
+pub const POLISH_MIN_GAIN: f64 = 0.002;
+
 /// A Dirac gap above this fraction of the previous one counts as stalled (see
 /// [`LENGTH_ANNEAL`]).
 pub const STALL_RATIO: f64 = 0.5;
@@ -272,6 +277,8 @@ struct Rung {
     seed: u64,
     eta: f64,
     iterations: usize,
+    /// Start from the default RRT-SOS planner's path instead of the straight line.
+    from_rrt: bool,
 }
 
 /// The built relaxation of one attempt.
@@ -293,13 +300,15 @@ impl TvSos {
 
     fn ladder(&self, seed: u64) -> Vec<Rung> {
         let p = &self.params;
+        let rung = |pieces, seed, eta, iterations, from_rrt| Rung { pieces, seed, eta, iterations, from_rrt };
         let mut r = vec![
-            Rung { pieces: p.pieces, seed, eta: p.eta, iterations: p.iterations },
-            Rung { pieces: p.pieces, seed: seed.wrapping_add(1), eta: p.eta, iterations: p.iterations },
-            Rung { pieces: p.pieces, seed: seed.wrapping_add(2), eta: p.eta_retry, iterations: 2 * p.iterations },
+            rung(p.pieces, seed, p.eta, p.iterations, true),
+            rung(p.pieces, seed, p.eta, p.iterations, false),
+            rung(p.pieces, seed.wrapping_add(1), p.eta, p.iterations, false),
+            rung(p.pieces, seed.wrapping_add(2), p.eta_retry, 2 * p.iterations, false),
         ];
         for s in p.pieces + 1..=p.max_pieces {
-            r.push(Rung { pieces: s, seed, eta: p.eta_retry, iterations: p.iterations });
+            r.push(rung(s, seed, p.eta_retry, p.iterations, true));
         }
         r
     }
@@ -528,6 +537,22 @@ impl TvSos {
     }
 }
 
+impl TvSos {
+    /// A certified path of the default RRT-SOS planner (shortcut and blended on static scenes), to start the
+    /// iterations from when the straight line leads nowhere: its homotopy class is a
+    /// feasible one, and the iterations then shorten it locally.
+    fn rrt_path(&self, p: &Problem, checker: &dyn MotionChecker, term: &Termination) -> Option<Trajectory> {
+        // shortcut paths start the iterations closer to the optimum on static scenes; with
+        // moving obstacles the raw layered path is used (its positions at the piece times
+        // keep clear of the obstacles, which a re-timed shortcut path need not)
+        let smooth = !p.is_dynamic();
+        let opts = super::PlanOptions { smooth, max_speed: self.params.max_speed, ..Default::default() };
+        let mut planner = super::rrt_planner(p, false, &opts).ok()?;
+        let out = planner.solve(p, checker, term).ok()?;
+        out.certified.then_some(out.trajectory).flatten()
+    }
+}
+
 /// What one attempt ended with.
 enum Attempt {
     Certified(Vec<Piece>),
@@ -567,6 +592,7 @@ impl Planner for TvSos {
         let mut cons_cache: Vec<(f64, Vec<[Poly<f64>; 2]>)> = Vec::new();
         let mut found = None;
         let mut stopped = false;
+        let (mut rrt_path, mut rrt_tried) = (None, false);
         for rung in self.ladder(p.seed) {
             if term.expired() {
                 stopped = true;
@@ -583,9 +609,20 @@ impl Planner for TvSos {
                 eta: rung.eta,
                 iterations: 0,
                 dirac_gap: None,
+                from_rrt: rung.from_rrt,
                 outcome: String::new(),
             };
-            let outcome = self.attempt(p, checker, term, &nrm, cons, rung, &counter, &mut sdp, &mut step)?;
+            if rung.from_rrt && rrt_path.is_none() && !rrt_tried {
+                rrt_tried = true;
+                rrt_path = self.rrt_path(p, checker, term);
+            }
+            if rung.from_rrt && rrt_path.is_none() {
+                step.outcome = "no RRT-SOS path to start from".into();
+                ladder.push(step);
+                continue;
+            }
+            let init = if rung.from_rrt { rrt_path.as_ref() } else { None };
+            let outcome = self.attempt(p, checker, term, &nrm, cons, rung, init, &counter, &mut sdp, &mut step)?;
             match outcome {
                 Attempt::Certified(pieces) => {
                     step.outcome = "certified".into();
@@ -659,6 +696,7 @@ impl TvSos {
         nrm: &Normalised,
         cons: &[[Poly<f64>; 2]],
         rung: Rung,
+        init: Option<&Trajectory>,
         counter: &CheckCounter,
         sdp: &mut SdpStats,
         step: &mut LadderStep,
@@ -708,12 +746,28 @@ impl TvSos {
         })?;
         sdp.setup_time_s += t_build.elapsed().as_secs_f64();
         let mut zbar = self.initial(&rel, nrm, rung.seed);
+        if let Some(path) = init {
+            // the RRT path at the piece times, as every piece's (a, b)
+            let at = |t: f64| -> Vec<f64> {
+                let pc = path.pieces.iter().find(|pc| t <= pc.t1).or(path.pieces.last()).expect("a piece");
+                pc.at(t.clamp(pc.t0, pc.t1)).iter().zip(&nrm.c).map(|(v, c)| (v - c) / nrm.l).collect()
+            };
+            for (i, (zb, (_, free))) in zbar.iter_mut().zip(&rel.pieces).enumerate() {
+                for (v, &(end, c)) in zb.iter_mut().zip(free) {
+                    *v = at(times[i + end as usize])[c];
+                }
+            }
+        }
         let mut last_rejected: Option<usize> = None;
+        let mut best: Option<(f64, Vec<Piece>)> = None;
         let mut length_weight = self.params.length_weight;
         let mut last_gap = f64::INFINITY;
         for it in 0..rung.iterations {
             if term.should_stop() {
-                return Ok(Attempt::Stopped);
+                return Ok(match best {
+                    Some((_, pieces)) => Attempt::Certified(pieces),
+                    None => Attempt::Stopped,
+                });
             }
             let q = self.objective(&rel, &zbar, &nrm.lo, length_weight);
             let sol = match prepared.update_q(&q).and_then(|_| prepared.solve()) {
@@ -751,7 +805,7 @@ impl TvSos {
             // (first order in its spread) meets the rank term's penalty (second order):
             // when the gap stalls, the length term is weakened (the path's shape is set
             // by then) so that the measures can go on to points.
-            if gap > STALL_RATIO * last_gap {
+            if gap > self.params.gap_tol && gap > STALL_RATIO * last_gap {
                 length_weight *= LENGTH_ANNEAL;
             }
             last_gap = gap;
@@ -771,11 +825,29 @@ impl TvSos {
                 }
                 w.push(p.goal.clone());
                 let pieces = read_out(&w);
+                let length: f64 = w.windows(2).map(|x| dist(&x[0], &x[1])).sum();
                 match certify(&pieces) {
-                    Ok(()) => return Ok(Attempt::Certified(pieces)),
-                    Err(i) => last_rejected = Some(i),
+                    Ok(()) => {
+                        // polish: go on while each certified read-out is clearly shorter
+                        let improved = best.as_ref().is_none_or(|(l, _)| length < (1.0 - POLISH_MIN_GAIN) * l);
+                        if best.as_ref().is_none_or(|(l, _)| length < *l) {
+                            best = Some((length, pieces));
+                        }
+                        if !improved {
+                            break;
+                        }
+                    }
+                    Err(i) => {
+                        last_rejected = Some(i);
+                        if best.is_some() {
+                            break;
+                        }
+                    }
                 }
             }
+        }
+        if let Some((_, pieces)) = best {
+            return Ok(Attempt::Certified(pieces));
         }
         Ok(Attempt::Failed(match last_rejected {
             Some(i) => format!("piece {i} of the read-out not certified"),
