@@ -33,7 +33,8 @@ fn bench(c: &mut Criterion) {
     let (g1_seg, g2_seg) = constraints(seg_x1.clone(), seg_x2);
     let quad_x2 = UPoly::new(vec![q(85, 100), q(3, 10), q(-3, 10)]);
     let (g1_quad, _) = constraints(seg_x1, quad_x2);
-    let settings = SosSettings::default();
+    // the interior-point path (what every certificate cost before the construction)
+    let settings = SosSettings { construct: false, ..SosSettings::default() };
     let cases = [("deg2", &g2_seg), ("deg4", &g1_seg), ("deg8", &g1_quad)];
     for (name, p) in cases {
         let out = certify(p, &settings);
@@ -47,8 +48,24 @@ fn bench(c: &mut Criterion) {
         g.bench_function(name, |b| b.iter(|| certify(black_box(p), &settings)));
     }
     // opt-in solver reuse (skips Clarabel's setup; see SosSettings::reuse_solver)
-    let reuse = SosSettings { reuse_solver: true, ..SosSettings::default() };
+    let reuse = SosSettings { reuse_solver: true, ..settings.clone() };
     g.bench_function("deg4_reuse", |b| b.iter(|| certify(black_box(&g1_seg), &reuse)));
+    // one illustrative-3 piece = both constraints (g1 degree 4, g2 degree 2), the unit the
+    // Python peers are timed on (scripts/sos_peers.py): the default (constructed
+    // certificate, SDP only as a fallback), the SDP alone, and the prepared SDP
+    let default = SosSettings::default();
+    for (label, s) in [("piece_default", &default), ("piece_sdp", &settings), ("piece_sdp_reuse", &reuse)] {
+        let (a, b) = (certify(&g1_seg, s), certify(&g2_seg, s));
+        assert!(a.verdict.is_safe() && b.verdict.is_safe(), "{label}");
+        if label == "piece_default" {
+            let built = |o: &riskplan::certify::sos::SosOutcome| o.certificate.as_ref().is_some_and(|c| c.constructed);
+            assert!(built(&a) && built(&b), "the default path constructs both certificates");
+        }
+        g.bench_function(label, |bch| bch.iter(|| (certify(black_box(&g1_seg), s), certify(black_box(&g2_seg), s))));
+    }
+    for (name, p) in cases {
+        g.bench_function(format!("{name}_default"), |b| b.iter(|| certify(black_box(p), &default)));
+    }
     let cert = certify(&g1_seg, &settings).certificate.expect("certificate");
     g.bench_function("recheck_deg4", |b| b.iter(|| recheck(black_box(&g1_seg), black_box(&cert))));
     g.finish();

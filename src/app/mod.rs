@@ -5,8 +5,8 @@
 
 use crate::contour::RiskLevel;
 use crate::plan::{
-    rrt_planner, McChecker, McCheckerParams, MotionChecker, PlanError, PlanOptions, PlanOutcome, Planner, Problem,
-    Termination, TvSos, TvSosParams,
+    rrt_planner, McChecker, McCheckerParams, MomentForm, MomentParams, MomentPlanner, MotionChecker, PlanError,
+    PlanOptions, PlanOutcome, Planner, Problem, Termination, TvSos, TvSosParams,
 };
 use crate::scene::Scene;
 use crate::verify::{Method, SceneCertifier};
@@ -36,12 +36,25 @@ pub enum PlannerKind {
     /// straight pieces with convex–concave rank iterations, every piece of the
     /// read-out certified; a retry ladder (seeds, iterations, pieces, tighter Δ_opt).
     TvSos,
+    /// The paper's standard SOS planner with average risk (Section V-A.2): Lasserre's
+    /// moment relaxation over piecewise-linear trajectories, atoms extracted, every
+    /// piece of an atom's trajectory certified against the per-instant Δ.
+    Moment,
+    /// The standard SOS planner over one polynomial trajectory of degree `d` (the
+    /// scene's `planner.standard_sos.polynomial_trajectory_degree`, else 2).
+    MomentPoly,
 }
 
 impl PlannerKind {
     /// Every planner, in the order help texts list them.
-    pub const ALL: [PlannerKind; 4] =
-        [PlannerKind::RrtSos, PlannerKind::RrtSosPaper, PlannerKind::McRrt, PlannerKind::TvSos];
+    pub const ALL: [PlannerKind; 6] = [
+        PlannerKind::RrtSos,
+        PlannerKind::RrtSosPaper,
+        PlannerKind::McRrt,
+        PlannerKind::TvSos,
+        PlannerKind::Moment,
+        PlannerKind::MomentPoly,
+    ];
 
     /// The name on the command line and on the wire.
     pub fn as_str(self) -> &'static str {
@@ -50,6 +63,8 @@ impl PlannerKind {
             PlannerKind::RrtSosPaper => "rrt-sos-paper",
             PlannerKind::McRrt => "mc-rrt",
             PlannerKind::TvSos => "tv-sos",
+            PlannerKind::Moment => "moment",
+            PlannerKind::MomentPoly => "moment-poly",
         }
     }
 }
@@ -240,6 +255,7 @@ impl PlanRequest {
         let deltas = allocate(&problem, self.risk_mode)?;
         let planner: Box<dyn Planner> = match self.planner {
             PlannerKind::TvSos => Box::new(self.tv_sos(&problem, &deltas)?),
+            PlannerKind::Moment | PlannerKind::MomentPoly => Box::new(self.moment(&problem, &deltas)?),
             _ => rrt_planner(&problem, self.planner == PlannerKind::RrtSosPaper, &options)?,
         };
         let checker: Box<dyn MotionChecker> = match self.planner {
@@ -247,7 +263,7 @@ impl PlanRequest {
                 Box::new(SceneCertifier::with_deltas(problem.scene.clone(), deltas.clone(), self.certifier))
             }
             // a handful of pieces to check: covers would cost more than they save
-            PlannerKind::TvSos => Box::new(
+            PlannerKind::TvSos | PlannerKind::Moment | PlannerKind::MomentPoly => Box::new(
                 SceneCertifier::with_deltas(problem.scene.clone(), deltas.clone(), self.certifier)
                     .without_index_build(),
             ),
@@ -294,6 +310,41 @@ impl PlanRequest {
         params.max_speed = self.max_speed.or(block.and_then(|b| b.max_speed));
         params.validate()?;
         Ok(TvSos { params, deltas: Some(deltas.to_vec()) })
+    }
+
+    /// The standard SOS planner for this request: the scene's `planner.standard_sos`
+    /// values, the request's pieces (piecewise linear only) and speed limit.
+    fn moment(&self, problem: &Problem, deltas: &[RiskLevel]) -> Result<MomentPlanner, PlanError> {
+        let name = self.planner.as_str();
+        let block = problem.scene.file.planner.as_ref();
+        if self.improve {
+            return Err(PlanError::InvalidOption {
+                option: "improve".into(),
+                message: "applies to the paper's static RRT planner only (rrt-sos-paper)".into(),
+            });
+        }
+        if self.max_accel.is_some() {
+            return Err(PlanError::InvalidOption {
+                option: "max_accel".into(),
+                message: format!("{name} does not smooth its plan; max_accel applies to rrt-sos"),
+            });
+        }
+        let mut params = MomentParams::paper(block.and_then(|b| b.standard_sos.as_ref()));
+        if self.planner == PlannerKind::MomentPoly {
+            params.form = MomentForm::Polynomial;
+            if self.pieces.is_some() {
+                return Err(PlanError::InvalidOption {
+                    option: "pieces".into(),
+                    message: "moment-poly plans one polynomial over the horizon; pieces applies to moment".into(),
+                });
+            }
+        }
+        if let Some(s) = self.pieces {
+            params.pieces = s;
+        }
+        params.max_speed = self.max_speed.or(block.and_then(|b| b.max_speed));
+        params.validate()?;
+        Ok(MomentPlanner { params, deltas: Some(deltas.to_vec()) })
     }
 
     /// When to stop: this request's time limit from now, and `cancel` if given.
@@ -438,7 +489,9 @@ mod tests {
             assert_eq!(k.as_str().parse::<PlannerKind>(), Ok(k));
         }
         let e = "rrt".parse::<PlannerKind>().unwrap_err();
-        assert_eq!(e.to_string(), "unknown planner 'rrt' (rrt-sos, rrt-sos-paper, mc-rrt)");
+        let names: Vec<&str> = PlannerKind::ALL.iter().map(|k| k.as_str()).collect();
+        assert_eq!(e.to_string(), format!("unknown planner 'rrt' ({})", names.join(", ")));
+        assert!(e.to_string().contains("tv-sos"), "{e}");
     }
 
     #[test]

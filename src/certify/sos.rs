@@ -116,6 +116,17 @@ pub struct SosSettings {
     /// depend on what the thread certified before. Soundness is unaffected either
     /// way: every verdict comes from the rigorous re-check.
     pub reuse_solver: bool,
+    /// Try the certificate constructed from Bernstein coefficients first
+    /// ([`construct`], no interior-point solve; default on). It is re-checked exactly like
+    /// a solver's; when it cannot be built (within [`construct::MAX_EXTRA_DEGREE`]
+    /// elevations) or its re-check fails, the margin SDP runs as before. Off: always the
+    /// SDP (its margin is the largest `γ`, about twice the constructed one).
+    #[serde(default = "default_construct")]
+    pub construct: bool,
+}
+
+fn default_construct() -> bool {
+    true
 }
 
 impl Default for SosSettings {
@@ -126,6 +137,7 @@ impl Default for SosSettings {
             max_degree: DEFAULT_MAX_DEGREE,
             sdp: SdpSettings::default(),
             reuse_solver: false,
+            construct: true,
         }
     }
 }
@@ -147,6 +159,10 @@ pub struct Certificate {
     pub solver_status: SdpStatus,
     /// Interior-point iterations.
     pub iterations: u32,
+    /// Built from Bernstein coefficients without a solver ([`construct`]; then
+    /// `solver_status` is `Unsolved` and `iterations` 0).
+    #[serde(default)]
+    pub constructed: bool,
 }
 
 /// The result of [`certify`]: the verdict, and the certificate when the solver
@@ -195,6 +211,15 @@ pub fn certify(p: &UPoly<Interval>, settings: &SosSettings) -> SosOutcome {
     let pn: Vec<Interval> = c.iter().map(|&ci| ci * inv).collect();
     let rhs: Vec<f64> = pn.iter().map(Interval::mid).collect();
 
+    if settings.construct {
+        if let Some(cert) = construct::bernstein_certificate(&rhs, scale, settings.eps_acc) {
+            if let Ok(lb) = lower_bound(&pn, &cert) {
+                if let v @ Verdict::Safe { .. } = safe_if_positive(lb, scale) {
+                    return SosOutcome { verdict: v, certificate: Some(cert) };
+                }
+            }
+        }
+    }
     let e0 = n.div_ceil(2);
     let (sol, layout) = match solve_margin_sdp(&rhs, e0, settings) {
         Ok(r) => r,
@@ -214,7 +239,15 @@ pub fn certify(p: &UPoly<Interval>, settings: &SosSettings) -> SosOutcome {
             sol.status
         ))));
     }
-    let cert = Certificate { scale, gamma: gamma_hat, q0, q1, solver_status: sol.status, iterations: sol.iterations };
+    let cert = Certificate {
+        scale,
+        gamma: gamma_hat,
+        q0,
+        q1,
+        solver_status: sol.status,
+        iterations: sol.iterations,
+        constructed: false,
+    };
 
     let verdict = if gamma_hat > settings.eps_acc {
         match lower_bound(&pn, &cert) {
@@ -665,5 +698,6 @@ fn gershgorin_lower(q: &[Vec<f64>]) -> f64 {
     }
 }
 
+pub mod construct;
 #[cfg(test)]
 mod tests;

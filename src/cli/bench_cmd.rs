@@ -29,7 +29,9 @@ pub enum Suite {
 ///
 /// --suite paper (default): for each scene of --scenes with a start and goal: rrt-sos
 /// (the default), rrt-sos-paper (on static scenes also with its improve step) and the Monte
-/// Carlo baseline mc-rrt, over --seeds seeds; medians are reported next to the paper's
+/// Carlo baseline mc-rrt, and where the scene records the paper's optimisation planners
+/// (planner.time_varying_sos, planner.standard_sos) tv-sos, moment and moment-poly, over
+/// --seeds seeds; medians are reported next to the paper's
 /// run times. Every plan is audited by Monte Carlo: the largest estimated probability of
 /// collision with any obstacle at --audit-times times per piece (--audit-samples
 /// scenarios), and the count of plans whose Clopper–Pearson lower bound (99%) exceeds Δ.
@@ -56,6 +58,10 @@ pub struct BenchArgs {
     /// Seeds per planner and scene (paper suite).
     #[arg(long, default_value_t = 5)]
     seeds: u64,
+    /// Only these planners (paper suite; comma-separated names: rrt-sos, rrt-sos-paper,
+    /// mc-rrt, tv-sos, moment, moment-poly) [default: all].
+    #[arg(long, value_delimiter = ',', value_parser = super::util::planner_parser())]
+    planners: Vec<PlannerKind>,
     /// Generated scenes (robustness suite).
     #[arg(long, default_value_t = 120)]
     count: usize,
@@ -208,6 +214,16 @@ fn run_paper(a: BenchArgs) -> Result<i32, CliError> {
         }
         let mc_paper = if dynamic { "–".into() } else { paper_t("monte_carlo_rrt_feasible") };
         variants.push(("mc-rrt", PlannerKind::McRrt, false, mc_paper));
+        // the optimisation planners on the scenes the paper ran them on
+        let block = scene.file.planner.as_ref();
+        if block.is_some_and(|b| b.time_varying_sos.is_some()) {
+            variants.push(("tv-sos", PlannerKind::TvSos, false, paper_t("time_varying_sos")));
+        }
+        if block.is_some_and(|b| b.standard_sos.is_some()) {
+            variants.push(("moment", PlannerKind::Moment, false, paper_t("standard_sos_piecewise_linear")));
+            variants.push(("moment-poly", PlannerKind::MomentPoly, false, paper_t("standard_sos_polynomial")));
+        }
+        variants.retain(|v| a.planners.is_empty() || a.planners.contains(&v.1));
         for (label, planner, improve, paper_time) in variants {
             let (mut times, mut lens, mut worst, mut over, mut solved) = (vec![], vec![], 0.0f64, 0, 0);
             let mut first = vec![];

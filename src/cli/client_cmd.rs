@@ -59,7 +59,7 @@ enum ClientCommand {
         /// Scene name on the server.
         #[arg(long)]
         scene: String,
-        /// rrt-sos (default), rrt-sos-paper or mc-rrt.
+        /// rrt-sos (default), rrt-sos-paper, mc-rrt, tv-sos, moment or moment-poly.
         #[arg(long, default_value = "rrt-sos")]
         planner: String,
         /// Time limit, seconds.

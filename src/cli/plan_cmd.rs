@@ -28,6 +28,24 @@ use std::time::Duration;
 /// the paper's Monte Carlo edge check (10 scenarios × 20 waypoints per edge): its
 /// output is marked "certified": false.
 ///
+/// tv-sos: the paper's time-varying SOS planner (Section V-B): a moment relaxation
+/// over straight pieces on equal time intervals (the scene's
+/// planner.time_varying_sos.pieces, else 2; --pieces sets it), iterated towards point
+/// measures and read out as waypoints; every piece certified. It starts from the
+/// default planner's path, then the perturbed straight line, and retries with fresh
+/// seeds, more pieces and a tighter optimisation risk; the stats report the SDP sizes,
+/// solver time and each step of that ladder. --max-speed applies; --improve and
+/// --max-accel do not.
+///
+/// moment: the paper's standard SOS planner with average risk (Section V-A.2): one
+/// Lasserre moment relaxation over piecewise-linear trajectories (the scene's
+/// planner.standard_sos.piecewise_linear_pieces, else 2; --pieces sets it) with time
+/// averaged out, its atoms extracted (Henrion–Lasserre) and each atom's trajectory
+/// certified against the per-instant Δ like any other; the average risk is a weak
+/// guarantee and is reported beside (stats.average_risk). Retries with a tighter
+/// optimisation risk, then one more piece. moment-poly: the same over one polynomial
+/// of degree d (planner.standard_sos.polynomial_trajectory_degree, else 2).
+///
 /// --risk-mode joint bounds the probability of colliding with any obstacle at each
 /// instant by Δ (obstacle i gets Δᵢ, ΣΔᵢ = Δ; the stats list them); the default
 /// per-obstacle mode is the paper's.

@@ -12,6 +12,7 @@
 mod connect;
 mod layered;
 mod mc_checker;
+mod moment;
 mod rrt;
 mod sampling;
 pub mod scale;
@@ -23,6 +24,7 @@ mod tvsos;
 pub use connect::{ConnectParams, ConnectRrt};
 pub use layered::{LayeredParams, LayeredRrt};
 pub use mc_checker::{McChecker, McCheckerParams};
+pub use moment::{extract_atoms, MomentForm, MomentParams, MomentPlanner};
 pub use rrt::{RrtParams, StaticRrt};
 pub use sampling::StripeSampler;
 pub use tvsos::{TvSos, TvSosParams};

@@ -229,31 +229,31 @@ pub struct TvSos {
 }
 
 /// The problem in normalised coordinates `ξ = (x − c)/L`, `τ = (t − t0)/(tf − t0)`.
-struct Normalised {
-    c: Vec<f64>,
-    l: f64,
-    lo: Vec<f64>,
-    hi: Vec<f64>,
-    x0: Vec<f64>,
-    xt: Vec<f64>,
+pub(super) struct Normalised {
+    pub(super) c: Vec<f64>,
+    pub(super) l: f64,
+    pub(super) lo: Vec<f64>,
+    pub(super) hi: Vec<f64>,
+    pub(super) x0: Vec<f64>,
+    pub(super) xt: Vec<f64>,
 }
 
 impl Normalised {
-    fn new(p: &Problem) -> Normalised {
+    pub(super) fn new(p: &Problem) -> Normalised {
         let ws = &p.scene.workspace;
         let c: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(a, b)| 0.5 * (a + b)).collect();
         let l = ws.lower.iter().zip(&ws.upper).map(|(a, b)| 0.5 * (b - a)).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
         let f = |x: &[f64]| x.iter().zip(&c).map(|(v, c)| (v - c) / l).collect::<Vec<f64>>();
         Normalised { lo: f(&ws.lower), hi: f(&ws.upper), x0: f(&p.start), xt: f(&p.goal), c, l }
     }
-    fn back(&self, xi: &[f64]) -> Vec<f64> {
+    pub(super) fn back(&self, xi: &[f64]) -> Vec<f64> {
         xi.iter().zip(&self.c).map(|(v, c)| c + self.l * v).collect()
     }
 }
 
 /// `g(c + L·ξ, t0 + T·τ)` exactly, then rounded: the constraint in normalised
 /// coordinates (variables `ξ_1..ξ_n` = 0..n, `τ` = n).
-fn normalise_poly(g: &QPoly, nrm: &Normalised, horizon: (f64, f64), dim: usize) -> Option<Poly<f64>> {
+pub(super) fn normalise_poly(g: &QPoly, nrm: &Normalised, horizon: (f64, f64), dim: usize) -> Option<Poly<f64>> {
     let q = |v: f64| BigRational::from_float(v);
     let l = q(nrm.l)?;
     let mut subs: Vec<QPoly> = Vec::with_capacity(dim + 1);
@@ -739,7 +739,10 @@ impl TvSos {
         sdp.psd_cones = rel.psd_cones;
         sdp.largest_psd = rel.largest_psd;
         let tol = self.params.solver_tol;
-        let settings = SdpSettings { tol_gap_abs: tol, tol_gap_rel: tol, tol_feas: tol, ..SdpSettings::default() };
+        // no single solve may outlast the plan's time limit (Clarabel checks its own)
+        let time_limit = term.remaining().map_or(f64::INFINITY, |d| d.as_secs_f64().max(1e-3));
+        let settings =
+            SdpSettings { tol_gap_abs: tol, tol_gap_rel: tol, tol_feas: tol, time_limit, ..SdpSettings::default() };
         let mut prepared: Prepared = rel.model.prepare(&settings).map_err(|e| PlanError::InvalidOption {
             option: "planner".into(),
             message: format!("tv-sos solver setup: {e}"),

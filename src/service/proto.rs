@@ -118,7 +118,7 @@ pub struct PlanRequest {
     /// Goal (default: the scene's).
     #[serde(default)]
     pub goal: Option<Vec<f64>>,
-    /// `rrt-sos` (default), `rrt-sos-paper` or `mc-rrt`.
+    /// `rrt-sos` (default), `rrt-sos-paper`, `mc-rrt`, `tv-sos`, `moment` or `moment-poly`.
     #[serde(default)]
     pub planner: Option<String>,
     /// Seconds (capped by the server).

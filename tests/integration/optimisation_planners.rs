@@ -123,3 +123,103 @@ fn tv_sos_keeps_a_speed_limit() {
     }
     reverify(&s, &t, "illustrative-3 with max_speed");
 }
+
+fn moment(planner: PlannerKind, seed: u64) -> PlanRequest {
+    PlanRequest { planner, seed, time_limit: Duration::from_secs(30), ..PlanRequest::default() }
+}
+
+/// `moment` (the standard SOS planner with average risk) returns a certified plan on
+/// illustrative-3, re-verified by both methods, the exact oracle and Monte Carlo; the
+/// average-risk values are reported and the SDP stats filled in.
+#[test]
+fn moment_plans_are_certified_and_reverified() {
+    let s = Arc::new(common::scene("illustrative-3"));
+    for seed in 1..=3 {
+        let (_, out) = moment(PlannerKind::Moment, seed).run(s.clone(), None).unwrap();
+        let t = out.trajectory.unwrap_or_else(|| panic!("seed {seed}: no plan: {:?}", out.reason));
+        assert!(out.certified);
+        let sdp = out.stats.sdp.as_ref().expect("SDP stats");
+        assert!(sdp.solves >= 1 && sdp.variables > 0 && sdp.psd_cones > 0);
+        let avg = out.stats.average_risk.as_ref().expect("average risk reported");
+        assert_eq!(avg.len(), 1);
+        assert!(avg[0].1 >= 0.0 && avg[0].1 <= 0.1 * (1.0 + 1e-6), "{avg:?}");
+        println!(
+            "seed {seed}: {:.1} ms, {} solves, length {:.4}, ladder {:?}",
+            out.stats.planning_time_s * 1e3,
+            sdp.solves,
+            out.stats.path_length.unwrap(),
+            out.stats.ladder.iter().map(|l| (l.pieces, l.eta, l.outcome.clone())).collect::<Vec<_>>()
+        );
+        reverify(&s, &t, &format!("moment seed {seed}"));
+    }
+}
+
+/// The paper's own problem (average risk at Δ, η = 1) is the first rung, and its
+/// atoms are judged per instant like any other trajectory: whatever the ladder ends
+/// with, nothing uncertified is returned; a plan that comes back is re-verified.
+#[test]
+fn moment_poly_is_certified_or_says_why() {
+    let s = Arc::new(common::scene("illustrative-3"));
+    let req = PlanRequest { time_limit: Duration::from_secs(10), ..moment(PlannerKind::MomentPoly, 1) };
+    let (_, out) = req.run(s.clone(), None).unwrap();
+    assert_eq!(out.stats.ladder.first().map(|l| l.eta), Some(1.0), "{:?}", out.stats.ladder);
+    match &out.trajectory {
+        Some(t) => {
+            assert!(out.certified);
+            assert!(t.pieces.len() == 1 && t.pieces[0].degree() >= 2, "one polynomial piece: {t:?}");
+            reverify(&s, t, "moment-poly");
+        }
+        None => {
+            assert!(!out.certified);
+            // the ladder ran out, or the time limit came first (higher orders are slow)
+            assert!(
+                matches!(out.reason, Some(NoPlanReason::Exhausted { .. } | NoPlanReason::DeadlineReached { .. })),
+                "{:?}",
+                out.reason
+            );
+        }
+    }
+}
+
+/// Options that do not apply to the moment planners are refused with typed errors.
+#[test]
+fn moment_bad_options_get_typed_errors() {
+    let s = Arc::new(common::scene("illustrative-3"));
+    for (req, option) in [
+        (PlanRequest { improve: true, ..moment(PlannerKind::Moment, 1) }, "improve"),
+        (PlanRequest { max_accel: Some(1.0), ..moment(PlannerKind::Moment, 1) }, "max_accel"),
+        (PlanRequest { pieces: Some(0), ..moment(PlannerKind::Moment, 1) }, "pieces"),
+        (PlanRequest { pieces: Some(1000), ..moment(PlannerKind::Moment, 1) }, "pieces"),
+        (PlanRequest { pieces: Some(2), ..moment(PlannerKind::MomentPoly, 1) }, "pieces"),
+        (PlanRequest { max_speed: Some(f64::NAN), ..moment(PlannerKind::Moment, 1) }, "max_speed"),
+    ] {
+        match req.run(s.clone(), None) {
+            Err(PlanError::InvalidOption { option: o, .. }) => assert_eq!(o, option),
+            other => panic!("{option}: expected InvalidOption, got {other:?}"),
+        }
+    }
+    let (_, out) = PlanRequest { max_speed: Some(1.0), ..moment(PlannerKind::Moment, 1) }.run(s, None).unwrap();
+    assert!(matches!(out.reason, Some(NoPlanReason::OutOfReach { .. })), "{:?}", out.reason);
+}
+
+/// The optimisation planners pass the conformance harness every planner passes
+/// (determinism per seed, expired and cancelled terminations, continuity, endpoints,
+/// every piece accepted by the sound checker).
+#[test]
+fn optimisation_planners_pass_the_conformance_harness() {
+    use riskplan::plan::testing::conformance;
+    use riskplan::plan::{MomentParams, MomentPlanner, Problem, TvSos, TvSosParams};
+    use riskplan::verify::SceneCertifier;
+    for name in ["illustrative-3", "illustrative-4"] {
+        let s = Arc::new(common::scene(name));
+        let p = Problem::from_scene(s.clone(), 3).unwrap();
+        let cert = SceneCertifier::new(s.clone(), p.delta.clone(), Method::Exact);
+        let block = s.file.planner.as_ref();
+        let mut tv = TvSos::new(TvSosParams::paper(block.and_then(|b| b.time_varying_sos.as_ref())));
+        conformance(&mut tv, &p, &cert, Duration::from_secs(60));
+        if name == "illustrative-3" {
+            let mut m = MomentPlanner::new(MomentParams::paper(block.and_then(|b| b.standard_sos.as_ref())));
+            conformance(&mut m, &p, &cert, Duration::from_secs(60));
+        }
+    }
+}

@@ -252,7 +252,7 @@ def test_an_apply_with_too_many_changes_is_refused_at_once(client, name3):
 PLAN_OVERRUN_S = 0.1   # issue: plans honour their time limit to within 100 ms
 
 
-@pytest.mark.parametrize("planner", ["rrt-sos", "rrt-sos-paper", "mc-rrt"])
+@pytest.mark.parametrize("planner", ["rrt-sos", "rrt-sos-paper", "mc-rrt", "tv-sos"])
 @pytest.mark.parametrize("time_limit", [0.3, 1.0])
 def test_plans_honour_their_time_limit(client, ring_scene, unique, planner, time_limit):
     """An impossible plan (the goal is enclosed) runs to its time limit and no further,

@@ -109,6 +109,22 @@ def test_plan_is_certified_with_the_revision(client, scene3, unique):
     assert plan.stats["planning_time_s"] >= 0 and plan.stats["edges_checked"] >= 1
 
 
+@pytest.mark.parametrize("scene", ["illustrative-3", "illustrative-4", "example-b-lane-change", "example-c-delivery"])
+def test_tv_sos_plans_over_zenoh(client, unique, scene):
+    """The time-varying SOS planner from Python: a certified plan on each of the
+    paper's tv-sos scenes, with its SDP stats and ladder, that the server's own
+    verification (both methods) accepts."""
+    name = unique()
+    applied(client, name, load_scene(scene))
+    plan = client.plan(name, planner="tv-sos", time_limit=PLAN_LIMIT, seed=1)
+    validate("plan_reply", plan.raw)
+    assert plan.planner == "tv-sos" and plan.certified is True
+    assert plan.stats["sdp"]["solves"] >= 1 and plan.stats["sdp"]["psd_cones"] >= 1
+    assert plan.stats["ladder"][-1]["outcome"] == "certified"
+    reply = client.verify(name, plan, method="both")
+    assert reply["safe"] is True
+
+
 def test_plan_reports_the_served_scene_name(client, scene3, unique):
     """Reading of the README: plan_reply.scene is the scene's name as served (the key)."""
     name = unique()

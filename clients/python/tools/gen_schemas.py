@@ -374,10 +374,10 @@ MESSAGES = {
         "properties": {
             "start": VECTOR,
             "goal": VECTOR,
-            "planner": {"enum": ["rrt-sos", "rrt-sos-paper", "mc-rrt"]},
+            "planner": {"enum": ["rrt-sos", "rrt-sos-paper", "mc-rrt", "tv-sos", "moment", "moment-poly"]},
             "time_limit": {"type": "number", "exclusiveMinimum": 0, "description": "seconds (> 0); the server caps it at --max-plan-seconds"},
             "seed": U64,
-            "pieces": {"type": "integer", "minimum": 1, "maximum": 1000, "description": "pieces of the time-layered planner (forces it; default: the ladder 1, 2, 4, … 32)"},
+            "pieces": {"type": "integer", "minimum": 1, "maximum": 1000, "description": "pieces of the time-layered planner (forces it; default: the ladder 1, 2, 4, … 32); for tv-sos the first rung's pieces (1 to 16; default: the scene's planner.time_varying_sos.pieces, else 2); for moment the first rung's pieces (1 to 8; default: the scene's planner.standard_sos.piecewise_linear_pieces, else 2)"},
             "improve": {"type": "boolean", "description": "the improve step (rrt-sos-paper on static scenes only)"},
             "delta": ref("delta"),
             "certifier": ref("method"),
@@ -395,7 +395,7 @@ MESSAGES = {
         "properties": {
             "format": {"const": "riskplan-trajectory/1"},
             "pieces": {"type": "array", "minItems": 1, "items": ref("piece")},
-            "planner": {"enum": ["rrt-sos", "rrt-sos-paper", "mc-rrt"]},
+            "planner": {"enum": ["rrt-sos", "rrt-sos-paper", "mc-rrt", "tv-sos", "moment", "moment-poly"]},
             "certified": {"type": "boolean", "description": "every piece proven safe (always false for mc-rrt)"},
             "stats": {
                 "type": "object",
@@ -407,6 +407,9 @@ MESSAGES = {
                     "pieces": {"type": ["integer", "null"], "description": "pieces of the layered planner's rung that succeeded"},
                     "smoothing": {"type": ["object", "null"], "description": "shortcut and blend counts: waypoints_before, waypoints_after, corners_blended, corners_stopped, corners_sharp, accel_violations"},
                     "risk_allocation": {"type": ["array", "null"], "items": {"type": "array", "prefixItems": [{"type": "string"}, {"type": "number"}]}, "description": "[obstacle id, Δᵢ] per obstacle in a joint risk mode"},
+                    "sdp": {"type": "object", "description": "tv-sos, moment, moment-poly: sizes of the last SDP built (variables, rows, psd_cones, largest_psd) and solver totals (solves, ipm_iterations, solver_time_s, setup_time_s)"},
+                    "ladder": {"type": "array", "items": {"type": "object"}, "description": "tv-sos, moment, moment-poly: the retry ladder's steps (pieces, seed, eta, iterations, dirac_gap, from_rrt, outcome)"},
+                    "average_risk": {"type": ["array", "null"], "items": {"type": "array", "prefixItems": [{"type": "string"}, {"type": "number"}]}, "description": "moment, moment-poly: [obstacle id, average-risk bound] per obstacle: the largest Cantelli bound of the time-averaged moments over the pieces (a weak guarantee; the plan itself is certified per instant)"},
                 },
             },
             "revision": U64,

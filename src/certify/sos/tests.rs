@@ -55,7 +55,17 @@ fn oracle_min(c: &[f64]) -> (f64, f64) {
     best
 }
 
+/// The interior-point path alone (what most tests here exercise).
+fn sdp_only() -> SosSettings {
+    SosSettings { construct: false, ..SosSettings::default() }
+}
+
 fn run(p: &UPoly<Interval>) -> SosOutcome {
+    certify(p, &sdp_only())
+}
+
+/// The default: the constructed certificate first, the SDP when it cannot be built.
+fn run_default(p: &UPoly<Interval>) -> SosOutcome {
     certify(p, &SosSettings::default())
 }
 
@@ -73,6 +83,7 @@ fn bernstein_scale_examples() {
 #[test]
 fn double_root_is_never_safe() {
     let p = enclose(&[q(9, 100), q(-6, 10), q(1, 1)]);
+    assert!(!run_default(&p).verdict.is_safe());
     let out = run(&p);
     assert!(!out.verdict.is_safe(), "{:?}", out.verdict);
     if let Some(c) = &out.certificate {
@@ -157,6 +168,7 @@ fn non_finite_is_undecided() {
             q1: vec![vec![0.0]],
             solver_status: SdpStatus::Solved,
             iterations: 0,
+            constructed: false,
         };
         assert_eq!(recheck(&p, &cert), Verdict::Undecided(Undecided::NonFinite));
     }
@@ -223,8 +235,15 @@ fn recheck_rejects_bad_certificates() {
     let other = enclose(&[q(9, 100), q(-6, 10), q(1, 1)]);
     assert!(!recheck(&other, &cert).is_safe());
     // empty Gram matrices: LB = γ − |p_0 − γ| ≤ p_0, so exactly the positive constants
-    let c =
-        Certificate { scale: 1.0, gamma: 0.5, q0: vec![], q1: vec![], solver_status: SdpStatus::Solved, iterations: 0 };
+    let c = Certificate {
+        scale: 1.0,
+        gamma: 0.5,
+        q0: vec![],
+        q1: vec![],
+        solver_status: SdpStatus::Solved,
+        iterations: 0,
+        constructed: false,
+    };
     assert!(recheck(&points(&[0.5]), &c).is_safe());
     assert!(recheck(&points(&[0.4]), &c).is_safe());
     assert!(!recheck(&points(&[0.0]), &c).is_safe());
@@ -239,6 +258,7 @@ fn recheck_rejects_bad_certificates() {
         q1: vec![vec![0.0]],
         solver_status: SdpStatus::Solved,
         iterations: 0,
+        constructed: false,
     };
     match recheck(&points(&[1.0]), &c) {
         Verdict::Safe { margin } => assert!(margin <= 0.7 && margin > 0.69, "{margin}"),
@@ -276,7 +296,7 @@ proptest! {
         let mut c = c;
         c[0] += shift;
         let p = points(&c);
-        let out = run(&p);
+        for out in [run(&p), run_default(&p)] {
         if let Verdict::Safe { margin } = out.verdict {
             for j in 0..=1000 {
                 let t = j as f64 / 1000.0;
@@ -296,6 +316,12 @@ proptest! {
                 let (m, _) = oracle_min(&c);
                 prop_assert!((cert.gamma - m / cert.scale).abs() <= 1e-6, "γ̂ {} vs min {}", cert.gamma, m / cert.scale);
             }
+            // a constructed certificate's γ is half its smallest Bernstein coefficient: below the minimum
+            if cert.constructed {
+                let (m, _) = oracle_min(&c);
+                prop_assert!(cert.gamma > 0.0 && cert.gamma <= m / cert.scale, "γ {} vs min {}", cert.gamma, m / cert.scale);
+            }
+        }
         }
     }
 }
@@ -306,7 +332,7 @@ proptest! {
 fn random_positive_polynomials_are_safe() {
     use rand::{Rng, SeedableRng};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-    let (mut safe, mut total) = (0, 0);
+    let (mut safe, mut total, mut safe_default, mut built) = (0, 0, 0, 0);
     for _ in 0..200 {
         let deg: usize = rng.random_range(2..=8);
         let mut c: Vec<f64> = (0..=deg).map(|_| rng.random_range(-1.0..1.0)).collect();
@@ -314,6 +340,12 @@ fn random_positive_polynomials_are_safe() {
         let lift = 10f64.powf(rng.random_range(-3.0..0.0));
         c[0] += lift - m;
         let p = points(&c);
+        let constructed = run_default(&p);
+        assert!(!constructed.verdict.is_unsafe(), "positive polynomial refuted: {c:?}");
+        if constructed.verdict.is_safe() {
+            built += usize::from(constructed.certificate.as_ref().is_some_and(|c| c.constructed));
+            safe_default += 1;
+        }
         let out = run(&p);
         total += 1;
         if out.verdict.is_safe() {
@@ -327,6 +359,9 @@ fn random_positive_polynomials_are_safe() {
         }
     }
     assert!(safe * 100 >= total * 97, "only {safe}/{total} Safe");
+    assert!(safe_default * 100 >= total * 97, "default: only {safe_default}/{total} Safe");
+    eprintln!("constructed certificates: {built} of {safe_default} Safe");
+    assert!(built > 0, "the construction never succeeded");
 }
 
 /// The authors' tangent case (docs/design.md §5.6, §8.5): Example 3, piece 2 of the
@@ -364,6 +399,7 @@ fn example3_piece2_tangent_is_not_safe() {
         assert!(m > -1e-7 && (0.25..0.4).contains(&tmin), "min {m} at {tmin}");
 
         let p = enclose(g1.coeffs());
+        assert!(!run_default(&p).verdict.is_safe(), "tangent piece certified (constructed)");
         let out = run(&p);
         assert!(!out.verdict.is_safe(), "tangent piece certified: {:?}", out.verdict);
         if let Some(c) = &out.certificate {
@@ -382,8 +418,8 @@ fn example3_piece2_tangent_is_not_safe() {
 /// from one solve to the next.
 #[test]
 fn solver_reuse_matches_fresh_solves() {
-    let fresh = SosSettings::default();
-    let reuse = SosSettings { reuse_solver: true, ..SosSettings::default() };
+    let fresh = sdp_only();
+    let reuse = SosSettings { reuse_solver: true, ..sdp_only() };
     let polys = [
         points(&[0.5, -1.0, 1.0]),
         points(&[0.3, -0.5, 0.2, 0.1, 0.4]),
@@ -461,15 +497,15 @@ proptest! {
 #[test]
 fn solver_failures_are_undecided() {
     let p = points(&[1.0, -1.0, 1.0]);
-    let mut s = SosSettings::default();
+    let mut s = sdp_only();
     s.sdp.max_iter = 1;
     let out = certify(&p, &s);
     assert_eq!(out.verdict, Verdict::Undecided(Undecided::Solver("MaxIterations".into())));
     assert!(out.certificate.is_none());
-    let mut s = SosSettings::default();
+    let mut s = sdp_only();
     s.sdp.time_limit = 1e-12;
     assert!(matches!(certify(&p, &s).verdict, Verdict::Undecided(Undecided::Solver(_))));
-    let mut s = SosSettings::default();
+    let mut s = sdp_only();
     s.sdp.tol_feas = f64::NAN; // rejected settings
     assert!(matches!(certify(&p, &s).verdict, Verdict::Undecided(Undecided::Solver(_))));
     // a NaN acceptance threshold never certifies

@@ -313,8 +313,14 @@ class Client:
              planner: Optional[str] = "rrt-sos", time_limit: Optional[float] = 10.0, seed: Optional[int] = 1,
              timeout: Optional[float] = None, **options: Any) -> Plan:
         """Plans on scene ``name`` (``plan_request``). ``planner``: ``rrt-sos`` (the
-        default: certified, smoothed), ``rrt-sos-paper`` (the paper's RRT-SOS) or
-        ``mc-rrt`` (uncertified baseline). ``options``: ``pieces``, ``improve``,
+        default: certified, smoothed), ``rrt-sos-paper`` (the paper's RRT-SOS),
+        ``mc-rrt`` (uncertified baseline) or ``tv-sos`` (the paper's time-varying SOS
+        optimisation, every piece certified; SDP sizes, solver time and the retry
+        ladder in ``plan.stats["sdp"]`` and ``plan.stats["ladder"]``), ``moment`` or
+        ``moment-poly`` (the paper's standard SOS planner with average risk, over
+        piecewise-linear or polynomial trajectories: atoms extracted from one moment
+        relaxation, each certified; the average-risk values in
+        ``plan.stats["average_risk"]``). ``options``: ``pieces``, ``improve``,
         ``delta``, ``certifier``, ``max_speed``, ``max_accel``, ``smooth`` (bool),
         ``risk_mode`` (``per-obstacle``, ``joint`` or ``joint-weighted``; the Δᵢ used are
         in ``plan.stats["risk_allocation"]``). Any other key is sent as is, and the server
