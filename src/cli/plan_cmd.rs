@@ -144,7 +144,7 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
         eprintln!("{}: {}", a.planner, r.message());
     }
     if let Some(fig) = &a.figure {
-        draw_figure(&scene, &problem, &outcome, fig)?;
+        draw_figure(&scene, &problem, &outcome, a.planner == PlannerKind::McRrt, fig)?;
     }
     let Some(traj) = outcome.trajectory else { return Ok(1) };
     let file = TrajectoryFile {
@@ -171,12 +171,16 @@ fn draw_figure(
     scene: &Scene,
     p: &Problem,
     out: &riskplan::plan::PlanOutcome,
+    sampled_edges: bool,
     fig: &std::path::Path,
 ) -> Result<(), CliError> {
     let mut overlays = vec![Overlay::Segments {
         segments: out.tree.clone(),
         color: (120, 120, 120),
-        label: Some("tree (certified edges)".into()),
+        // mc-rrt's edges passed a Monte Carlo test only: the legend says which
+        label: Some(
+            if sampled_edges { "tree (edges passed Monte Carlo only)" } else { "tree (certified edges)" }.into(),
+        ),
     }];
     let mut times = vec![p.horizon.0];
     if let Some(t) = &out.trajectory {
