@@ -369,7 +369,9 @@ WHY = {
                     "relaxation, extracts its atoms and certifies each atom's trajectory against the per-instant Δ; "
                     "when none is certified it tightens the optimisation's risk level Δ_opt = η·Δ, then adds a piece "
                     "(seed 1: {moment_ladder}). "
-                    "The authors' polynomial script also hard-codes the constraints of a radius Uniform[0.1, 0.15] "
+                    "An atom that is not certified is reported as leaving the workspace where it does (sampled, for "
+                    "the log only): the degree-2 optimum of the paper's problem bulges past the box [−1, 1]² of "
+                    "this scene. The authors' polynomial script also hard-codes the constraints of a radius Uniform[0.1, 0.15] "
                     "and their piecewise-linear one uses the horizon [0, 2]; ours use the scene's disk and horizon.",
     "tv_sos": "Our tv-sos solves the paper's moment relaxation on Clarabel instead of MOSEK and starts from the "
               "default RRT-SOS path (else the perturbed straight line). The paper verifies the heuristic's "
@@ -637,6 +639,10 @@ def ladder_text(rec: dict | None, start: bool = True) -> str:
     if start:
         s += f" from {'the RRT-SOS path' if last.get('from_rrt') else 'the straight line'}"
     s += f": {last['outcome']}"
+    if last["outcome"] != "certified" and len(steps) > 1:
+        # no plan: every step's outcome says why
+        s += "; the steps: " + "; ".join(f"η = {fmt_g(x['eta'], 3)}, {x['pieces']} piece{'s' if x['pieces'] > 1 else ''}: "
+                                         f"{x['outcome']}" for x in steps[:-1])
     avg = rec["stats"].get("average_risk")
     if avg:
         s += "; its average-risk bound " + ", ".join(f"{fmt_g(v, 3)} ({k})" for k, v in avg)

@@ -744,6 +744,19 @@ impl Planner for MomentPlanner {
     }
 }
 
+/// Whether a rejected trajectory visibly leaves the workspace box (at 65 times per
+/// piece). For the ladder's log only: it explains a rejection, it never accepts.
+fn leaves_workspace(pieces: &[Piece], p: &Problem) -> bool {
+    const TIMES: usize = 64;
+    let ws = &p.scene.workspace;
+    pieces.iter().any(|pc| {
+        (0..=TIMES).any(|k| {
+            let x = pc.at(pc.t0 + (pc.t1 - pc.t0) * k as f64 / TIMES as f64);
+            x.iter().zip(ws.lower.iter().zip(&ws.upper)).any(|(v, (lo, hi))| v < lo || v > hi)
+        })
+    })
+}
+
 /// Length of a trajectory: exact for straight pieces, from 64 chords per piece for
 /// curved ones (a lower bound that converges quadratically; for reports only).
 fn path_length(pieces: &[Piece]) -> f64 {
@@ -848,6 +861,7 @@ impl MomentPlanner {
             let mut ranked: Vec<(f64, Vec<f64>)> = atoms.into_iter().map(|a| (fam.objective.eval(&a), a)).collect();
             ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
             let n_atoms = ranked.len();
+            let mut outside = 0;
             for (_, z) in &ranked {
                 if term.should_stop() {
                     return Ok(Attempt::Stopped);
@@ -856,9 +870,11 @@ impl MomentPlanner {
                 if self.certify(&pieces, checker, counter) {
                     return Ok(Attempt::Certified { average_risk: average_risk(avg, z), pieces });
                 }
+                outside += usize::from(leaves_workspace(&pieces, p));
             }
+            let where_ = if outside > 0 { format!(" ({outside} leave the workspace)") } else { String::new() };
             return Ok(Attempt::Failed(format!(
-                "order {}: bound {:.6}, {n_atoms} atom(s) extracted, none certified",
+                "order {}: bound {:.6}, {n_atoms} atom(s) extracted, none certified{where_}",
                 rel.order,
                 sol.obj_primal + fam.objective.constant_term()
             )));
