@@ -848,6 +848,8 @@ impl MomentPlanner {
                 SdpStatus::PrimalInfeasible | SdpStatus::AlmostPrimalInfeasible => {
                     return Ok(Attempt::Failed(format!("order {}: the relaxation is infeasible", rel.order)));
                 }
+                // the solve's time limit is what remains of the plan's: the plan's time is up
+                SdpStatus::MaxTime => return Ok(Attempt::Stopped),
                 other => return Ok(Attempt::Failed(format!("order {}: solver status {other:?}", rel.order))),
             }
             let atoms = match extract_atoms(&rel.moments, &sol.x, rel.order, rel.v, p.seed) {
