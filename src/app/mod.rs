@@ -286,10 +286,8 @@ impl PlanRequest {
         Ok(PreparedPlan { problem, planner, checker, allocation })
     }
 
-    /// The time-varying SOS planner for this request: the scene's
-    /// `planner.time_varying_sos` values, the request's pieces and speed limit.
-    fn tv_sos(&self, problem: &Problem, deltas: &[RiskLevel]) -> Result<TvSos, PlanError> {
-        let block = problem.scene.file.planner.as_ref();
+    /// The optimisation planners refuse the RRT planners' options (typed errors).
+    fn refuse_rrt_options(&self) -> Result<(), PlanError> {
         if self.improve {
             return Err(PlanError::InvalidOption {
                 option: "improve".into(),
@@ -299,9 +297,17 @@ impl PlanRequest {
         if self.max_accel.is_some() {
             return Err(PlanError::InvalidOption {
                 option: "max_accel".into(),
-                message: "tv-sos plans straight pieces without smoothing; max_accel applies to rrt-sos".into(),
+                message: format!("{} does not smooth its plan; max_accel applies to rrt-sos", self.planner.as_str()),
             });
         }
+        Ok(())
+    }
+
+    /// The time-varying SOS planner for this request: the scene's
+    /// `planner.time_varying_sos` values, the request's pieces and speed limit.
+    fn tv_sos(&self, problem: &Problem, deltas: &[RiskLevel]) -> Result<TvSos, PlanError> {
+        let block = problem.scene.file.planner.as_ref();
+        self.refuse_rrt_options()?;
         let mut params = TvSosParams::paper(block.and_then(|b| b.time_varying_sos.as_ref()));
         if let Some(s) = self.pieces {
             params.pieces = s;
@@ -315,20 +321,8 @@ impl PlanRequest {
     /// The standard SOS planner for this request: the scene's `planner.standard_sos`
     /// values, the request's pieces (piecewise linear only) and speed limit.
     fn moment(&self, problem: &Problem, deltas: &[RiskLevel]) -> Result<MomentPlanner, PlanError> {
-        let name = self.planner.as_str();
         let block = problem.scene.file.planner.as_ref();
-        if self.improve {
-            return Err(PlanError::InvalidOption {
-                option: "improve".into(),
-                message: "applies to the paper's static RRT planner only (rrt-sos-paper)".into(),
-            });
-        }
-        if self.max_accel.is_some() {
-            return Err(PlanError::InvalidOption {
-                option: "max_accel".into(),
-                message: format!("{name} does not smooth its plan; max_accel applies to rrt-sos"),
-            });
-        }
+        self.refuse_rrt_options()?;
         let mut params = MomentParams::paper(block.and_then(|b| b.standard_sos.as_ref()));
         if self.planner == PlannerKind::MomentPoly {
             params.form = MomentForm::Polynomial;

@@ -631,3 +631,83 @@ pub fn constant_speed(points: &[Vec<f64>], horizon: (f64, f64)) -> Vec<Piece> {
     }
     points.windows(2).enumerate().map(|(i, w)| Piece::segment(&w[0], &w[1], times[i], times[i + 1])).collect()
 }
+
+/// Fills an optimisation planner's stats from its counters at the end of its ladder.
+pub(crate) fn fill_ladder_stats(
+    stats: &mut PlanStats,
+    counter: &CheckCounter,
+    sdp: SdpStats,
+    t_start: Instant,
+    ladder: &[LadderStep],
+) {
+    let (checked, accepted, secs) = counter.totals();
+    stats.edges_checked = checked;
+    stats.edges_accepted = accepted;
+    stats.checker_time_s = secs;
+    stats.iterations = sdp.solves;
+    stats.attempts = ladder.len() as u64;
+    stats.sdp = Some(sdp);
+    stats.planning_time_s = t_start.elapsed().as_secs_f64();
+    stats.ladder = ladder.to_vec();
+}
+
+/// The outcome of an optimisation planner's ladder (tv-sos, moment): the certified pieces
+/// found, or the typed reason — cancelled, the deadline (`stopped`), or the ladder
+/// exhausted — with the ladder's log. `stats` has every counter filled in already.
+pub(crate) fn ladder_outcome(
+    found: Option<Vec<Piece>>,
+    mut stats: PlanStats,
+    sound: bool,
+    term: &Termination,
+    stopped: bool,
+    ladder: Vec<LadderStep>,
+) -> PlanOutcome {
+    match found {
+        Some(pieces) => {
+            stats.time_to_feasible_s = Some(stats.planning_time_s);
+            stats.pieces = Some(pieces.len());
+            let len = trajectory_length(&pieces);
+            stats.path_length = Some(len);
+            stats.feasible_path_length = Some(len);
+            PlanOutcome {
+                status: PlanStatus::Exact,
+                trajectory: Some(Trajectory::new(pieces)),
+                certified: sound,
+                stats,
+                tree: Vec::new(),
+                reason: None,
+            }
+        }
+        None => {
+            let (iterations, edges_checked) = (stats.iterations, stats.edges_checked);
+            let pieces_tried: Vec<usize> = ladder.iter().map(|s| s.pieces).collect();
+            let (status, reason) = if term.cancelled() {
+                (PlanStatus::Cancelled, NoPlanReason::Cancelled)
+            } else if stopped {
+                (
+                    PlanStatus::DeadlineReached,
+                    NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried, ladder },
+                )
+            } else {
+                (PlanStatus::Exhausted, NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried, ladder })
+            };
+            PlanOutcome::no_plan(status, stats, reason)
+        }
+    }
+}
+
+/// Length of a trajectory: exact for straight pieces, from 64 chords per piece for
+/// curved ones (a lower bound that converges quadratically; for reports only).
+pub(crate) fn trajectory_length(pieces: &[Piece]) -> f64 {
+    pieces
+        .iter()
+        .map(|pc| {
+            if pc.degree() <= 1 {
+                return dist(&pc.at(pc.t0), &pc.at(pc.t1));
+            }
+            const CHORDS: usize = 64;
+            let at = |k: usize| pc.at(pc.t0 + (pc.t1 - pc.t0) * k as f64 / CHORDS as f64);
+            (0..CHORDS).map(|k| dist(&at(k), &at(k + 1))).sum::<f64>()
+        })
+        .sum()
+}

@@ -51,13 +51,13 @@
 
 use super::tvsos::{normalise_poly, Normalised};
 use super::{
-    check_endpoints, dist, CheckCounter, LadderStep, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome,
-    PlanStats, PlanStatus, Planner, Problem, SdpStats, Termination,
+    check_endpoints, dist, fill_ladder_stats, ladder_outcome, CheckCounter, LadderStep, Motion, MotionChecker,
+    PlanError, PlanOutcome, PlanStats, PlanStatus, Planner, Problem, SdpStats, Termination,
 };
 use crate::contour::{cantelli_bound_f64, RiskLevel};
 use crate::poly::{Monomial, Poly};
 use crate::relax::{add_matrix_lukacs, MomentVars, ZtPoly};
-use crate::scene::{Piece, Trajectory};
+use crate::scene::Piece;
 use crate::sdp::{Model, SdpError, SdpSettings, SdpStatus};
 use nalgebra::{DMatrix, SymmetricEigen};
 use rand::{Rng, SeedableRng};
@@ -633,14 +633,9 @@ impl Planner for MomentPlanner {
         self.params.validate()?;
         check_endpoints(p, checker)?;
         let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
-        let duration = p.horizon.1 - p.horizon.0;
-        if let Some(v) = self.params.max_speed {
-            let d = dist(&p.start, &p.goal);
-            if d > v * duration {
-                stats.planning_time_s = t_start.elapsed().as_secs_f64();
-                let r = NoPlanReason::OutOfReach { distance: d, max_speed: v, duration };
-                return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
-            }
+        if let Some(r) = super::connect::out_of_reach(p, self.params.max_speed) {
+            stats.planning_time_s = t_start.elapsed().as_secs_f64();
+            return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
         }
         checker.prepare(term);
         let nrm = Normalised::new(p);
@@ -698,49 +693,13 @@ impl Planner for MomentPlanner {
                 }
             }
         }
-        let (checked, accepted, secs) = counter.totals();
-        stats.edges_checked = checked;
-        stats.edges_accepted = accepted;
-        stats.checker_time_s = secs;
-        stats.iterations = sdp.solves;
-        stats.attempts = ladder.len() as u64;
-        stats.sdp = Some(sdp);
-        stats.planning_time_s = t_start.elapsed().as_secs_f64();
-        let pieces_tried: Vec<usize> = ladder.iter().map(|s| s.pieces).collect();
-        stats.ladder = ladder.clone();
-        match found {
-            Some((pieces, average_risk)) => {
-                stats.time_to_feasible_s = Some(stats.planning_time_s);
-                stats.pieces = Some(pieces.len());
-                let len = path_length(&pieces);
-                stats.path_length = Some(len);
-                stats.feasible_path_length = Some(len);
-                stats.average_risk =
-                    Some(p.scene.obstacles.iter().zip(average_risk).map(|(o, r)| (o.id.clone(), r)).collect());
-                Ok(PlanOutcome {
-                    status: PlanStatus::Exact,
-                    trajectory: Some(Trajectory::new(pieces)),
-                    certified: checker.sound(),
-                    stats,
-                    tree: Vec::new(),
-                    reason: None,
-                })
-            }
-            None => {
-                let (iterations, edges_checked) = (stats.iterations, stats.edges_checked);
-                let (status, reason) = if term.cancelled() {
-                    (PlanStatus::Cancelled, NoPlanReason::Cancelled)
-                } else if stopped {
-                    (
-                        PlanStatus::DeadlineReached,
-                        NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried, ladder },
-                    )
-                } else {
-                    (PlanStatus::Exhausted, NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried, ladder })
-                };
-                Ok(PlanOutcome::no_plan(status, stats, reason))
-            }
-        }
+        fill_ladder_stats(&mut stats, &counter, sdp, t_start, &ladder);
+        let found = found.map(|(pieces, average_risk): (Vec<Piece>, Vec<f64>)| {
+            stats.average_risk =
+                Some(p.scene.obstacles.iter().zip(average_risk).map(|(o, r)| (o.id.clone(), r)).collect());
+            pieces
+        });
+        Ok(ladder_outcome(found, stats, checker.sound(), term, stopped, ladder))
     }
 }
 
@@ -755,22 +714,6 @@ fn leaves_workspace(pieces: &[Piece], p: &Problem) -> bool {
             x.iter().zip(ws.lower.iter().zip(&ws.upper)).any(|(v, (lo, hi))| v < lo || v > hi)
         })
     })
-}
-
-/// Length of a trajectory: exact for straight pieces, from 64 chords per piece for
-/// curved ones (a lower bound that converges quadratically; for reports only).
-fn path_length(pieces: &[Piece]) -> f64 {
-    pieces
-        .iter()
-        .map(|pc| {
-            if pc.degree() <= 1 {
-                return dist(&pc.at(pc.t0), &pc.at(pc.t1));
-            }
-            const CHORDS: usize = 64;
-            let at = |k: usize| pc.at(pc.t0 + (pc.t1 - pc.t0) * k as f64 / CHORDS as f64);
-            (0..CHORDS).map(|k| dist(&at(k), &at(k + 1))).sum::<f64>()
-        })
-        .sum()
 }
 
 impl MomentPlanner {

@@ -59,8 +59,8 @@
 //! Every rung runs under the same [`Termination`].
 
 use super::{
-    check_endpoints, dist, CheckCounter, LadderStep, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome,
-    PlanStats, PlanStatus, Planner, Problem, SdpStats, Termination,
+    check_endpoints, dist, fill_ladder_stats, ladder_outcome, CheckCounter, LadderStep, Motion, MotionChecker,
+    PlanError, PlanOutcome, PlanStats, PlanStatus, Planner, Problem, SdpStats, Termination,
 };
 use crate::contour::RiskLevel;
 use crate::poly::{rational_to_f64, Poly, QPoly};
@@ -575,14 +575,9 @@ impl Planner for TvSos {
         self.params.validate()?;
         check_endpoints(p, checker)?;
         let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
-        let duration = p.horizon.1 - p.horizon.0;
-        if let Some(v) = self.params.max_speed {
-            let d = dist(&p.start, &p.goal);
-            if d > v * duration {
-                stats.planning_time_s = t_start.elapsed().as_secs_f64();
-                let r = NoPlanReason::OutOfReach { distance: d, max_speed: v, duration };
-                return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
-            }
+        if let Some(r) = super::connect::out_of_reach(p, self.params.max_speed) {
+            stats.planning_time_s = t_start.elapsed().as_secs_f64();
+            return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
         }
         checker.prepare(term);
         let nrm = Normalised::new(p);
@@ -642,47 +637,8 @@ impl Planner for TvSos {
                 }
             }
         }
-        let (checked, accepted, secs) = counter.totals();
-        stats.edges_checked = checked;
-        stats.edges_accepted = accepted;
-        stats.checker_time_s = secs;
-        stats.iterations = sdp.solves;
-        stats.attempts = ladder.len() as u64;
-        stats.sdp = Some(sdp);
-        stats.planning_time_s = t_start.elapsed().as_secs_f64();
-        let pieces_tried: Vec<usize> = ladder.iter().map(|s| s.pieces).collect();
-        stats.ladder = ladder.clone();
-        match found {
-            Some(pieces) => {
-                stats.time_to_feasible_s = Some(stats.planning_time_s);
-                stats.pieces = Some(pieces.len());
-                let len: f64 = pieces.iter().map(|pc| dist(&pc.at(pc.t0), &pc.at(pc.t1))).sum();
-                stats.path_length = Some(len);
-                stats.feasible_path_length = Some(len);
-                Ok(PlanOutcome {
-                    status: PlanStatus::Exact,
-                    trajectory: Some(Trajectory::new(pieces)),
-                    certified: checker.sound(),
-                    stats,
-                    tree: Vec::new(),
-                    reason: None,
-                })
-            }
-            None => {
-                let (iterations, edges_checked) = (stats.iterations, stats.edges_checked);
-                let (status, reason) = if term.cancelled() {
-                    (PlanStatus::Cancelled, NoPlanReason::Cancelled)
-                } else if stopped {
-                    (
-                        PlanStatus::DeadlineReached,
-                        NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried, ladder },
-                    )
-                } else {
-                    (PlanStatus::Exhausted, NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried, ladder })
-                };
-                Ok(PlanOutcome::no_plan(status, stats, reason))
-            }
-        }
+        fill_ladder_stats(&mut stats, &counter, sdp, t_start, &ladder);
+        Ok(ladder_outcome(found, stats, checker.sound(), term, stopped, ladder))
     }
 }
 
