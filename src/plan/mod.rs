@@ -274,15 +274,15 @@ pub struct PlanStats {
     pub risk_allocation: Option<Vec<(String, f64)>>,
     /// The SDPs of an optimisation planner (sizes of the last one built, totals of
     /// all solves).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub sdp: Option<SdpStats>,
     /// The steps of an optimisation planner's retry ladder, in order.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(default)]
     pub ladder: Vec<LadderStep>,
     /// The average-risk bound of the standard SOS planner's trajectory: per obstacle,
     /// the largest Cantelli bound of the time-averaged moments over its pieces
     /// (Section V-A.2, a weak guarantee reported beside the certified one).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub average_risk: Option<Vec<(String, f64)>>,
 }
 
