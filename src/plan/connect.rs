@@ -12,8 +12,8 @@
 use super::scale::Scale;
 use super::smooth::{blend, shortcut, straight, time_at_constant_speed, SmoothStats};
 use super::{
-    check_endpoints, dist, nearest, CheckCounter, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome,
-    PlanStats, PlanStatus, Planner, Problem, Termination,
+    dist, nearest, CheckCounter, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome, PlanStats, PlanStatus,
+    Planner, Problem, Termination,
 };
 use crate::scene::{Piece, Trajectory};
 use rand::{Rng, SeedableRng};
@@ -193,14 +193,10 @@ impl Planner for ConnectRrt {
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
         super::static_only(p)?;
-        check_endpoints(p, checker)?;
-        let mut stats =
-            PlanStats { checker: checker.name().to_string(), seed: p.seed, attempts: 1, ..Default::default() };
-        if let Some(r) = out_of_reach(p, self.params.max_speed) {
-            stats.planning_time_s = t_start.elapsed().as_secs_f64();
-            return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
-        }
-        checker.prepare(term);
+        let mut stats = match super::begin(p, checker, term, self.params.max_speed, t_start)? {
+            super::Begin::Plan(stats) => PlanStats { attempts: 1, ..stats },
+            super::Begin::Answered(outcome) => return Ok(outcome),
+        };
         let step = self.params.step.unwrap_or_else(|| Scale::of(p).connect_step());
         let counter = CheckCounter::default();
         let seg = |a: &[f64], b: &[f64]| Piece::segment(a, b, p.horizon.0, p.horizon.1);

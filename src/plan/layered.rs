@@ -16,7 +16,7 @@ use super::scale::Scale;
 use super::smooth::{blend, shortcut, SmoothStats, Waypoint};
 use super::NoPlanReason;
 use super::{
-    check_endpoints, dist, nearest, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats, PlanStatus,
+    begin, dist, nearest, Begin, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats, PlanStatus,
     Planner, Problem, Termination,
 };
 use crate::scene::{Piece, RrtSosBlock, Trajectory};
@@ -327,13 +327,10 @@ impl Planner for LayeredRrt {
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
         self.params.validate()?;
-        check_endpoints(p, checker)?;
-        let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
-        if let Some(r) = super::connect::out_of_reach(p, self.params.max_speed) {
-            stats.planning_time_s = t_start.elapsed().as_secs_f64();
-            return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
-        }
-        checker.prepare(term);
+        let mut stats = match begin(p, checker, term, self.params.max_speed, t_start)? {
+            Begin::Plan(stats) => stats,
+            Begin::Answered(outcome) => return Ok(outcome),
+        };
         let (t0, tf) = p.horizon;
         let ws = &p.scene.workspace;
         let sampler = StripeSampler::new(&ws.lower, &ws.upper, &p.start, &p.goal, self.params.widths.clone());

@@ -711,3 +711,31 @@ pub(crate) fn trajectory_length(pieces: &[Piece]) -> f64 {
         })
         .sum()
 }
+
+/// How a planner's `solve` begins: planning, or already answered.
+pub(crate) enum Begin {
+    /// Go on, with these fresh statistics.
+    Plan(PlanStats),
+    /// The answer is known before any search (the goal is out of reach).
+    Answered(PlanOutcome),
+}
+
+/// The start every planner shares: the endpoints checked (typed errors), fresh
+/// statistics, the speed limit's reach decided at once, then the checker prepared
+/// (under `term`). Each planner validates its own parameters first.
+pub(crate) fn begin(
+    p: &Problem,
+    checker: &dyn MotionChecker,
+    term: &Termination,
+    max_speed: Option<f64>,
+    t_start: Instant,
+) -> Result<Begin, PlanError> {
+    check_endpoints(p, checker)?;
+    let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
+    if let Some(r) = connect::out_of_reach(p, max_speed) {
+        stats.planning_time_s = t_start.elapsed().as_secs_f64();
+        return Ok(Begin::Answered(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r)));
+    }
+    checker.prepare(term);
+    Ok(Begin::Plan(stats))
+}

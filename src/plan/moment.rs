@@ -51,8 +51,8 @@
 
 use super::tvsos::{normalise_poly, Normalised};
 use super::{
-    check_endpoints, dist, fill_ladder_stats, ladder_outcome, CheckCounter, LadderStep, Motion, MotionChecker,
-    PlanError, PlanOutcome, PlanStats, PlanStatus, Planner, Problem, SdpStats, Termination,
+    begin, dist, fill_ladder_stats, ladder_outcome, Begin, CheckCounter, LadderStep, Motion, MotionChecker, PlanError,
+    PlanOutcome, Planner, Problem, SdpStats, Termination,
 };
 use crate::contour::{cantelli_bound_f64, RiskLevel};
 use crate::poly::{Monomial, Poly};
@@ -631,13 +631,10 @@ impl Planner for MomentPlanner {
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
         self.params.validate()?;
-        check_endpoints(p, checker)?;
-        let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
-        if let Some(r) = super::connect::out_of_reach(p, self.params.max_speed) {
-            stats.planning_time_s = t_start.elapsed().as_secs_f64();
-            return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
-        }
-        checker.prepare(term);
+        let mut stats = match begin(p, checker, term, self.params.max_speed, t_start)? {
+            Begin::Plan(stats) => stats,
+            Begin::Answered(outcome) => return Ok(outcome),
+        };
         let nrm = Normalised::new(p);
         let deltas: Vec<f64> = (0..p.scene.obstacles.len()).map(|j| self.delta(p, j)).collect();
         let counter = CheckCounter::default();

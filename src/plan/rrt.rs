@@ -15,8 +15,8 @@ use super::sampling::{width_range, StripeSampler};
 use super::scale::Scale;
 use super::NoPlanReason;
 use super::{
-    check_endpoints, constant_speed, dist, nearest, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome,
-    PlanStats, PlanStatus, Planner, Problem, Termination,
+    begin, constant_speed, dist, nearest, Begin, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome,
+    PlanStatus, Planner, Problem, Termination,
 };
 use crate::scene::{Piece, RrtSosBlock, Trajectory};
 use rand::SeedableRng;
@@ -164,19 +164,16 @@ impl Planner for StaticRrt {
         let t_start = Instant::now();
         self.params.validate()?;
         super::static_only(p)?;
-        check_endpoints(p, checker)?;
-        if let Some(r) = super::connect::out_of_reach(p, self.params.max_speed) {
-            let stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
-            return Ok(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r));
-        }
-        checker.prepare(term);
+        let mut stats = match begin(p, checker, term, self.params.max_speed, t_start)? {
+            Begin::Plan(stats) => stats,
+            Begin::Answered(outcome) => return Ok(outcome),
+        };
         let counter = CheckCounter::default();
         let ws = &p.scene.workspace;
         let sampler = StripeSampler::new(&ws.lower, &ws.upper, &p.start, &p.goal, self.params.widths.clone());
         let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
         let seg = |a: &[f64], b: &[f64]| Piece::segment(a, b, p.horizon.0, p.horizon.1);
         let mut tree = Tree { verts: vec![p.start.clone()], parent: vec![usize::MAX] };
-        let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
         let mut goal_index = None;
         let mut status = PlanStatus::Exhausted;
         let (mut failures, mut widen) = (0usize, 0usize);
