@@ -32,7 +32,8 @@ use std::time::Duration;
 /// over straight pieces on equal time intervals (the scene's
 /// planner.time_varying_sos.pieces, else 2; --pieces sets it), iterated towards point
 /// measures and read out as waypoints; every piece certified. It starts from the
-/// default planner's path, then the perturbed straight line, and retries with fresh
+/// default planner's path (on static scenes next from the corners of its unsmoothed
+/// path, one piece per segment), then the perturbed straight line, and retries with fresh
 /// seeds, more pieces and a tighter optimisation risk; the stats report the SDP sizes,
 /// solver time and each step of that ladder. --max-speed applies; --improve and
 /// --max-accel do not.

@@ -51,7 +51,10 @@
 //!
 //! # The ladder
 //!
-//! 1. the given (or scene's) pieces, seed and iterations, `η` = [`TvSosParams::eta`];
+//! 1. the given (or scene's) pieces, seed and iterations, `η` = [`TvSosParams::eta`],
+//!    started from the default RRT-SOS path; on a static scene, if that fails, one piece
+//!    per segment of the unsmoothed RRT-SOS path started at its corners
+//!    ([`TvSos::corner_path`]); then the perturbed straight line;
 //! 2. the same with a fresh seed, then twice the iterations;
 //! 3. one more piece at a time up to [`TvSosParams::max_pieces`], with the tighter
 //!    [`TvSosParams::eta_retry`].
@@ -279,6 +282,9 @@ struct Rung {
     iterations: usize,
     /// Start from the default RRT-SOS planner's path instead of the straight line.
     from_rrt: bool,
+    /// Start from the corners of the unsmoothed RRT-SOS path, one piece per segment
+    /// (static scenes, after the first rung fails: where two pieces cut the path's corners).
+    from_corners: bool,
 }
 
 /// The built relaxation of one attempt.
@@ -300,7 +306,14 @@ impl TvSos {
 
     fn ladder(&self, seed: u64) -> Vec<Rung> {
         let p = &self.params;
-        let rung = |pieces, seed, eta, iterations, from_rrt| Rung { pieces, seed, eta, iterations, from_rrt };
+        let rung = |pieces, seed, eta, iterations, from_rrt| Rung {
+            pieces,
+            seed,
+            eta,
+            iterations,
+            from_rrt,
+            from_corners: false,
+        };
         let mut r = vec![
             rung(p.pieces, seed, p.eta, p.iterations, true),
             rung(p.pieces, seed, p.eta, p.iterations, false),
@@ -553,6 +566,50 @@ impl TvSos {
     }
 }
 
+impl TvSos {
+    /// The corners of a certified, unsmoothed path of the default planner (static scenes),
+    /// collinear vertices dropped, re-timed to one piece per segment on equal intervals,
+    /// so that sampling it at a rung's piece times gives the corners. `None` without a
+    /// path or with more than [`MAX_PIECES`] segments.
+    fn corner_path(&self, p: &Problem, checker: &dyn MotionChecker, term: &Termination) -> Option<Trajectory> {
+        let opts = super::PlanOptions { smooth: false, max_speed: self.params.max_speed, ..Default::default() };
+        let mut planner = super::rrt_planner(p, false, &opts).ok()?;
+        let out = planner.solve(p, checker, term).ok()?;
+        let path = out.certified.then_some(out.trajectory).flatten()?;
+        let mut pts: Vec<Vec<f64>> = vec![p.start.clone()];
+        for pc in &path.pieces {
+            let b = pc.at(pc.t1);
+            // drop the last point when it lies on the segment from its predecessor to b
+            if pts.len() >= 2 {
+                let (a, m) = (&pts[pts.len() - 2], &pts[pts.len() - 1]);
+                let (u, w): (Vec<f64>, Vec<f64>) =
+                    (m.iter().zip(a).map(|(x, y)| x - y).collect(), b.iter().zip(a).map(|(x, y)| x - y).collect());
+                let dot: f64 = u.iter().zip(&w).map(|(x, y)| x * y).sum();
+                let (nu, nw) =
+                    (u.iter().map(|x| x * x).sum::<f64>().sqrt(), w.iter().map(|x| x * x).sum::<f64>().sqrt());
+                if nu > 0.0 && nw > 0.0 && dot >= nu * nw * (1.0 - COLLINEAR_COS) {
+                    pts.pop();
+                }
+            }
+            pts.push(b);
+        }
+        let k = pts.len() - 1;
+        if !(1..=MAX_PIECES).contains(&k) {
+            return None;
+        }
+        let (t0, tf) = p.horizon;
+        let at = |i: usize| if i == k { tf } else { t0 + (tf - t0) * i as f64 / k as f64 };
+        Some(Trajectory::new(
+            pts.windows(2).enumerate().map(|(i, w)| Piece::segment(&w[0], &w[1], at(i), at(i + 1))).collect(),
+        ))
+    }
+}
+
+/// Two segments of the unsmoothed path whose directions' cosine is within this of 1
+/// are one segment for [`TvSos::corner_path`] (a bend under 0.03°: only splitting
+/// points of a straight run, which would add pieces without adding corners).
+const COLLINEAR_COS: f64 = 1e-7;
+
 /// What one attempt ended with.
 enum Attempt {
     Certified(Vec<Piece>),
@@ -585,7 +642,9 @@ impl Planner for TvSos {
         let mut found = None;
         let mut stopped = false;
         let (mut rrt_path, mut rrt_tried) = (None, false);
-        for rung in self.ladder(p.seed) {
+        let mut corners: Option<Trajectory> = None;
+        let mut rungs: std::collections::VecDeque<Rung> = self.ladder(p.seed).into();
+        while let Some(rung) = rungs.pop_front() {
             if term.expired() {
                 stopped = true;
                 break;
@@ -613,7 +672,13 @@ impl Planner for TvSos {
                 ladder.push(step);
                 continue;
             }
-            let init = if rung.from_rrt { rrt_path.as_ref() } else { None };
+            let init = if rung.from_corners {
+                corners.as_ref()
+            } else if rung.from_rrt {
+                rrt_path.as_ref()
+            } else {
+                None
+            };
             let outcome = self.attempt(p, checker, term, &nrm, cons, rung, init, &counter, &mut sdp, &mut step)?;
             match outcome {
                 Attempt::Certified(pieces) => {
@@ -625,6 +690,16 @@ impl Planner for TvSos {
                 Attempt::Failed(why) => {
                     step.outcome = why;
                     ladder.push(step);
+                    // static scene, the first RRT-started rung failed: next, one piece per
+                    // segment of the unsmoothed RRT path, started at its corners
+                    if rung.from_rrt && !rung.from_corners && corners.is_none() && !p.is_dynamic() {
+                        corners = self.corner_path(p, checker, term);
+                        if let Some(c) = &corners {
+                            if c.pieces.len() > rung.pieces {
+                                rungs.push_front(Rung { pieces: c.pieces.len(), from_corners: true, ..rung });
+                            }
+                        }
+                    }
                 }
                 Attempt::Stopped => {
                     step.outcome = "stopped by the time limit".into();

@@ -50,6 +50,19 @@ fn tv_sos_plans_are_certified_and_reverified() {
     }
 }
 
+/// Off the paper's tv-sos examples: the cluttered static scene (8 uncertain disks), where
+/// two pieces sampled from the RRT path cut its corners. The corner-started rung (one
+/// piece per segment of the unsmoothed RRT path) gives a certified plan, re-verified.
+#[test]
+fn tv_sos_plans_the_cluttered_static_scene() {
+    let s = Arc::new(common::scene("example-d1-cluttered-2d"));
+    let (_, out) = tv_sos(1).run(s.clone(), None).unwrap();
+    let t = out.trajectory.unwrap_or_else(|| panic!("no plan: {:?}", out.reason));
+    assert!(out.certified);
+    assert!(out.stats.ladder.iter().any(|l| l.pieces > 2), "{:?}", out.stats.ladder);
+    reverify(&s, &t, "example-d1 tv-sos seed 1");
+}
+
 /// When no plan can be certified — illustrative-3 with a speed limit that leaves only
 /// the straight line, which crosses the obstacle — the outcome is a typed no-plan
 /// carrying the ladder's log, never an uncertified plan.
