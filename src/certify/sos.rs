@@ -319,18 +319,10 @@ fn inverse_enclosure(s: f64) -> Option<Interval> {
 /// coefficients `a` (§5.3): `b_k = Σ_{i≤k} C(k,i)/C(n,i)·a_i`. Floating point: it is
 /// only a scale.
 pub fn bernstein_scale(a: &[f64]) -> f64 {
-    let n = a.len().saturating_sub(1);
-    let mut s = 0.0f64;
-    for k in 0..a.len() {
-        let mut ratio = 1.0; // C(k,i)/C(n,i)
-        let mut b = 0.0;
-        for (i, &ai) in a.iter().enumerate().take(k + 1) {
-            b += ratio * ai;
-            ratio *= (k - i) as f64 / (n - i) as f64;
-        }
-        s = s.max(b.abs());
+    if a.is_empty() {
+        return 0.0;
     }
-    s
+    construct::bernstein_coefficients(a).iter().fold(0.0, |s: f64, b| s.max(b.abs()))
 }
 
 /// Degree ≤ 1 directly: `p(τ) = (1−τ)p(0) + τp(1)`, so `min p = min(p(0), p(1))`.

@@ -739,3 +739,37 @@ pub(crate) fn begin(
     checker.prepare(term);
     Ok(Begin::Plan(stats))
 }
+
+/// Whether a piece's speed stays within `v`: a straight piece by its chord, exactly; a
+/// polynomial piece by `Σ_k |ẋ_k|_max`-style interval bounds on 64 sub-intervals
+/// (conservative: a curved piece it rejects may in truth be within the limit).
+pub(crate) fn within_speed(pc: &Piece, v: f64) -> bool {
+    if pc.degree() <= 1 {
+        return dist(&pc.at(pc.t0), &pc.at(pc.t1)) <= v * (pc.t1 - pc.t0);
+    }
+    const SUB: usize = 64;
+    let h = (pc.t1 - pc.t0) / SUB as f64;
+    (0..SUB).all(|k| {
+        let (a, b) = (pc.t0 + h * k as f64, pc.t0 + h * (k + 1) as f64);
+        let sq: f64 = pc
+            .coeffs
+            .iter()
+            .map(|row| {
+                // |ẋ| on [a, b] ≤ Σ_j j |c_j| max(|a|, |b|)^(j−1)
+                let m = a.abs().max(b.abs());
+                let bound: f64 =
+                    row.iter().enumerate().skip(1).map(|(j, c)| j as f64 * c.abs() * m.powi(j as i32 - 1)).sum();
+                bound * bound
+            })
+            .sum();
+        sq.sqrt() <= v
+    })
+}
+
+/// Solver settings of an optimisation planner's SDPs at tolerance `tol` (gap and
+/// feasibility): no single solve may outlast the plan's time limit, so each gets what
+/// remains of it (at least 1 ms; Clarabel checks it between iterations).
+pub(crate) fn solver_settings(tol: f64, term: &Termination) -> crate::sdp::SdpSettings {
+    let time_limit = term.remaining().map_or(f64::INFINITY, |d| d.as_secs_f64().max(1e-3));
+    crate::sdp::SdpSettings { tol_gap_abs: tol, tol_gap_rel: tol, tol_feas: tol, time_limit, ..Default::default() }
+}

@@ -51,14 +51,14 @@
 
 use super::tvsos::{normalise_poly, Normalised};
 use super::{
-    begin, dist, fill_ladder_stats, ladder_outcome, Begin, CheckCounter, LadderStep, Motion, MotionChecker, PlanError,
-    PlanOutcome, Planner, Problem, SdpStats, Termination,
+    begin, fill_ladder_stats, ladder_outcome, solver_settings, within_speed, Begin, CheckCounter, LadderStep, Motion,
+    MotionChecker, PlanError, PlanOutcome, Planner, Problem, SdpStats, Termination,
 };
 use crate::contour::{cantelli_bound_f64, RiskLevel};
 use crate::poly::{Monomial, Poly};
 use crate::relax::{add_matrix_lukacs, MomentVars, ZtPoly};
 use crate::scene::Piece;
-use crate::sdp::{Model, SdpError, SdpSettings, SdpStatus};
+use crate::sdp::{Model, SdpError, SdpStatus};
 use nalgebra::{DMatrix, SymmetricEigen};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -770,10 +770,7 @@ impl MomentPlanner {
             sdp.psd_cones = rel.psd_cones;
             sdp.largest_psd = rel.largest_psd;
             let tol = self.params.solver_tol;
-            // no single solve may outlast the plan's time limit (Clarabel checks its own)
-            let time_limit = term.remaining().map_or(f64::INFINITY, |d| d.as_secs_f64().max(1e-3));
-            let settings =
-                SdpSettings { tol_gap_abs: tol, tol_gap_rel: tol, tol_feas: tol, time_limit, ..SdpSettings::default() };
+            let settings = solver_settings(tol, term);
             sdp.setup_time_s += t_build.elapsed().as_secs_f64();
             let sol = match rel.model.solve(&settings) {
                 Ok(sol) => sol,
@@ -827,15 +824,7 @@ impl MomentPlanner {
     /// Every piece accepted by the checker (and within the speed limit).
     fn certify(&self, pieces: &[Piece], checker: &dyn MotionChecker, counter: &CheckCounter) -> bool {
         pieces.iter().all(|pc| {
-            if let Some(v) = self.params.max_speed {
-                if pc.degree() <= 1 && dist(&pc.at(pc.t0), &pc.at(pc.t1)) > v * (pc.t1 - pc.t0) {
-                    return false;
-                }
-                if pc.degree() > 1 && !within_speed(pc, v) {
-                    return false;
-                }
-            }
-            counter.check(checker, pc) == Motion::Accepted
+            self.params.max_speed.is_none_or(|v| within_speed(pc, v)) && counter.check(checker, pc) == Motion::Accepted
         })
     }
 }
@@ -849,32 +838,10 @@ fn average_risk(avg: &Averaged, z: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Whether a polynomial piece's speed stays within `v`: the speed is bounded above by
-/// `Σ_k |ẋ_k|_max`-style interval bounds on 64 sub-intervals (conservative: a piece it
-/// rejects may in truth be within the limit).
-fn within_speed(pc: &Piece, v: f64) -> bool {
-    const SUB: usize = 64;
-    let h = (pc.t1 - pc.t0) / SUB as f64;
-    (0..SUB).all(|k| {
-        let (a, b) = (pc.t0 + h * k as f64, pc.t0 + h * (k + 1) as f64);
-        let sq: f64 = pc
-            .coeffs
-            .iter()
-            .map(|row| {
-                // |ẋ| on [a, b] ≤ Σ_j j |c_j| max(|a|, |b|)^(j−1)
-                let m = a.abs().max(b.abs());
-                let bound: f64 =
-                    row.iter().enumerate().skip(1).map(|(j, c)| j as f64 * c.abs() * m.powi(j as i32 - 1)).sum();
-                bound * bound
-            })
-            .sum();
-        sq.sqrt() <= v
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sdp::SdpSettings;
 
     #[test]
     fn chebyshev_bound_matches_closed_forms() {

@@ -62,14 +62,14 @@
 //! Every rung runs under the same [`Termination`].
 
 use super::{
-    begin, dist, fill_ladder_stats, ladder_outcome, Begin, CheckCounter, LadderStep, Motion, MotionChecker, PlanError,
-    PlanOutcome, Planner, Problem, SdpStats, Termination,
+    begin, dist, fill_ladder_stats, ladder_outcome, solver_settings, within_speed, Begin, CheckCounter, LadderStep,
+    Motion, MotionChecker, PlanError, PlanOutcome, Planner, Problem, SdpStats, Termination,
 };
 use crate::contour::RiskLevel;
 use crate::poly::{rational_to_f64, Poly, QPoly};
 use crate::relax::{add_matrix_lukacs, MomentVars, ZtPoly};
 use crate::scene::{Piece, Trajectory};
-use crate::sdp::{AffineExpr, Model, Prepared, SdpError, SdpSettings, SdpStatus, Var};
+use crate::sdp::{AffineExpr, Model, Prepared, SdpError, SdpStatus, Var};
 use num_bigint::BigInt;
 use num_rational::BigRational;
 use rand::SeedableRng;
@@ -742,12 +742,9 @@ impl TvSos {
         };
         let certify = |pieces: &[Piece]| -> Result<(), usize> {
             for (i, pc) in pieces.iter().enumerate() {
-                if let Some(v) = self.params.max_speed {
-                    if dist(&pc.at(pc.t0), &pc.at(pc.t1)) > v * (pc.t1 - pc.t0) {
-                        return Err(i);
-                    }
-                }
-                if counter.check(checker, pc) != Motion::Accepted {
+                if self.params.max_speed.is_some_and(|v| !within_speed(pc, v))
+                    || counter.check(checker, pc) != Motion::Accepted
+                {
                     return Err(i);
                 }
             }
@@ -767,10 +764,7 @@ impl TvSos {
         sdp.psd_cones = rel.psd_cones;
         sdp.largest_psd = rel.largest_psd;
         let tol = self.params.solver_tol;
-        // no single solve may outlast the plan's time limit (Clarabel checks its own)
-        let time_limit = term.remaining().map_or(f64::INFINITY, |d| d.as_secs_f64().max(1e-3));
-        let settings =
-            SdpSettings { tol_gap_abs: tol, tol_gap_rel: tol, tol_feas: tol, time_limit, ..SdpSettings::default() };
+        let settings = solver_settings(tol, term);
         let mut prepared: Prepared = rel.model.prepare(&settings).map_err(|e| PlanError::InvalidOption {
             option: "planner".into(),
             message: format!("tv-sos solver setup: {e}"),

@@ -62,8 +62,8 @@ pub fn bernstein_certificate(a: &[f64], scale: f64, min_gamma: f64) -> Option<Ce
 
 /// Bernstein coefficients on [0, 1] of the degree-`n` polynomial with monomial
 /// coefficients `a`: `b_k = Σ_(i≤k) C(k,i)/C(n,i)·a_i` (floating point; the re-check
-/// decides).
-fn bernstein_coefficients(a: &[f64]) -> Vec<f64> {
+/// decides; also the scale of [`super::bernstein_scale`]). `a` must not be empty.
+pub(super) fn bernstein_coefficients(a: &[f64]) -> Vec<f64> {
     let n = a.len() - 1;
     (0..=n)
         .map(|k| {
