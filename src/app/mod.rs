@@ -5,11 +5,11 @@
 
 use crate::contour::RiskLevel;
 use crate::plan::{
-    rrt_planner, McChecker, McCheckerParams, MomentForm, MomentParams, MomentPlanner, MotionChecker, PlanError,
-    PlanOptions, PlanOutcome, Planner, Problem, Termination, TvSos, TvSosParams,
+    rrt_planner, FinalCheckStats, McChecker, McCheckerParams, MomentForm, MomentParams, MomentPlanner, MotionChecker,
+    NoPlanReason, PlanError, PlanOptions, PlanOutcome, PlanStatus, Planner, Problem, Termination, TvSos, TvSosParams,
 };
 use crate::scene::Scene;
-use crate::verify::{Method, SceneCertifier};
+use crate::verify::{final_check, Interrupted, Method, SceneCertifier};
 use num_rational::BigRational;
 use std::fmt;
 use std::str::FromStr;
@@ -211,12 +211,57 @@ pub struct PreparedPlan {
     pub checker: Box<dyn MotionChecker>,
     /// The risk level of each obstacle in a joint risk mode (`None`: per obstacle).
     pub allocation: Option<Vec<(String, f64)>>,
+    /// The risk level Δᵢ of each obstacle: what the final check proves.
+    pub deltas: Vec<RiskLevel>,
 }
 
+/// How long the final check of a plan found in time may run past the plan's deadline
+/// (docs/design.md §5.12): well inside the 100 ms within which plans answer after
+/// their limit; a check still running then ends the plan as `deadline_reached`.
+pub const FINAL_CHECK_GRACE: Duration = Duration::from_millis(50);
+
 impl PreparedPlan {
-    /// Runs the planner until it finishes or `term` says stop.
+    /// Runs the planner until it finishes or `term` says stop. A certified trajectory
+    /// is called certified only after it passed the final check (docs/design.md §5.12):
+    /// the verify path, piece by piece, every obstacle. Should the check reject a
+    /// trajectory the planner's checker accepted — a bug of the fast path — the
+    /// disagreement is counted in `stats.final_check`, and the plan is made again in
+    /// the remaining time with a checker without the fast path.
     pub fn solve(&mut self, term: &Termination) -> Result<PlanOutcome, PlanError> {
+        let started = std::time::Instant::now();
         let mut out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
+        let mut fc = FinalCheckStats::default();
+        let stop = || term.expired_by(FINAL_CHECK_GRACE);
+        loop {
+            let Some(traj) = out.trajectory.as_ref().filter(|_| out.certified) else { break };
+            let check = match final_check(&self.problem.scene, traj, &self.deltas, &stop) {
+                Ok(c) => c,
+                Err(Interrupted) => {
+                    let status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
+                    let reason = NoPlanReason::from_status(status, &out.stats, term);
+                    out = PlanOutcome::no_plan(status, out.stats, reason);
+                    break;
+                }
+            };
+            fc.seconds += check.seconds;
+            fc.pieces += check.pieces;
+            let Some(piece) = check.failed_piece else { break };
+            fc.disagreements += 1;
+            if fc.disagreements > 1 {
+                // planned without the fast path and still rejected: never certified
+                out = PlanOutcome::no_plan(PlanStatus::Exhausted, out.stats, NoPlanReason::FinalCheckFailed { piece });
+                break;
+            }
+            self.checker = Box::new(
+                SceneCertifier::with_deltas(self.problem.scene.clone(), self.deltas.clone(), Method::Exact)
+                    .without_fast_path(),
+            );
+            out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
+        }
+        if out.certified || fc.pieces > 0 {
+            out.stats.final_check = Some(fc);
+        }
+        out.stats.planning_time_s = started.elapsed().as_secs_f64();
         out.stats.risk_allocation = self.allocation.clone();
         Ok(out)
     }
@@ -283,7 +328,7 @@ impl PlanRequest {
         };
         let allocation = (self.risk_mode != RiskMode::PerObstacle)
             .then(|| problem.scene.obstacles.iter().zip(&deltas).map(|(o, d)| (o.id.clone(), d.to_f64())).collect());
-        Ok(PreparedPlan { problem, planner, checker, allocation })
+        Ok(PreparedPlan { problem, planner, checker, allocation, deltas })
     }
 
     /// The optimisation planners refuse the RRT planners' options (typed errors).

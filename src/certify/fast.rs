@@ -22,7 +22,7 @@ use super::compose::PieceRef;
 use crate::contour::RiskContour;
 use crate::poly::{Interval, Poly, QPoly};
 use num_rational::BigRational;
-use num_traits::Zero;
+use num_traits::{One, Signed, Zero};
 
 /// Capacity of an [`FPoly`]: the Bernstein checker's stack-buffer degree plus one.
 /// A restriction of higher degree is not compiled ([`Compiled::restrict`] returns
@@ -118,10 +118,38 @@ impl<const N: usize> FPoly<N> {
 /// Unit roundoff of `f64` (round to nearest): `2^-53`.
 const UNIT_ROUNDOFF: f64 = 1.1102230246251565e-16;
 
-/// Slack added to every error bound for underflow: each operation that underflows errs
-/// by at most `2^-1074` absolutely, which the relative model does not cover; `1e-290`
-/// covers up to 10^33 such operations per coefficient.
-const UNDERFLOW_SLACK: f64 = 1e-290;
+/// Absolute slack added to each error bound in [`EPoly::enclosure`]: it covers the
+/// rounding of that very computation (`a·factor` may be subnormal, where rounding errs
+/// by up to `2^-1075` absolutely). It is **not** a cover for underflow inside the
+/// restriction: an absolute error there is multiplied by later factors (y⁸…y¹⁶), which
+/// no constant covers; [`MODEL_FLOOR`] keeps every such error relative instead
+/// (docs/design.md §5.10).
+const ENCLOSURE_SLACK: f64 = 1e-300;
+
+/// `2^-1020`, four times the smallest normal `f64`: the smallest magnitude at which the
+/// running error model of [`EPoly`] accepts a rounded quantity (docs/design.md §5.10,
+/// "the whole f64 range"). A rounded input (compiled coefficient, substituted
+/// coordinate, `1−Δ`) must be exact or at least this large, and every product of two
+/// nonzero running absolute values must be at least this large; otherwise the compiled
+/// path refuses (returns `None`) and the caller's interval/exact path decides. At or
+/// above it a product is normal, so its rounding is relative (`|δ| ≤ u`), and the
+/// absolute error `≤ 2^-1075` of a product that underflows by cancellation of signed
+/// terms is at most `u` times the absolute terms behind it — one more rounding per
+/// product. The factor 4 over the smallest normal absorbs `(1 ± γ_k)` between the
+/// computed and the exact absolute values (`k·u < 10^-3` is enforced).
+pub const MODEL_FLOOR: f64 = pow2(-1020);
+
+/// `2^-968`: the smallest nonzero product `c1·t0` whose rounding error a fused
+/// multiply-add returns exactly (the error of a product is a float when the product's
+/// exponent is at least `emin + p − 1 = −970`; docs/design.md §5.10). Smaller products
+/// are substituted through exact rationals instead.
+const FMA_FLOOR: f64 = pow2(-968);
+
+/// `2^e` for `−1022 ≤ e ≤ 1023`, exactly (built from its bits).
+pub const fn pow2(e: i32) -> f64 {
+    assert!(-1022 <= e && e <= 1023);
+    f64::from_bits(((e + 1023) as u64) << 52)
+}
 
 /// A univariate polynomial in τ computed in plain `f64` with a running bound on its
 /// rounding error (docs/design.md §5.10): beside each coefficient `v` it carries `a`,
@@ -177,14 +205,25 @@ impl<const N: usize> EPoly<N> {
         r.k = r.k.max(o.k) + 1;
         r
     }
-    /// `self·o`, or `None` beyond the capacity.
+    /// The smallest nonzero running absolute value (`+∞` when all are zero).
+    fn min_abs(&self) -> f64 {
+        self.a[..self.len].iter().fold(f64::INFINITY, |m, &a| if a != 0.0 { m.min(a) } else { m })
+    }
+
+    /// `self·o`, or `None` beyond the capacity or outside the model's range.
     ///
     /// Roundings: each exact coefficient is a sum of terms carrying `(1+θ_kx)` and
     /// `(1+θ_ky)` factors, so their product carries `(1+θ_(kx+ky))`; the float product
-    /// adds one rounding and the at most `min(len)` products summed into one
-    /// coefficient add `min(len) − 1`: `k = kx + ky + min(len)`. (An earlier
-    /// `max(kx, ky) + min(len) + 1` undercounted when both operands were computed —
-    /// see the test `product_of_two_computed_operands_is_enclosed`.)
+    /// adds one rounding, its possible underflow one more (see [`MODEL_FLOOR`]), and the
+    /// at most `min(len)` products summed into one coefficient add `min(len) − 1`:
+    /// `k = kx + ky + min(len) + 1`. (An earlier `max(kx, ky) + min(len) + 1`
+    /// undercounted when both operands were computed — see the test
+    /// `product_of_two_computed_operands_is_enclosed`.)
+    ///
+    /// Range: every product of two nonzero running absolute values is at least
+    /// `min_abs(self)·min_abs(o)` (rounding is monotone); when that is below
+    /// [`MODEL_FLOOR`] a product may underflow and its error would be absolute, so the
+    /// product is refused (`None`).
     pub fn mul(&self, o: &EPoly<N>) -> Option<EPoly<N>> {
         if self.len == 0 || o.len == 0 {
             return Some(EPoly::zero());
@@ -193,7 +232,11 @@ impl<const N: usize> EPoly<N> {
         if len > N {
             return None;
         }
-        let mut r = EPoly { v: [0.0; N], a: [0.0; N], len, k: self.k + o.k + self.len.min(o.len) as u32 };
+        let (m1, m2) = (self.min_abs(), o.min_abs());
+        if m1.is_finite() && m2.is_finite() && m1 * m2 < MODEL_FLOOR {
+            return None;
+        }
+        let mut r = EPoly { v: [0.0; N], a: [0.0; N], len, k: self.k + o.k + self.len.min(o.len) as u32 + 1 };
         for i in 0..self.len {
             let (x, xa) = (self.v[i], self.a[i]);
             for j in 0..o.len {
@@ -204,15 +247,20 @@ impl<const N: usize> EPoly<N> {
         Some(r)
     }
     /// `s·self` for an enclosed scalar given by its nearest float and its own bound of
-    /// roundings `ks` (1 for a rounded rational).
-    pub fn scale(&self, s: f64, ks: u32) -> EPoly<N> {
+    /// roundings `ks` (1 for a rounded rational, which must then be normal); `None`
+    /// outside the model's range (as [`EPoly::mul`]).
+    pub fn scale(&self, s: f64, ks: u32) -> Option<EPoly<N>> {
+        let m = self.min_abs();
+        if s != 0.0 && m.is_finite() && m * s.abs() < MODEL_FLOOR {
+            return None;
+        }
         let mut r = *self;
         for i in 0..r.len {
             r.v[i] *= s;
             r.a[i] *= s.abs();
         }
-        r.k = r.k.max(ks) + ks + 1;
-        r
+        r.k = self.k + ks + 2;
+        Some(r)
     }
     /// Outward intervals enclosing the exact coefficients, or `None` when a value is
     /// not finite or the rounding count is too large for the bound to mean anything.
@@ -225,7 +273,7 @@ impl<const N: usize> EPoly<N> {
         // very computation
         let factor = ku / (1.0 - 2.0 * ku) * (1.0 + 1.0 / (1u64 << 40) as f64);
         for ((o, &v), &a) in out.iter_mut().zip(&self.v).zip(&self.a).take(self.len) {
-            let e = a * factor + UNDERFLOW_SLACK;
+            let e = a * factor + ENCLOSURE_SLACK;
             if !(v.is_finite() && e.is_finite()) {
                 return None;
             }
@@ -235,17 +283,97 @@ impl<const N: usize> EPoly<N> {
     }
 }
 
-/// Error-free sum: `a + b = s + e` exactly (Knuth's TwoSum).
+/// Error-free sum: `a + b = s + e` exactly (Knuth's TwoSum; exact also under gradual
+/// underflow, where sums are exact).
 fn two_sum(a: f64, b: f64) -> (f64, f64) {
     let s = a + b;
     let bb = s - a;
     (s, (a - (s - bb)) + (b - bb))
 }
 
-/// The centred coordinates of a piece, `y_d(τ) = x_d(t0 + hτ) − c_d` and
-/// `s(τ) = t0 + hτ − t_c`, as coefficients with their rounding data
+/// Rounds an exact rational for the running error model: `(v, 0)` when the float `v`
+/// is the rational, `(v, 1)` when `v` is normal (at least [`MODEL_FLOOR`]) and within
+/// one relative rounding of it (`|v − q| ≤ u·|q|`, checked exactly, not assumed of the
+/// conversion), `None` otherwise: a value lost to underflow, subnormal, or overflowed.
+pub fn round_for_model(q: &BigRational) -> Option<(f64, u32)> {
+    let v = crate::poly::rational_to_f64(q);
+    let exact = BigRational::from_float(v)?;
+    if &exact == q {
+        return Some((v, 0));
+    }
+    let within = || (&exact - q).abs() * BigRational::from_integer((1u64 << 53).into()) <= q.abs();
+    (v.abs() >= MODEL_FLOOR && within()).then_some((v, 1))
+}
+
+/// The frame of the compiled variables (docs/design.md §5.10): centred and scaled by
+/// powers of two, `z_v = (x_v − c_v)·2^(−e_v)` for space and time alike. The centre
+/// keeps the coefficients free of cancellation far from the origin; the scale
+/// (`2^e_v` about the workspace's half-width, or half the horizon) keeps them in the
+/// middle of the `f64` range at any scale, so a workspace of 10²¹ or 10⁻³⁰ compiles to
+/// the same numbers as a unit one. Powers of two make the scaling exact.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// The centre `(c_1..c_n, t_c)`: floats, used exactly.
+    pub center: Vec<f64>,
+    /// The scale exponents `e_v`, in `[−1000, 1000]`.
+    pub exponents: Vec<i32>,
+}
+
+impl Frame {
+    /// Largest scale exponent magnitude: `2^±1000` and its inverse are normal floats.
+    pub const MAX_EXPONENT: i32 = 1000;
+
+    /// The frame centred at `center` whose scale `2^e_v` is the power of two nearest
+    /// below `half_widths[v]` (1 where that is zero or not finite).
+    pub fn new(center: &[f64], half_widths: &[f64]) -> Frame {
+        let exponents = center
+            .iter()
+            .enumerate()
+            .map(|(v, _)| {
+                let w = half_widths.get(v).copied().unwrap_or(1.0);
+                if w > 0.0 && w.is_finite() {
+                    (w.log2().floor() as i32).clamp(-Self::MAX_EXPONENT, Self::MAX_EXPONENT)
+                } else {
+                    0
+                }
+            })
+            .collect();
+        Frame { center: center.to_vec(), exponents }
+    }
+
+    /// The frame centred at `center` with unit scales (tests, and callers without a
+    /// workspace).
+    pub fn centred(center: &[f64]) -> Frame {
+        Frame { center: center.to_vec(), exponents: vec![0; center.len()] }
+    }
+
+    /// Number of variables (space, then time).
+    pub fn len(&self) -> usize {
+        self.center.len()
+    }
+
+    /// Whether there are no variables.
+    pub fn is_empty(&self) -> bool {
+        self.center.is_empty()
+    }
+
+    /// `2^(−e_v)`, the factor from centred to compiled coordinates.
+    fn inv_scale(&self, v: usize) -> f64 {
+        pow2(-self.exponents[v])
+    }
+}
+
+/// `v·2^(−e)` when that is exact (`None` when it is subnormal and inexact, or not
+/// finite): scaling by a power of two is exact unless it leaves the normal range.
+fn scale_exact(v: f64, inv: f64) -> Option<f64> {
+    let w = v * inv;
+    (w.is_finite() && w / inv == v).then_some(w)
+}
+
+/// The centred, scaled coordinates of a piece, `z_d(τ) = (x_d(t0 + hτ) − c_d)·2^(−e_d)`
+/// and `z_t(τ) = (t0 + hτ − t_c)·2^(−e_t)`, as coefficients with their rounding data
 /// `(value, |terms|, roundings)` for [`EPoly`] (docs/design.md §5.10). Computed once
-/// per piece and shared by every obstacle compiled around the same centre.
+/// per piece and shared by every obstacle compiled in the same [`Frame`].
 ///
 /// The constant term of a coordinate cancels: a workspace at x ≈ 1000 gives
 /// `c0 + c1·t0 − c ≈ 0.5` from terms of size 1000, and a running bound built on the
@@ -253,7 +381,10 @@ fn two_sum(a: f64, b: f64) -> (f64, f64) {
 /// that loss: for straight pieces by error-free transformations (`c1·t0 = p + e1`
 /// exactly by a fused multiply-add, `c0 + p = s + e2` and `s − c = s2 + e3` by TwoSum,
 /// then `y0 = s2 + (e1 + e2 + e3)`: three roundings of terms whose sizes add up to
-/// about `|y0|`); for curved pieces exactly in rationals, then rounded once.
+/// about `|y0|`); for curved pieces, and for straight ones whose product `c1·t0` is too
+/// small for the FMA to be error-free ([`FMA_FLOOR`]), exactly in rationals, then
+/// rounded once ([`round_for_model`]). Every rounded value is normal or exact; the
+/// scaling by `2^(−e)` is checked exact. `None` when that cannot be had.
 #[derive(Clone, Debug)]
 pub struct Substitution {
     coeffs: [[(f64, f64, u32); MAX_SUB_LEN]; 9],
@@ -266,17 +397,29 @@ pub struct Substitution {
 /// format's limit) gives at most 9.
 const MAX_SUB_LEN: usize = 9;
 
+/// Whether a rounded product `p = x·y` obeys the relative model: exact zero from a zero
+/// factor, or at least [`MODEL_FLOOR`] (no underflow).
+fn product_in_model(p: f64, x: f64, y: f64) -> bool {
+    if x == 0.0 || y == 0.0 {
+        true
+    } else {
+        p.abs() >= MODEL_FLOOR
+    }
+}
+
 impl Substitution {
-    /// The substitution of `piece` around `center` (space, then time); `None` for more
-    /// than 8 coordinates, a piece of degree above 8, or non-finite numbers.
-    pub fn new(piece: PieceRef<'_>, center: &[f64]) -> Option<Substitution> {
+    /// The substitution of `piece` in `frame` (space, then time); `None` for more
+    /// than 8 coordinates, a piece of degree above 8, non-finite numbers, or a value
+    /// outside the error model's range.
+    pub fn new(piece: PieceRef<'_>, frame: &Frame) -> Option<Substitution> {
+        let center = &frame.center;
         let nv = center.len();
-        if nv > 9 || nv == 0 {
+        if nv > 9 || nv == 0 || frame.exponents.len() != nv {
             return None;
         }
         let mut out = Substitution { coeffs: [[(0.0, 0.0, 0); MAX_SUB_LEN]; 9], len: [0; 9], nv, piece_degree: 0 };
         let (t0, t1) = (piece.t0, piece.t1);
-        let h = t1 - t0; // one rounding
+        let h = t1 - t0; // one rounding (a sum: exact if subnormal)
         #[allow(clippy::needless_range_loop)] // d indexes the piece's rows, the centre and the output
         for d in 0..nv - 1 {
             let row: &[f64] = piece.coeffs.get(d).map(|r| r.as_slice()).unwrap_or(&[]);
@@ -285,46 +428,59 @@ impl Substitution {
             }
             out.piece_degree = out.piece_degree.max(row.len().saturating_sub(1));
             let c = center[d];
-            match row.len() {
+            let straight = match row.len() {
                 0 | 1 => {
                     let c0 = row.first().copied().unwrap_or(0.0);
                     let (s, e) = two_sum(c0, -c);
                     out.coeffs[d][0] = (s + e, s.abs() + e.abs(), 1);
                     out.len[d] = 1;
+                    true
                 }
                 2 => {
                     let (c0, c1) = (row[0], row[1]);
                     let p = c1 * t0;
-                    let e1 = c1.mul_add(t0, -p);
-                    let (s, e2) = two_sum(c0, p);
-                    let (s2, e3) = two_sum(s, -c);
-                    let y0 = s2 + (e1 + e2 + e3);
-                    out.coeffs[d][0] = (y0, s2.abs() + e1.abs() + e2.abs() + e3.abs(), 3);
                     let y1 = c1 * h;
-                    out.coeffs[d][1] = (y1, (c1 * h).abs(), 2);
-                    out.len[d] = 2;
-                }
-                _ => {
-                    // exactly in rationals, then each coefficient rounded once
-                    let q = |v: f64| BigRational::from_float(v);
-                    let (Some(qt0), Some(qt1), Some(qc)) = (q(t0), q(t1), q(c)) else { return None };
-                    let coeffs: Option<Vec<BigRational>> = row.iter().map(|&v| q(v)).collect();
-                    let poly = crate::poly::UPoly::new(coeffs?).compose_affine(&qt0, &(&qt1 - &qt0));
-                    let poly = poly.sub(&crate::poly::UPoly::constant(qc));
-                    for (k, slot) in out.coeffs[d].iter_mut().enumerate().take(row.len()) {
-                        let v = crate::poly::rational_to_f64(&poly.coeff(k));
-                        *slot = (v, v.abs(), 1);
+                    let fma_exact = t0 == 0.0 || c1 == 0.0 || p.abs() >= FMA_FLOOR;
+                    if fma_exact && product_in_model(y1, c1, h) {
+                        let e1 = c1.mul_add(t0, -p);
+                        let (s, e2) = two_sum(c0, p);
+                        let (s2, e3) = two_sum(s, -c);
+                        let y0 = s2 + (e1 + e2 + e3);
+                        out.coeffs[d][0] = (y0, s2.abs() + e1.abs() + e2.abs() + e3.abs(), 3);
+                        out.coeffs[d][1] = (y1, y1.abs(), 2);
+                        out.len[d] = 2;
+                        true
+                    } else {
+                        false
                     }
-                    out.len[d] = row.len();
                 }
+                _ => false,
+            };
+            if !straight {
+                // exactly in rationals, then each coefficient rounded once
+                let q = |v: f64| BigRational::from_float(v);
+                let (Some(qt0), Some(qt1), Some(qc)) = (q(t0), q(t1), q(c)) else { return None };
+                let coeffs: Option<Vec<BigRational>> = row.iter().map(|&v| q(v)).collect();
+                let poly = crate::poly::UPoly::new(coeffs?).compose_affine(&qt0, &(&qt1 - &qt0));
+                let poly = poly.sub(&crate::poly::UPoly::constant(qc));
+                for (k, slot) in out.coeffs[d].iter_mut().enumerate().take(row.len()) {
+                    let (v, r) = round_for_model(&poly.coeff(k))?;
+                    *slot = (v, v.abs(), r);
+                }
+                out.len[d] = row.len();
             }
         }
         let (s, e) = two_sum(t0, -center[nv - 1]);
         out.coeffs[nv - 1][0] = (s + e, s.abs() + e.abs(), 1);
         out.coeffs[nv - 1][1] = (h, h.abs(), 1);
         out.len[nv - 1] = 2;
-        let finite = out.coeffs.iter().flatten().all(|(v, a, _)| v.is_finite() && a.is_finite());
-        finite.then_some(out)
+        for d in 0..nv {
+            let inv = frame.inv_scale(d);
+            for slot in &mut out.coeffs[d][..out.len[d]] {
+                *slot = (scale_exact(slot.0, inv)?, scale_exact(slot.1, inv)?, slot.2);
+            }
+        }
+        Some(out)
     }
 }
 
@@ -348,9 +504,15 @@ pub struct Compiled {
     root: Node,
     nvars: usize,
     degree: usize,
+    /// Every coefficient's nearest float is exact or normal ([`round_for_model`]): the
+    /// `f64` path ([`Compiled::compose_e`]) is used only then.
+    in_model: bool,
 }
 
-fn build(terms: &mut [(Vec<u32>, BigRational)], var: usize, nvars: usize) -> Node {
+/// Builds the Horner tree of `terms` from variable `var` on; `in_model` is cleared when
+/// a coefficient's nearest float is outside the running error model's range
+/// ([`round_for_model`]).
+fn build(terms: &mut [(Vec<u32>, BigRational)], var: usize, nvars: usize, in_model: &mut bool) -> Node {
     if terms.is_empty() {
         return Node::Zero;
     }
@@ -359,20 +521,22 @@ fn build(terms: &mut [(Vec<u32>, BigRational)], var: usize, nvars: usize) -> Nod
         for (_, c) in terms.iter() {
             acc += c;
         }
-        let near = crate::poly::rational_to_f64(&acc);
-        let exact = BigRational::from_float(near).is_some_and(|f| f == acc);
-        return Node::Const(Interval::enclose_rational(&acc), near, u32::from(!exact));
+        let (near, k) = round_for_model(&acc).unwrap_or_else(|| {
+            *in_model = false;
+            (crate::poly::rational_to_f64(&acc), 1)
+        });
+        return Node::Const(Interval::enclose_rational(&acc), near, k);
     }
     let top = terms.iter().map(|(e, _)| e[var]).max().unwrap_or(0) as usize;
     if top == 0 {
-        return build(terms, var + 1, nvars);
+        return build(terms, var + 1, nvars, in_model);
     }
     terms.sort_by_key(|(e, _)| e[var]);
     let mut coeffs = Vec::with_capacity(top + 1);
     let mut i = 0;
     for k in 0..=top as u32 {
         let j = i + terms[i..].iter().take_while(|(e, _)| e[var] == k).count();
-        coeffs.push(build(&mut terms[i..j], var + 1, nvars));
+        coeffs.push(build(&mut terms[i..j], var + 1, nvars, in_model));
         i = j;
     }
     Node::Horner { var, coeffs }
@@ -395,7 +559,9 @@ impl Compiled {
             })
             .collect();
         let degree = terms.iter().map(|(e, _)| e.iter().sum::<u32>() as usize).max().unwrap_or(0);
-        Compiled { root: build(&mut terms, 0, nvars), nvars, degree }
+        let mut in_model = true;
+        let root = build(&mut terms, 0, nvars, &mut in_model);
+        Compiled { root, nvars, degree, in_model }
     }
 
     /// Total degree.
@@ -430,8 +596,13 @@ impl Compiled {
         go(&self.root, subs)
     }
 
-    /// [`Compiled::compose`] in `f64` with a running error bound ([`EPoly`]).
+    /// [`Compiled::compose`] in `f64` with a running error bound ([`EPoly`]); `None`
+    /// beyond the capacity or outside the model's range (a coefficient, or a product
+    /// on the way, that would underflow).
     pub fn compose_e<const N: usize>(&self, subs: &[EPoly<N>]) -> Option<EPoly<N>> {
+        if !self.in_model {
+            return None;
+        }
         fn go<const N: usize>(n: &Node, subs: &[EPoly<N>]) -> Option<EPoly<N>> {
             match n {
                 Node::Zero => Some(EPoly::zero()),
@@ -476,6 +647,23 @@ impl Compiled {
     }
 }
 
+/// `p(c + 2^e·z)`: the polynomial in the compiled variables of `frame`, exactly.
+pub fn to_frame(p: &QPoly, frame: &Frame) -> QPoly {
+    let two = BigRational::from_integer(2.into());
+    let subs: Vec<Option<Poly<BigRational>>> = frame
+        .center
+        .iter()
+        .zip(&frame.exponents)
+        .enumerate()
+        .map(|(v, (&c, &e))| {
+            let c = BigRational::from_float(c).unwrap_or_default();
+            let l: BigRational = num_traits::Pow::pow(&two, e);
+            (!(c.is_zero() && l.is_one())).then(|| Poly::var(v as crate::poly::Var).scale(&l).add(&Poly::constant(c)))
+        })
+        .collect();
+    p.subst(&|v| subs.get(v as usize).cloned().flatten())
+}
+
 /// `p(x + c)`: the polynomial in centred variables, exactly (`c[v]` for variables
 /// `0..c.len()`).
 pub fn shift(p: &QPoly, c: &[f64]) -> QPoly {
@@ -504,8 +692,7 @@ pub fn derivative(p: &QPoly, v: usize) -> QPoly {
 /// `(y_1..y_n, s) = (x − c, t − t_c)`.
 #[derive(Clone, Debug)]
 pub struct CompiledContour {
-    /// The centre `(c_1..c_n, t_c)`: floats, used exactly.
-    pub center: Vec<f64>,
+    frame: Frame,
     mean: Compiled,
     second: Compiled,
 }
@@ -529,25 +716,32 @@ impl<const N: usize> FastRestriction<N> {
 }
 
 impl CompiledContour {
-    /// Compiles a contour around `center` (`dim + 1` floats: space, then time).
-    pub fn new(contour: &RiskContour, center: &[f64]) -> Self {
+    /// Compiles a contour in `frame` (`dim + 1` variables: space, then time).
+    pub fn new(contour: &RiskContour, frame: &Frame) -> Self {
         let nv = contour.layout().xt_len();
-        debug_assert_eq!(center.len(), nv);
+        debug_assert_eq!(frame.len(), nv);
         CompiledContour {
-            center: center.to_vec(),
-            mean: Compiled::new(&shift(&contour.mean, center), nv),
-            second: Compiled::new(&shift(&contour.second, center), nv),
+            frame: frame.clone(),
+            mean: Compiled::new(&to_frame(&contour.mean, frame), nv),
+            second: Compiled::new(&to_frame(&contour.second, frame), nv),
         }
     }
 
-    /// The centred coordinates of a piece as polynomials in τ ∈ [0, 1]:
-    /// `y_d(τ) = x_d(t0 + hτ) − c_d`, `s(τ) = t0 + hτ − t_c`. `None` when a piece's
-    /// degree exceeds the capacity or it has more than 8 coordinates.
+    /// The frame of the compiled variables.
+    pub fn frame(&self) -> &Frame {
+        &self.frame
+    }
+
+    /// The compiled coordinates of a piece as polynomials in τ ∈ [0, 1]:
+    /// `z_d(τ) = (x_d(t0 + hτ) − c_d)·2^(−e_d)`, `z_t(τ) = (t0 + hτ − t_c)·2^(−e_t)`, in
+    /// interval arithmetic. `None` when a piece's degree exceeds the capacity or it has
+    /// more than 8 coordinates.
     pub fn substitutions<const N: usize>(&self, piece: PieceRef<'_>) -> Option<[FPoly<N>; 9]> {
-        let nv = self.center.len();
-        if nv > 9 {
+        let nv = self.frame.len();
+        if nv > 9 || nv == 0 {
             return None;
         }
+        let center = &self.frame.center;
         let t0 = Interval::point(piece.t0);
         let h = Interval::point(piece.t1) - t0;
         let lin = FPoly::linear(t0, h);
@@ -559,10 +753,11 @@ impl CompiledContour {
                 acc = acc.mul(&lin)?;
                 acc.add_assign(&FPoly::constant(Interval::point(c)));
             }
-            acc.add_assign(&FPoly::constant(Interval::point(-self.center[d])));
-            *sub = acc;
+            acc.add_assign(&FPoly::constant(Interval::point(-center[d])));
+            *sub = acc.scale(Interval::point(self.frame.inv_scale(d)));
         }
-        subs[nv - 1] = FPoly::linear(t0 - Interval::point(self.center[nv - 1]), h);
+        subs[nv - 1] =
+            FPoly::linear(t0 - Interval::point(center[nv - 1]), h).scale(Interval::point(self.frame.inv_scale(nv - 1)));
         Some(subs)
     }
 
@@ -570,7 +765,7 @@ impl CompiledContour {
     /// beyond it.
     pub fn restrict_with<const N: usize>(&self, piece: PieceRef<'_>) -> Option<FastRestriction<N>> {
         let subs = self.substitutions::<N>(piece)?;
-        let subs = &subs[..self.center.len()];
+        let subs = &subs[..self.frame.len()];
         Some(FastRestriction { mean: self.mean.compose(subs)?, second: self.second.compose(subs)? })
     }
 
@@ -583,8 +778,9 @@ impl CompiledContour {
     /// and Cantelli constraints restricted to a piece (`1−Δ` given as its nearest float
     /// and whether that float is exact), computed in `f64` with a running error bound
     /// ([`EPoly`]) in the smallest stack buffer that holds them; `None` beyond
-    /// [`CAPACITY`] or on overflow. `subs` are the piece's centred coordinates
-    /// ([`Substitution::new`] with this contour's centre).
+    /// [`CAPACITY`], on overflow, or outside the model's range ([`MODEL_FLOOR`]; a
+    /// rounded `1−Δ` must be normal too). `subs` are the piece's compiled coordinates
+    /// ([`Substitution::new`] in this contour's frame).
     pub fn with_constraints<R>(
         &self,
         subs: &Substitution,
@@ -597,8 +793,8 @@ impl CompiledContour {
             omd: (f64, bool),
             f: impl FnOnce(&[Interval], &[Interval]) -> R,
         ) -> Option<R> {
-            let nv = c.center.len();
-            if nv != sub.nv {
+            let nv = c.frame.len();
+            if nv != sub.nv || !(omd.1 || omd.0.abs() >= MODEL_FLOOR) {
                 return None;
             }
             let mut subs = [EPoly::<N>::zero(); 9];
@@ -617,7 +813,7 @@ impl CompiledContour {
             let subs = &subs[..nv];
             let e1 = c.mean.compose_e(subs)?;
             let e2 = c.second.compose_e(subs)?;
-            let g1 = e1.mul(&e1)?.add_signed(&e2.scale(omd.0, u32::from(!omd.1)), -1.0);
+            let g1 = e1.mul(&e1)?.add_signed(&e2.scale(omd.0, u32::from(!omd.1))?, -1.0);
             let (mut b1, mut b2) = ([ZERO; N], [ZERO; N]);
             let n1 = g1.enclosure(&mut b1)?;
             let n2 = e1.enclosure(&mut b2)?;
@@ -648,7 +844,7 @@ mod tests {
     use super::*;
     use crate::certify::compose::restrict_exact;
     use crate::contour::Layout;
-    use crate::poly::{parse, VarTable};
+    use crate::poly::VarTable;
     use num_traits::Signed;
     use proptest::prelude::*;
 
@@ -657,7 +853,11 @@ mod tests {
         names.push("t".into());
         names.push("w".into());
         let vars = VarTable::new(names);
-        let p = parse(text, &mut |n: &str| vars.get(n).ok_or_else(|| n.to_string())).unwrap();
+        // a large work budget: the extreme-scale texts carry numbers of thousands of digits
+        let mut budget = usize::MAX;
+        let p =
+            crate::poly::parse_with_budget(text, &mut |n: &str| vars.get(n).ok_or_else(|| n.to_string()), &mut budget)
+                .unwrap();
         // w uniform on [0.3, 0.4]: raw moments (b^{k+1} − a^{k+1}) / ((k+1)(b − a))
         let m = |k: u32| {
             let (a, b) = (BigRational::new(3.into(), 10.into()), BigRational::new(4.into(), 10.into()));
@@ -671,8 +871,10 @@ mod tests {
         for k in 0..=e.degree().max(i.len().saturating_sub(1)) {
             let v = e.coeff(k);
             let b = i.get(k).copied().unwrap_or(ZERO);
-            let (lo, hi) = (BigRational::from_float(b.lo).unwrap(), BigRational::from_float(b.hi).unwrap());
-            if !(lo <= v && v <= hi) {
+            // an infinite end bounds nothing on its side
+            let above = b.lo == f64::NEG_INFINITY || BigRational::from_float(b.lo).is_some_and(|lo| lo <= v);
+            let below = b.hi == f64::INFINITY || BigRational::from_float(b.hi).is_some_and(|hi| v <= hi);
+            if !(above && below) {
                 return Err(format!("coefficient {k}: {v} not in {b:?}"));
             }
         }
@@ -718,7 +920,7 @@ mod tests {
             };
             let c = contour(&text, 2);
             let center = [cx + 0.3, cy - 0.2, tc];
-            let cc = CompiledContour::new(&c, &center);
+            let cc = CompiledContour::new(&c, &Frame::new(&center, &[4.0, 0.3, 1e-3 + tc.abs()]));
             let coeffs = vec![vec![cx + a[0], a[1], a[2] * 0.1], vec![cy + b[0], b[1]]];
             let piece = PieceRef { t0, t1: t0 + h, coeffs: &coeffs };
             let delta = BigRational::new(1.into(), 20.into());
@@ -731,7 +933,7 @@ mod tests {
             let omd = BigRational::from_integer(1.into()) - &delta;
             let f = crate::poly::rational_to_f64(&omd);
             let fe = BigRational::from_float(f).is_some_and(|e| e == omd);
-            let subs = Substitution::new(piece, &cc.center).unwrap();
+            let subs = Substitution::new(piece, cc.frame()).unwrap();
             let checked = cc.with_constraints(&subs, (f, fe), |g2, g1| {
                 encloses(g1, &exact.cantelli).and_then(|_| encloses(g2, &exact.mean))
             }).unwrap();
@@ -750,7 +952,7 @@ mod tests {
         ) {
             let coeffs = vec![vec![c[0], slope], vec![c[1], slope * 0.3, curve]];
             let piece = PieceRef { t0, t1: t0 + h, coeffs: &coeffs };
-            let sub = Substitution::new(piece, &center).unwrap();
+            let sub = Substitution::new(piece, &Frame::centred(&center)).unwrap();
             let q = |v: f64| BigRational::from_float(v).unwrap();
             for d in 0..2 {
                 let exact = crate::poly::UPoly::new(coeffs[d].iter().map(|&v| q(v)).collect())
@@ -766,6 +968,119 @@ mod tests {
         }
     }
 
+    /// An obstacle at scale `10^k` (lengths `x/S`, `S = 10^k`) and horizon `T`, and a piece
+    /// through it: the three shapes of the extreme-scale tests — the superellipse of
+    /// issue 17 (degree 8, E[P²] of degree 16), a disk, and a mixed degree-6 polynomial;
+    /// static or moving, in 2-D or 3-D.
+    fn extreme_case(k: i32, t: f64, dim: usize, shape: usize, moving: bool) -> RiskContour {
+        let s = format!("1e{k}");
+        let x = |i: usize| {
+            if moving && i == 1 {
+                format!("(x1/{s} - 0.2*t/{t:e})")
+            } else {
+                format!("(x{i}/{s})")
+            }
+        };
+        let text = match shape {
+            0 => format!("w + 0.5 - {}", (1..=dim).map(|i| format!("{}^8", x(i))).collect::<Vec<_>>().join(" - ")),
+            1 => format!("w^2 - {}", (1..=dim).map(|i| format!("({} - 0.1)^2", x(i))).collect::<Vec<_>>().join(" - ")),
+            _ => {
+                format!("w*{x1}^3*{x2} - {x1}^6 - 0.5*{x2}^4 + 0.1*w - 0.25*{xl}^2", x1 = x(1), x2 = x(2), xl = x(dim))
+            }
+        };
+        contour(&text, dim)
+    }
+
+    /// The fast path's enclosures (the `f64` running error bound, and the interval
+    /// composition) hold the exact rational restriction (a different code path: no
+    /// frame, general composition in rationals), or the fast path refuses. Scales
+    /// 10⁻³⁰…10³⁰⁰, horizons 10⁻³…10⁶, degrees up to 8 (16 in E[P²]), 2-D and 3-D,
+    /// moving obstacles, straight and curved pieces cut down to 2⁻⁴⁰ of the horizon
+    /// (grazing), in three frames: the scene's (scaled to the workspace), a unit frame
+    /// (the compiled numbers then reach 10^±4800: underflow and overflow everywhere),
+    /// and one scaled wrongly by 2^±300.
+    mod extreme_scales {
+        use super::*;
+
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+            #[test]
+            fn fast_path_encloses_the_exact_restriction_at_any_scale(
+                k in -30i32..=300, tk in -3i32..=6, dim3 in any::<bool>(), moving in any::<bool>(),
+                shape in 0usize..3, frame_kind in 0usize..4,
+                p0 in prop::collection::vec(-0.95f64..0.95, 3), p1 in prop::collection::vec(-1.9f64..1.9, 3),
+                curve in -0.5f64..0.5, cut in 0u32..=40, at in 0f64..1.0, delta_i in 0usize..3,
+            ) {
+                let dim = if dim3 { 3 } else { 2 };
+                let (sc, t) = (10f64.powi(k), 10f64.powi(tk));
+                let c = extreme_case(k, t, dim, shape, moving);
+                let half: Vec<f64> = (0..dim).map(|_| 3.0 * sc).chain([t / 2.0]).collect();
+                let mut center: Vec<f64> = vec![0.0; dim];
+                center.push(t / 2.0);
+                let frame = match frame_kind {
+                    0 | 1 => Frame::new(&center, &half),
+                    2 => Frame::centred(&center),
+                    _ => Frame { center: center.clone(), exponents: vec![if k % 2 == 0 { 300 } else { -300 }; dim + 1] },
+                };
+                let cc = CompiledContour::new(&c, &frame);
+                // x_d(t) = S·(p0 + p1·t/T [+ curve·(t/T)²]), cut to [t0, t0 + T·2^-cut]
+                let coeffs: Vec<Vec<f64>> = (0..dim)
+                    .map(|d| {
+                        let mut row = vec![sc * p0[d], sc * p1[d] / t];
+                        if d == 0 && frame_kind != 1 {
+                            row.push(sc * curve / (t * t));
+                        }
+                        row
+                    })
+                    .collect();
+                let len = t * 2f64.powi(-(cut as i32));
+                let t0 = at * (t - len);
+                let piece = PieceRef { t0, t1: t0 + len, coeffs: &coeffs };
+                let delta = BigRational::new(1.into(), [10, 2, 1000][delta_i].into());
+                let exact = restrict_exact(&c, piece, &delta);
+                let omd = BigRational::from_integer(1.into()) - &delta;
+                let f = crate::poly::rational_to_f64(&omd);
+                let fe = BigRational::from_float(f).is_some_and(|e| e == omd);
+                if let Some(subs) = Substitution::new(piece, cc.frame()) {
+                    if let Some(checked) = cc.with_constraints(&subs, (f, fe), |g2, g1| {
+                        encloses(g1, &exact.cantelli).and_then(|_| encloses(g2, &exact.mean))
+                    }) {
+                        prop_assert!(checked.is_ok(), "f64 path, scale 1e{k}, frame {frame_kind}: {:?}", checked);
+                    }
+                }
+                if let Some(r) = cc.restrict(piece) {
+                    if let Some((g1, g2)) = r.constraints(Interval::enclose_rational(&omd)) {
+                        let checked = encloses(g1.coeffs(), &exact.cantelli).and_then(|_| encloses(g2.coeffs(), &exact.mean));
+                        prop_assert!(checked.is_ok(), "interval path, scale 1e{k}, frame {frame_kind}: {:?}", checked);
+                    }
+                }
+            }
+        }
+
+        /// The scene's frame keeps the `f64` path in use at every scale (the property
+        /// above is not vacuous): the superellipse of issue 17 from 10⁻³⁰ to 10³⁰⁰, a
+        /// straight piece through it, is computed (not refused) and enclosed.
+        #[test]
+        fn scene_frame_keeps_the_fast_path_at_every_scale() {
+            for k in [-30, -5, 0, 18, 20, 21, 41, 100, 200, 300] {
+                let sc = 10f64.powi(k);
+                let c = extreme_case(k, 1.0, 2, 0, false);
+                let cc = CompiledContour::new(&c, &Frame::new(&[0.0, 0.0, 0.5], &[3.0 * sc, 3.0 * sc, 0.5]));
+                let coeffs = vec![vec![-2.9 * sc, 5.8 * sc], vec![1.05 * sc]];
+                let piece = PieceRef { t0: 0.0, t1: 1.0, coeffs: &coeffs };
+                let delta = BigRational::new(1.into(), 10.into());
+                let exact = restrict_exact(&c, piece, &delta);
+                let subs = Substitution::new(piece, cc.frame()).expect("substitution");
+                let checked = cc
+                    .with_constraints(&subs, (0.9, false), |g2, g1| {
+                        encloses(g1, &exact.cantelli).and_then(|_| encloses(g2, &exact.mean))
+                    })
+                    .unwrap_or_else(|| panic!("scale 1e{k}: the fast path refused"));
+                assert!(checked.is_ok(), "scale 1e{k}: {checked:?}");
+            }
+        }
+    }
+
     /// Centring keeps the enclosures tight far from the origin: at x ≈ 1000 the
     /// uncentred restriction's coefficients are orders of magnitude wider.
     #[test]
@@ -776,8 +1091,8 @@ mod tests {
         let delta = BigRational::new(1.into(), 20.into());
         let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - &delta));
         let width = |p: &FPoly| p.coeffs().iter().map(|i| i.width()).fold(0.0, f64::max);
-        let centred = CompiledContour::new(&c, &[1000.0, -500.0, 10.0]).restrict(piece).unwrap();
-        let origin = CompiledContour::new(&c, &[0.0, 0.0, 0.0]).restrict(piece).unwrap();
+        let centred = CompiledContour::new(&c, &Frame::centred(&[1000.0, -500.0, 10.0])).restrict(piece).unwrap();
+        let origin = CompiledContour::new(&c, &Frame::centred(&[0.0, 0.0, 0.0])).restrict(piece).unwrap();
         let (g_c, _) = centred.constraints(omd).unwrap();
         let (g_o, _) = origin.constraints(omd).unwrap();
         assert!(width(&g_c) < 1e-8, "{}", width(&g_c));

@@ -144,6 +144,13 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
     if let Some(r) = &outcome.reason {
         eprintln!("{}: {}", a.planner, r.message());
     }
+    if let Some(n) = s.final_check.as_ref().map(|f| f.disagreements).filter(|&n| n > 0) {
+        eprintln!(
+            "{}: internal error: the final check rejected {n} trajectory(ies) the fast edge check had accepted (a bug; \
+             planned again without the fast path; please report it with the scene)",
+            a.planner
+        );
+    }
     if let Some(fig) = &a.figure {
         draw_figure(&scene, &problem, &outcome, a.planner == PlannerKind::McRrt, fig)?;
     }

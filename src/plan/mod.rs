@@ -214,6 +214,11 @@ impl Termination {
     pub fn expired(&self) -> bool {
         self.cancelled() || self.deadline.is_some_and(|d| Instant::now() >= d)
     }
+    /// Whether the flag is set or the deadline passed more than `grace` ago (for work
+    /// that finishes a result found in time, such as the final check of a plan).
+    pub fn expired_by(&self, grace: Duration) -> bool {
+        self.cancelled() || self.deadline.is_some_and(|d| Instant::now() >= d + grace)
+    }
     /// Time left before the deadline (`None` without one).
     pub fn remaining(&self) -> Option<Duration> {
         self.deadline.map(|d| d.saturating_duration_since(Instant::now()))
@@ -284,6 +289,23 @@ pub struct PlanStats {
     /// (Section V-A.2, a weak guarantee reported beside the certified one).
     #[serde(default)]
     pub average_risk: Option<Vec<(String, f64)>>,
+    /// The final check of a certified plan (docs/design.md §5.12); `None` for an
+    /// uncertified planner or without a trajectory.
+    #[serde(default)]
+    pub final_check: Option<FinalCheckStats>,
+}
+
+/// What the final check of a certified plan cost and found (docs/design.md §5.12).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+pub struct FinalCheckStats {
+    /// Wall time of the final checks, seconds (included in `planning_time_s`).
+    pub seconds: f64,
+    /// Pieces checked.
+    pub pieces: usize,
+    /// Trajectories the planners' checker accepted and the verify path did not: each
+    /// is an internal error (a bug), logged; the plan was made again without the fast
+    /// path.
+    pub disagreements: u32,
 }
 
 /// Sizes and solver totals of an optimisation planner's SDPs.
@@ -369,6 +391,12 @@ pub enum NoPlanReason {
     },
     /// Cancelled.
     Cancelled,
+    /// The trajectory planned without the fast path failed the final check too: an
+    /// internal error (a bug), never returned as certified (docs/design.md §5.12).
+    FinalCheckFailed {
+        /// The first piece not proven safe.
+        piece: usize,
+    },
 }
 
 impl NoPlanReason {
@@ -406,6 +434,9 @@ impl NoPlanReason {
                 steps_text(ladder)
             ),
             NoPlanReason::Cancelled => "the plan was cancelled".into(),
+            NoPlanReason::FinalCheckFailed { piece } => format!(
+                "internal error: piece {piece} of the planned trajectory failed the final check (a bug, reported)"
+            ),
         }
     }
 }

@@ -88,6 +88,17 @@ pub fn plan(
     }
     request.time_limit = left;
     let (problem, out) = request.run(entry.scene.clone(), Some(cancel))?;
+    if let Some(n) = out.stats.final_check.as_ref().map(|f| f.disagreements).filter(|&n| n > 0) {
+        #[cfg(feature = "service")]
+        tracing::error!(
+            scene = %entry.scene.name,
+            planner = request.planner.as_str(),
+            disagreements = n,
+            "internal error: the final check rejected a trajectory the fast edge check had accepted (planned again without the fast path)"
+        );
+        #[cfg(not(feature = "service"))]
+        let _ = n;
+    }
     let Some(traj) = out.trajectory else {
         return Err(ServiceError::NoPlan(app::no_plan_reason(&out, request.time_limit)));
     };

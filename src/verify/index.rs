@@ -9,7 +9,7 @@
 //! - the others are decided on the compiled restriction ([`crate::certify::fast`]) by
 //!   the Bernstein checker, with the exact rational fallback unchanged.
 
-use crate::certify::fast::{CompiledContour, FPoly};
+use crate::certify::fast::{CompiledContour, FPoly, Frame};
 use crate::certify::region::{unsafe_cover, ConstraintBounds, Cover};
 use crate::certify::PieceRef;
 use crate::contour::RiskLevel;
@@ -40,6 +40,7 @@ pub const INDEXES_PER_SCENE: usize = 4;
 #[derive(Default)]
 pub struct KernelCache {
     compiled: OnceLock<(Fingerprint, Arc<Vec<CompiledContour>>)>,
+    framed: OnceLock<(Fingerprint, Arc<super::FramedContours>)>,
     indexes: Mutex<Vec<IndexEntry>>,
 }
 
@@ -81,14 +82,37 @@ pub fn scene_center(scene: &Scene) -> Vec<f64> {
     c
 }
 
+/// The frame of the compiled contours (docs/design.md §5.10): centred at
+/// [`scene_center`], scaled by powers of two about the workspace's half-widths and half
+/// the horizon, so that the compiled numbers do not depend on the scene's units.
+pub fn scene_frame(scene: &Scene) -> Frame {
+    let ws = &scene.workspace;
+    let mut half: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * u - 0.5 * l).collect();
+    half.push(0.5 * scene.horizon.1 - 0.5 * scene.horizon.0);
+    Frame::new(&scene_center(scene), &half)
+}
+
 /// The scene's compiled contours (built once, shared by every checker of the scene).
 pub fn compiled(scene: &Scene) -> Arc<Vec<CompiledContour>> {
     let build = || {
-        let c = scene_center(scene);
-        Arc::new(scene.obstacles.iter().map(|o| CompiledContour::new(&o.contour, &c)).collect::<Vec<_>>())
+        let frame = scene_frame(scene);
+        Arc::new(scene.obstacles.iter().map(|o| CompiledContour::new(&o.contour, &frame)).collect::<Vec<_>>())
     };
     let fp = Fingerprint::of(scene);
     let (f, c) = scene.kernel.compiled.get_or_init(|| (fp.clone(), build()));
+    if *f == fp {
+        c.clone()
+    } else {
+        build()
+    }
+}
+
+/// The scene's contours in the verify path's own frame (built once, shared by every
+/// final check of the scene; docs/design.md §5.12).
+pub fn framed(scene: &Scene) -> Arc<super::FramedContours> {
+    let build = || Arc::new(super::FramedContours::new(scene));
+    let fp = Fingerprint::of(scene);
+    let (f, c) = scene.kernel.framed.get_or_init(|| (fp.clone(), build()));
     if *f == fp {
         c.clone()
     } else {

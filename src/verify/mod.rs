@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use std::sync::{Arc, OnceLock};
 
 pub use audit::{audit_trajectory, audit_trajectory_joint, Audit, AuditOptions, Exceedance};
-pub use index::{compiled, piece_bbox, scene_center, KernelCache, SceneIndex};
+pub use index::{compiled, piece_bbox, scene_center, scene_frame, KernelCache, SceneIndex};
 pub use workspace::{check_workspace, WorkspaceStatus};
 
 /// Which method decides positivity.
@@ -361,6 +361,172 @@ pub fn verify_until(
     })
 }
 
+/// A scene's contour polynomials for the final check (docs/design.md §5.12), written in
+/// the verify path's own frame `z_v = (x_v − c_v)·2^(−e_v)` (centre and power-of-two
+/// scale from the workspace and the horizon) by general polynomial substitution in
+/// exact arithmetic, then enclosed coefficient by coefficient. In the scene's own
+/// coordinates a workspace at x ≈ 5·10⁶ (UTM) makes the monomials cancel by many orders
+/// of magnitude and nearly every piece would go to the exact fallback. This is
+/// deliberately not the compiled path's frame code (`certify::fast`): the final check
+/// shares no code with it beyond the contour polynomials. A scene near the origin at
+/// moderate scale keeps its own coordinates (`polys` is `None`): the exact substitution
+/// costs about 0.25 ms per obstacle, more than the final check saves there.
+#[derive(Debug)]
+pub struct FramedContours {
+    center: Vec<f64>,
+    inv_scale: Vec<f64>,
+    polys: Option<Vec<(crate::poly::Poly<Interval>, crate::poly::Poly<Interval>)>>,
+}
+
+impl FramedContours {
+    /// Largest scale exponent: `2^±1000` is a normal float.
+    const MAX_EXPONENT: i32 = 1000;
+    /// A centre within this many half-widths of the origin is not shifted: the
+    /// monomials then cancel by at most about this factor to the power of the degree,
+    /// which the interval enclosures absorb (Bernstein decides such scenes today).
+    const CENTRE_KEPT: f64 = 16.0;
+    /// A scale exponent of at most this magnitude is not applied (2^±16).
+    const SCALE_KEPT: i32 = 16;
+
+    fn new(scene: &Scene) -> Self {
+        let ws = &scene.workspace;
+        let mut center: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * l + 0.5 * u).collect();
+        center.push(0.5 * scene.horizon.0 + 0.5 * scene.horizon.1);
+        let mut half: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * u - 0.5 * l).collect();
+        half.push(0.5 * scene.horizon.1 - 0.5 * scene.horizon.0);
+        let exps: Vec<i32> = half
+            .iter()
+            .map(|&w| {
+                let e = if w > 0.0 && w.is_finite() {
+                    (w.log2().floor() as i32).clamp(-Self::MAX_EXPONENT, Self::MAX_EXPONENT)
+                } else {
+                    0
+                };
+                if e.abs() <= Self::SCALE_KEPT {
+                    0
+                } else {
+                    e
+                }
+            })
+            .collect();
+        for (c, w) in center.iter_mut().zip(&half) {
+            if c.abs() <= Self::CENTRE_KEPT * w {
+                *c = 0.0;
+            }
+        }
+        if center.iter().all(|&c| c == 0.0) && exps.iter().all(|&e| e == 0) {
+            let n = center.len();
+            return FramedContours { center, inv_scale: vec![1.0; n], polys: None };
+        }
+        let two = BigRational::from_integer(2.into());
+        let subs: Vec<crate::poly::QPoly> = center
+            .iter()
+            .zip(&exps)
+            .enumerate()
+            .map(|(v, (&c, &e))| {
+                let scale: BigRational = num_traits::Pow::pow(&two, e);
+                crate::poly::Poly::var(v as crate::poly::Var)
+                    .scale(&scale)
+                    .add(&crate::poly::Poly::constant(BigRational::from_float(c).unwrap_or_default()))
+            })
+            .collect();
+        let frame =
+            |p: &crate::poly::QPoly| p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational);
+        let polys = scene.obstacles.iter().map(|o| (frame(&o.contour.mean), frame(&o.contour.second))).collect();
+        let inv_scale = exps.iter().map(|&e| 2f64.powi(-e)).collect();
+        FramedContours { center, inv_scale, polys: Some(polys) }
+    }
+
+    /// The constraints of obstacle `o` (the scene's `i`-th) restricted to a piece, in
+    /// interval arithmetic: `(g1, g2)` = (Cantelli, mean) of eq. (15) in τ ∈ [0, 1].
+    fn restrict(
+        &self,
+        i: usize,
+        o: &Obstacle,
+        pr: PieceRef<'_>,
+        one_minus_delta: Interval,
+    ) -> (UPoly<Interval>, UPoly<Interval>) {
+        let t0 = Interval::point(pr.t0);
+        let h = Interval::point(pr.t1) - t0;
+        let n = self.center.len();
+        let mut subs: Vec<UPoly<Interval>> = (0..n - 1)
+            .map(|d| {
+                let row = pr.coeffs.get(d).map(|r| r.as_slice()).unwrap_or(&[]);
+                let x = UPoly::new(row.iter().map(|&c| Interval::point(c)).collect()).compose_affine(&t0, &h);
+                x.sub(&UPoly::constant(Interval::point(self.center[d]))).scale(&Interval::point(self.inv_scale[d]))
+            })
+            .collect();
+        subs.push(
+            UPoly::linear(t0 - Interval::point(self.center[n - 1]), h).scale(&Interval::point(self.inv_scale[n - 1])),
+        );
+        let (m, s) = match &self.polys {
+            Some(p) => (&p[i].0, &p[i].1),
+            None => o.contour.interval_polys(),
+        };
+        let e1 = m.compose_univariate(&subs);
+        let e2 = s.compose_univariate(&subs);
+        (e1.mul(&e1).sub(&e2.scale(&one_minus_delta)), e1.neg())
+    }
+}
+
+/// Whether one piece passes the verify path at one risk level per obstacle: inside the
+/// workspace (exact check) and, for every obstacle, both constraints proven positive
+/// on the general interval restriction in [`FramedContours`] with the exact rational
+/// fallback (the `exact` method of [`verify`], without the compiled contours or the
+/// covers of the fast path).
+fn piece_passes_verify_path(scene: &Scene, framed: &FramedContours, pr: PieceRef<'_>, deltas: &[RiskLevel]) -> bool {
+    if check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe {
+        return false;
+    }
+    scene.obstacles.iter().zip(deltas).enumerate().all(|(i, (o, d))| {
+        let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational()));
+        let (cantelli, mean) = framed.restrict(i, o, pr, omd);
+        let exact = std::cell::OnceCell::new();
+        let exact = || exact.get_or_init(|| restrict_exact(&o.contour, pr, d.rational()));
+        bernstein::check(&mean, || exact().mean.clone()).is_safe()
+            && bernstein::check(&cantelli, || exact().cantelli.clone()).is_safe()
+    })
+}
+
+/// What the final check of a planned trajectory found (docs/design.md §5.12).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FinalCheck {
+    /// The first piece the verify path does not prove safe (`None`: all proven).
+    pub failed_piece: Option<usize>,
+    /// Pieces checked.
+    pub pieces: usize,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+/// The final check of every planned trajectory before it is called certified
+/// (docs/design.md §5.12): each piece through the verify path — the workspace exactly,
+/// every obstacle (no covers) by general interval composition with the exact fallback
+/// — at the plan's per-obstacle risk levels. It shares no code with the compiled fast
+/// path of the planners' checker beyond the contour polynomials and the Bernstein
+/// decision. Asks `stop` before each piece.
+pub fn final_check(
+    scene: &Scene,
+    traj: &Trajectory,
+    deltas: &[RiskLevel],
+    stop: &dyn Fn() -> bool,
+) -> Result<FinalCheck, Interrupted> {
+    let start = std::time::Instant::now();
+    let framed = index::framed(scene);
+    let mut failed_piece = None;
+    for (i, pc) in traj.pieces.iter().enumerate() {
+        if stop() {
+            return Err(Interrupted);
+        }
+        let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
+        if !piece_passes_verify_path(scene, &framed, pr, deltas) {
+            failed_piece = Some(i);
+            break;
+        }
+    }
+    Ok(FinalCheck { failed_piece, pieces: traj.pieces.len(), seconds: start.elapsed().as_secs_f64() })
+}
+
 /// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,
 /// exactly) and inside the workspace.
 pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &RiskLevel) -> bool {
@@ -423,6 +589,9 @@ pub struct SceneCertifier {
     settings: sos::SosSettings,
     compiled: Arc<Vec<CompiledContour>>,
     index: OnceLock<Arc<SceneIndex>>,
+    /// Whether the fast path (covers, compiled restriction) is used; without it every
+    /// obstacle is decided on every piece by the verify path ([`final_check`]'s).
+    fast: bool,
 }
 
 impl SceneCertifier {
@@ -452,7 +621,17 @@ impl SceneCertifier {
             settings: sos::SosSettings::default(),
             compiled,
             index: OnceLock::new(),
+            fast: true,
         }
+    }
+
+    /// The same certifier without the fast path: every obstacle on every piece by the
+    /// verify path (general interval composition, exact fallback) — what a plan is
+    /// re-planned with after the final check disagreed with the fast path
+    /// (docs/design.md §5.12).
+    pub fn without_fast_path(mut self) -> Self {
+        self.fast = false;
+        self
     }
 
     /// A certifier that does not build covers for its own use: it uses the scene's
@@ -545,11 +724,21 @@ impl MotionChecker for SceneCertifier {
     }
 
     fn prepare(&self, term: &Termination) {
+        if !self.fast {
+            return;
+        }
         let _ = self.index.get_or_init(|| SceneIndex::cached(&self.scene, &self.deltas, &|| term.expired()));
     }
 
     fn check(&self, piece: &Piece) -> Motion {
         let pr = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
+        if !self.fast {
+            return if piece_passes_verify_path(&self.scene, &index::framed(&self.scene), pr, &self.deltas) {
+                Motion::Accepted
+            } else {
+                Motion::Rejected
+            };
+        }
         let ws = &self.scene.workspace;
         let bbox = piece_bbox(pr);
         let inside = bbox.as_ref().is_some_and(|b| {
@@ -563,7 +752,7 @@ impl MotionChecker for SceneCertifier {
         let mut cands = Vec::new();
         self.index().candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
         let subs = match (cands.is_empty(), self.compiled.first()) {
-            (false, Some(c)) => Substitution::new(pr, &c.center),
+            (false, Some(c)) => Substitution::new(pr, c.frame()),
             _ => None,
         };
         for i in cands {
@@ -589,7 +778,11 @@ impl MotionChecker for SceneCertifier {
         // decided exactly
         let bbox: Vec<(f64, f64)> = x.iter().map(|&v| (v, v)).collect();
         let mut cands = Vec::new();
-        self.index().candidates(Some(&bbox), t, t, &mut cands);
+        if self.fast {
+            self.index().candidates(Some(&bbox), t, t, &mut cands);
+        } else {
+            cands.extend(0..self.scene.obstacles.len());
+        }
         let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else {
             return Motion::Rejected;
         };

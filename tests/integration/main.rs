@@ -13,6 +13,7 @@ mod certify_scenes;
 mod cli_core;
 #[cfg(feature = "cli")]
 mod cli_plan;
+mod extreme_scales;
 mod fuzz_replay;
 mod optimisation_planners;
 mod plan_quality;

@@ -410,6 +410,17 @@ MESSAGES = {
                     "sdp": {"type": ["object", "null"], "description": "tv-sos, moment, moment-poly (null for the others): sizes of the last SDP built (variables, rows, psd_cones, largest_psd) and solver totals (solves, ipm_iterations, solver_time_s, setup_time_s)"},
                     "ladder": {"type": "array", "items": {"type": "object"}, "description": "tv-sos, moment, moment-poly (empty for the others): the retry ladder's steps (pieces, seed, eta, iterations, dirac_gap, from_rrt, outcome)"},
                     "average_risk": {"type": ["array", "null"], "items": {"type": "array", "prefixItems": [{"type": "string"}, {"type": "number"}]}, "description": "moment, moment-poly: [obstacle id, average-risk bound] per obstacle: the largest Cantelli bound of the time-averaged moments over the pieces (a weak guarantee; the plan itself is certified per instant)"},
+                    "final_check": {
+                        "type": ["object", "null"],
+                        "description": "certified plans: the final check of the whole trajectory by the verify path before it is called certified (docs/design.md §5.12); null for uncertified planners",
+                        "required": ["seconds", "pieces", "disagreements"],
+                        "additionalProperties": False,
+                        "properties": {
+                            "seconds": {"type": "number", "minimum": 0, "description": "wall time of the final check(s), included in planning_time_s"},
+                            "pieces": {"type": "integer", "minimum": 0},
+                            "disagreements": {"type": "integer", "minimum": 0, "description": "trajectories the planner's fast edge check accepted and the final check rejected: each an internal error (a bug), logged; the plan was then made again without the fast path"},
+                        },
+                    },
                 },
             },
             "revision": U64,

@@ -36,17 +36,32 @@ pub struct OracleStats {
     pub exact: u64,
 }
 
-fn f64_terms(p: &QPoly, xt: &[f64]) -> (f64, f64) {
+/// Smallest magnitude of a floating-point term (and of a coefficient) that the fast
+/// evaluation trusts: below it a term may have lost its relative accuracy to
+/// underflow (issue 17's scenes reach coefficients of 10⁻³³⁶), and the point is
+/// decided exactly instead.
+const F64_TERM_FLOOR: f64 = 1e-250;
+
+/// `(value, Σ|terms|)` in floating point, or `None` when a coefficient or a term
+/// leaves the range where the floating-point evaluation is trusted (underflow below
+/// [`F64_TERM_FLOOR`], overflow).
+fn f64_terms(p: &QPoly, xt: &[f64]) -> Option<(f64, f64)> {
     let (mut v, mut a) = (0.0, 0.0);
     for (m, c) in p.terms() {
         let mut term = riskplan::poly::rational_to_f64(c);
+        if !(term.is_finite() && term.abs() >= F64_TERM_FLOOR) {
+            return None;
+        }
         for &(var, e) in m.pairs() {
             term *= xt[var as usize].powi(e as i32);
+        }
+        if !(term.is_finite() && (term == 0.0 || term.abs() >= F64_TERM_FLOOR)) {
+            return None;
         }
         v += term;
         a += term.abs();
     }
-    (v, a)
+    (v.is_finite() && a.is_finite()).then_some((v, a))
 }
 
 fn exact_terms(p: &QPoly, xt: &[BigRational]) -> BigRational {
@@ -79,12 +94,13 @@ pub fn check_piece(scene: &Scene, piece: &Piece, delta: &RiskLevel, n: usize) ->
         let mut xq: Option<Vec<BigRational>> = None;
         for o in &scene.obstacles {
             st.evaluations += 1;
-            let (m, ma) = f64_terms(&o.contour.mean, &xt);
-            let (s, sa) = f64_terms(&o.contour.second, &xt);
+            let floats = f64_terms(&o.contour.mean, &xt).zip(f64_terms(&o.contour.second, &xt));
+            let ((m, ma), (s, sa)) = floats.unwrap_or(((f64::NAN, f64::NAN), (f64::NAN, f64::NAN)));
             let g1 = m * m - one_minus * s;
             let g1a = 2.0 * ma * ma + one_minus * sa;
+            // NaN (out of range) compares false: decided exactly
             let mean_sure = m.abs() > F64_TRUST * ma;
-            let g1_sure = g1.abs() > F64_TRUST * g1a;
+            let g1_sure = g1.is_finite() && g1a.is_finite() && g1.abs() > F64_TRUST * g1a;
             let (mean_neg, g1_pos) = if mean_sure && g1_sure {
                 (m < 0.0, g1 > 0.0)
             } else {
