@@ -9,7 +9,7 @@ use crate::plan::{
     NoPlanReason, PlanError, PlanOptions, PlanOutcome, PlanStatus, Planner, Problem, Termination, TvSos, TvSosParams,
 };
 use crate::scene::Scene;
-use crate::verify::{final_check, Interrupted, Method, SceneCertifier};
+use crate::verify::{final_check, FinalFailure, Interrupted, Method, SceneCertifier};
 use num_rational::BigRational;
 use std::fmt;
 use std::str::FromStr;
@@ -232,9 +232,9 @@ impl PreparedPlan {
         let mut out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
         let mut fc = FinalCheckStats::default();
         let stop = || term.expired_by(FINAL_CHECK_GRACE);
-        loop {
-            let Some(traj) = out.trajectory.as_ref().filter(|_| out.certified) else { break };
-            let check = match final_check(&self.problem.scene, traj, &self.deltas, &stop) {
+        while let Some(traj) = out.trajectory.as_ref().filter(|_| out.certified) {
+            let ends = (self.problem.start.as_slice(), self.problem.goal.as_slice());
+            let check = match final_check(&self.problem.scene, traj, ends, &self.deltas, &stop) {
                 Ok(c) => c,
                 Err(Interrupted) => {
                     let status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
@@ -245,18 +245,25 @@ impl PreparedPlan {
             };
             fc.seconds += check.seconds;
             fc.pieces += check.pieces;
-            let Some(piece) = check.failed_piece else { break };
-            fc.disagreements += 1;
-            if fc.disagreements > 1 {
-                // planned without the fast path and still rejected: never certified
-                out = PlanOutcome::no_plan(PlanStatus::Exhausted, out.stats, NoPlanReason::FinalCheckFailed { piece });
-                break;
-            }
-            self.checker = Box::new(
-                SceneCertifier::with_deltas(self.problem.scene.clone(), self.deltas.clone(), Method::Exact)
-                    .without_fast_path(),
-            );
-            out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
+            let why = match check.failure {
+                None => break,
+                Some(FinalFailure::Invalid(why)) => why,
+                Some(FinalFailure::NotProven(piece)) => {
+                    fc.disagreements += 1;
+                    if fc.disagreements == 1 {
+                        // the fast path accepted what the verify path does not prove:
+                        // plan again without it
+                        self.checker = Box::new(
+                            SceneCertifier::with_deltas(self.problem.scene.clone(), self.deltas.clone(), Method::Exact)
+                                .without_fast_path(),
+                        );
+                        out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
+                        continue;
+                    }
+                    format!("piece {piece} is not proven safe, even planned without the fast path")
+                }
+            };
+            out = PlanOutcome::no_plan(PlanStatus::Exhausted, out.stats, NoPlanReason::FinalCheckFailed { why });
         }
         if out.certified || fc.pieces > 0 {
             out.stats.final_check = Some(fc);

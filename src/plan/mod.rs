@@ -391,11 +391,14 @@ pub enum NoPlanReason {
     },
     /// Cancelled.
     Cancelled,
-    /// The trajectory planned without the fast path failed the final check too: an
-    /// internal error (a bug), never returned as certified (docs/design.md §5.12).
+    /// The planned trajectory failed the final check (docs/design.md §5.12) and could
+    /// not be planned again: it is not a valid trajectory of the problem (non-finite
+    /// numbers, pieces that do not meet, endpoints missed — numeric limits of the
+    /// planner), or even the plan made without the fast path was not proven. An
+    /// internal error, never returned as certified.
     FinalCheckFailed {
-        /// The first piece not proven safe.
-        piece: usize,
+        /// What failed.
+        why: String,
     },
 }
 
@@ -434,9 +437,9 @@ impl NoPlanReason {
                 steps_text(ladder)
             ),
             NoPlanReason::Cancelled => "the plan was cancelled".into(),
-            NoPlanReason::FinalCheckFailed { piece } => format!(
-                "internal error: piece {piece} of the planned trajectory failed the final check (a bug, reported)"
-            ),
+            NoPlanReason::FinalCheckFailed { why } => {
+                format!("internal error: the planned trajectory failed the final check: {why} (reported)")
+            }
         }
     }
 }

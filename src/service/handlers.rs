@@ -99,6 +99,12 @@ pub fn plan(
         #[cfg(not(feature = "service"))]
         let _ = n;
     }
+    if let Some(r @ crate::plan::NoPlanReason::FinalCheckFailed { .. }) = &out.reason {
+        #[cfg(feature = "service")]
+        tracing::error!(scene = %entry.scene.name, planner = request.planner.as_str(), "{}", r.message());
+        #[cfg(not(feature = "service"))]
+        let _ = r;
+    }
     let Some(traj) = out.trajectory else {
         return Err(ServiceError::NoPlan(app::no_plan_reason(&out, request.time_limit)));
     };

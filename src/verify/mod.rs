@@ -475,7 +475,9 @@ impl FramedContours {
 /// fallback (the `exact` method of [`verify`], without the compiled contours or the
 /// covers of the fast path).
 fn piece_passes_verify_path(scene: &Scene, framed: &FramedContours, pr: PieceRef<'_>, deltas: &[RiskLevel]) -> bool {
-    if check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe {
+    if !piece_is_finite(pr)
+        || check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe
+    {
         return false;
     }
     scene.obstacles.iter().zip(deltas).enumerate().all(|(i, (o, d))| {
@@ -488,43 +490,76 @@ fn piece_passes_verify_path(scene: &Scene, framed: &FramedContours, pr: PieceRef
     })
 }
 
+/// Why the final check refused a planned trajectory (docs/design.md §5.12).
+#[derive(Clone, Debug, PartialEq)]
+pub enum FinalFailure {
+    /// Not a valid trajectory of the problem: non-finite numbers, pieces that do not
+    /// meet or leave the horizon, or not from the start to the goal (what `verify`
+    /// refuses as input). A planner bug, not a fast-path one.
+    Invalid(String),
+    /// Piece `i` is not proven safe by the verify path: the fast path accepted what
+    /// the verify path does not prove.
+    NotProven(usize),
+}
+
 /// What the final check of a planned trajectory found (docs/design.md §5.12).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FinalCheck {
-    /// The first piece the verify path does not prove safe (`None`: all proven).
-    pub failed_piece: Option<usize>,
+    /// Why the trajectory is refused (`None`: valid, and every piece proven).
+    pub failure: Option<FinalFailure>,
     /// Pieces checked.
     pub pieces: usize,
     /// Wall time, seconds.
     pub seconds: f64,
 }
 
+/// Whether every number of a piece is finite: the exact conversions read a
+/// non-finite float as nothing, so such a piece is never judged (issue 17 review).
+fn piece_is_finite(pr: PieceRef<'_>) -> bool {
+    pr.t0.is_finite() && pr.t1.is_finite() && pr.coeffs.iter().flatten().all(|c| c.is_finite())
+}
+
 /// The final check of every planned trajectory before it is called certified
-/// (docs/design.md §5.12): each piece through the verify path — the workspace exactly,
-/// every obstacle (no covers) by general interval composition with the exact fallback
-/// — at the plan's per-obstacle risk levels. It shares no code with the compiled fast
-/// path of the planners' checker beyond the contour polynomials and the Bernstein
-/// decision. Asks `stop` before each piece.
+/// (docs/design.md §5.12): first the trajectory as `verify` takes it as input
+/// ([`Trajectory::validate`]: finite, contiguous, inside the horizon, pieces that meet)
+/// and from `start` to `goal` (within the same continuity tolerance); then each piece
+/// through the verify path — the workspace exactly, every obstacle (no covers) by
+/// general interval composition with the exact fallback — at the plan's per-obstacle
+/// risk levels. It shares no code with the compiled fast path of the planners'
+/// checker beyond the contour polynomials and the Bernstein decision. Asks `stop`
+/// before each piece.
 pub fn final_check(
     scene: &Scene,
     traj: &Trajectory,
+    endpoints: (&[f64], &[f64]),
     deltas: &[RiskLevel],
     stop: &dyn Fn() -> bool,
 ) -> Result<FinalCheck, Interrupted> {
-    let start = std::time::Instant::now();
+    let started = std::time::Instant::now();
+    let done = |failure| FinalCheck { failure, pieces: traj.pieces.len(), seconds: started.elapsed().as_secs_f64() };
+    let diag = crate::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
+    if let Err(e) = traj.validate(scene.dim, scene.horizon, diag) {
+        return Ok(done(Some(FinalFailure::Invalid(e.to_string()))));
+    }
+    let tol = crate::scene::CONTINUITY_TOLERANCE * diag.max(1.0);
+    let (first, last) = (&traj.pieces[0], &traj.pieces[traj.pieces.len() - 1]);
+    for (which, at, want) in [("start", first.at(first.t0), endpoints.0), ("goal", last.at(last.t1), endpoints.1)] {
+        let gap = at.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        if !(gap <= tol) {
+            return Ok(done(Some(FinalFailure::Invalid(format!("the trajectory misses the {which} by {gap:e}")))));
+        }
+    }
     let framed = index::framed(scene);
-    let mut failed_piece = None;
     for (i, pc) in traj.pieces.iter().enumerate() {
         if stop() {
             return Err(Interrupted);
         }
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
         if !piece_passes_verify_path(scene, &framed, pr, deltas) {
-            failed_piece = Some(i);
-            break;
+            return Ok(done(Some(FinalFailure::NotProven(i))));
         }
     }
-    Ok(FinalCheck { failed_piece, pieces: traj.pieces.len(), seconds: start.elapsed().as_secs_f64() })
+    Ok(done(None))
 }
 
 /// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,
@@ -732,6 +767,9 @@ impl MotionChecker for SceneCertifier {
 
     fn check(&self, piece: &Piece) -> Motion {
         let pr = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
+        if !piece_is_finite(pr) {
+            return Motion::Rejected;
+        }
         if !self.fast {
             return if piece_passes_verify_path(&self.scene, &index::framed(&self.scene), pr, &self.deltas) {
                 Motion::Accepted

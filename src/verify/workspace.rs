@@ -41,6 +41,10 @@ fn inside_by_intervals(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> boo
 
 /// Checks the box along a piece.
 pub fn check_workspace(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> WorkspaceStatus {
+    // the exact conversion reads a non-finite float as 0: never judge such a piece
+    if !(piece.t0.is_finite() && piece.t1.is_finite() && piece.coeffs.iter().flatten().all(|c| c.is_finite())) {
+        return WorkspaceStatus { status: Status::Undecided, witness: None };
+    }
     if piece.coeffs.len() == lower.len() && inside_by_intervals(lower, upper, piece) {
         return WorkspaceStatus { status: Status::Safe, witness: None };
     }

@@ -17,9 +17,23 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// The scenes, in `tests/scenes/extreme/`.
-const SCENES: [&str; 4] =
-    ["superellipse-at-1e21", "superellipse-at-1e20-grazing", "keep-in-superellipse-at-1e41", "subnormal-coefficient"];
+/// The scenes, in `tests/scenes/extreme/`: the four of issue 17, and two from the
+/// adversarial review of its fix — a horizon of 10⁻³⁰⁰ (blends whose coefficients
+/// overflow to ∞ and NaN were read as 0 by the exact fallback and certified) and a
+/// horizon at t ≈ 10¹⁸ (pieces rounded apart, a certified trajectory that jumped and
+/// missed its endpoints).
+const SCENES: [&str; 6] = [
+    "superellipse-at-1e21",
+    "superellipse-at-1e20-grazing",
+    "keep-in-superellipse-at-1e41",
+    "subnormal-coefficient",
+    "tiny-horizon",
+    "far-time",
+];
+
+/// The scenes the default planner must plan (certified).
+const PLANNED: [&str; 4] =
+    ["superellipse-at-1e21", "superellipse-at-1e20-grazing", "subnormal-coefficient", "tiny-horizon"];
 
 /// The scene with no safe path.
 const NO_PATH: &str = "keep-in-superellipse-at-1e41";
@@ -34,7 +48,7 @@ fn load(name: &str) -> Arc<Scene> {
 /// Returns whether a certified plan came back.
 fn plan_and_check(name: &str, planner: PlannerKind, seed: u64) -> bool {
     let s = load(name);
-    let request = PlanRequest { planner, seed, time_limit: Duration::from_secs(3), ..PlanRequest::default() };
+    let request = PlanRequest { planner, seed, time_limit: Duration::from_secs(4), ..PlanRequest::default() };
     let out = match request.run(s.clone(), None) {
         Ok((_, out)) => out,
         Err(e) => {
@@ -53,6 +67,10 @@ fn plan_and_check(name: &str, planner: PlannerKind, seed: u64) -> bool {
         assert_eq!(f.disagreements, 0, "{name} {planner} seed {seed}: the final check disagreed with the fast path");
     }
     let Some(t) = out.trajectory.filter(|_| out.certified) else { return false };
+    // what `verify` takes as input: finite, contiguous, pieces that meet
+    let diag = riskplan::plan::dist(&s.workspace.lower, &s.workspace.upper);
+    t.validate(s.dim, s.horizon, diag)
+        .unwrap_or_else(|e| panic!("{name} {planner} seed {seed}: a certified plan is not a valid trajectory: {e}"));
     let r = verify(&s, &t, &s.risk, Method::Exact, &Default::default());
     assert!(
         r.safe,
@@ -83,7 +101,47 @@ fn certified_plans_at_extreme_scales_pass_exact_verification() {
 /// the compiled path where its model does not hold, it does not refuse to plan).
 #[test]
 fn the_default_planner_plans_the_scenes_with_a_path() {
-    for name in SCENES.into_iter().filter(|&n| n != NO_PATH) {
+    for name in PLANNED {
         assert!(plan_and_check(name, PlannerKind::RrtSos, 1), "{name}: no certified plan from rrt-sos");
     }
+}
+
+/// A motion checker that claims to be sound and accepts every piece: a stand-in for a
+/// fast path with a bug.
+struct Lying;
+
+impl riskplan::plan::MotionChecker for Lying {
+    fn name(&self) -> &str {
+        "lying"
+    }
+    fn sound(&self) -> bool {
+        true
+    }
+    fn check(&self, _: &riskplan::scene::Piece) -> riskplan::plan::Motion {
+        riskplan::plan::Motion::Accepted
+    }
+    fn check_point(&self, _: &[f64], _: f64) -> riskplan::plan::Motion {
+        riskplan::plan::Motion::Accepted
+    }
+}
+
+/// Defence in depth (docs/design.md §5.12): a checker that accepts the straight line
+/// through illustrative-3's disk is caught by the final check; the disagreement is
+/// counted, the plan is made again without the fast path, and what comes back certified
+/// passes `verify` and the independent oracle.
+#[test]
+fn the_final_check_catches_a_lying_checker_and_plans_again() {
+    let s = Arc::new(common::scene("illustrative-3"));
+    let request = PlanRequest { seed: 1, time_limit: Duration::from_secs(20), ..PlanRequest::default() };
+    let mut prepared = request.prepare(s.clone()).unwrap();
+    prepared.checker = Box::new(Lying);
+    let out = prepared.solve(&request.termination(None)).unwrap();
+    let fc = out.stats.final_check.clone().expect("final check stats");
+    assert_eq!(fc.disagreements, 1, "{fc:?}");
+    assert!(out.certified);
+    let t = out.trajectory.expect("a plan after the re-plan");
+    assert!(t.pieces.len() > 1, "the straight line through the disk came back");
+    let r = verify(&s, &t, &s.risk, Method::Exact, &Default::default());
+    assert!(r.safe);
+    oracle::check_trajectory(&s, &t.pieces, &s.risk).unwrap();
 }
