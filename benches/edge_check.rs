@@ -97,10 +97,12 @@ fn bench(c: &mut Criterion) {
         assert!(out.certified, "disks-{n}: {:?}", out.reason);
         let smoothed = riskplan::app::PlanRequest::default().run(s.clone(), None).expect("plan").1;
         eprintln!(
-            "disks-{n}: first plan {:.4} s, {} edges, checker {:.4} s; with smoothing {:.4} s, length {:.1} → {:.1}",
+            "disks-{n}: first plan {:.4} s, {} edges, checker {:.4} s, final check {:.4} s ({} pieces); with smoothing {:.4} s, length {:.1} → {:.1}",
             out.stats.planning_time_s,
             out.stats.edges_checked,
             out.stats.checker_time_s,
+            out.stats.final_check.as_ref().map_or(0.0, |f| f.seconds),
+            out.stats.final_check.as_ref().map_or(0, |f| f.pieces),
             smoothed.stats.planning_time_s,
             out.stats.path_length.unwrap_or(f64::NAN),
             smoothed.stats.path_length.unwrap_or(f64::NAN)
