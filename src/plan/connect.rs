@@ -10,10 +10,10 @@
 //! the problem's [`Scale`]: the step is about the spacing of the obstacles.
 
 use super::scale::Scale;
-use super::smooth::{blend, shortcut, straight, time_at_constant_speed, SmoothStats};
+use super::smooth::{blend, shortcut, straight, time_at_constant_speed, Limits, SmoothStats};
 use super::{
-    dist, nearest, CheckCounter, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome, PlanStats, PlanStatus,
-    Planner, Problem, Termination,
+    dist, nearest, within_speed, CheckCounter, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome, PlanStats,
+    PlanStatus, Planner, Problem, Termination,
 };
 use crate::scene::{Piece, Trajectory};
 use rand::{Rng, SeedableRng};
@@ -253,8 +253,8 @@ impl Planner for ConnectRrt {
                 sm.waypoints_after = short.len();
                 let short_len = length(&short);
                 // the blended path; else the shortcut polyline; else the tree's path
-                let blended =
-                    blend(&short, (&ws.lower, &ws.upper), self.params.max_accel, checker, &counter, &mut sm, term);
+                let limits = Limits { max_speed: self.params.max_speed, max_accel: self.params.max_accel };
+                let blended = blend(&short, (&ws.lower, &ws.upper), limits, false, checker, &counter, &mut sm, term);
                 let out = match blended {
                     Some(b) => {
                         stats.path_length = Some(short_len);
@@ -282,7 +282,13 @@ impl Planner for ConnectRrt {
             match pieces {
                 Some(pieces) => {
                     let length = stats.path_length.unwrap_or(0.0);
-                    if let Some(v) = self.params.max_speed.filter(|v| length > v * (p.horizon.1 - p.horizon.0)) {
+                    // every returned piece keeps the limit (§6.8): blended pieces do by
+                    // construction, the straight fallbacks at the path's speed L/T unless
+                    // L/T is above it (or at it, within rounding)
+                    let too_fast = |v: &f64| {
+                        length > v * (p.horizon.1 - p.horizon.0) || pieces.iter().any(|pc| !within_speed(pc, *v))
+                    };
+                    if let Some(v) = self.params.max_speed.filter(too_fast) {
                         reason = Some(NoPlanReason::OutOfReach {
                             distance: length,
                             max_speed: v,

@@ -13,17 +13,24 @@
 use super::rrt::steer;
 use super::sampling::{width_range, StripeSampler};
 use super::scale::Scale;
-use super::smooth::{blend, shortcut, SmoothStats, Waypoint};
+use super::smooth::{blend, shortcut, Limits, SmoothStats, Waypoint};
 use super::NoPlanReason;
 use super::{
-    begin, dist, nearest, Begin, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats, PlanStatus,
-    Planner, Problem, Termination,
+    begin, dist, nearest, within_speed, Begin, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats,
+    PlanStatus, Planner, Problem, Termination,
 };
 use crate::scene::{Piece, RrtSosBlock, Trajectory};
 use rand::Rng;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
+
+/// The tree's edges are steered to at most `(1 − SPEED_CAP_MARGIN)·max_speed·Δt`: a
+/// piece's chord, evaluated from its rounded coefficients, can exceed its end points'
+/// distance by a few ulps of their coordinates, and every returned piece must pass
+/// [`within_speed`] (docs/design.md §6.4, §6.8). 10⁻⁹ covers coordinates up to about 10⁶
+/// times the edge's length; an edge that still fails the check is not added.
+pub const SPEED_CAP_MARGIN: f64 = 1e-9;
 
 /// The ladder of piece counts tried when none is given: each rung gets half the time
 /// that remains (the last all of it) and [`LayeredParams::max_attempts`] attempts.
@@ -245,9 +252,9 @@ impl LayeredRrt {
                 let a = nearest(&prev.verts, &q);
                 let dt = times[i] - times[i - 1];
                 let cap = match (self.params.step, self.params.max_speed) {
-                    (Some(st), Some(v)) => st.min(v * dt),
+                    (Some(st), Some(v)) => st.min(v * dt * (1.0 - SPEED_CAP_MARGIN)),
                     (Some(st), None) => st,
-                    (None, Some(v)) => v * dt,
+                    (None, Some(v)) => v * dt * (1.0 - SPEED_CAP_MARGIN),
                     (None, None) => f64::INFINITY,
                 };
                 let q = steer(&prev.verts[a], &q, cap);
@@ -256,13 +263,14 @@ impl LayeredRrt {
                     continue;
                 }
                 let piece = Piece::segment(&prev.verts[a], &q, times[i - 1], times[i]);
-                if counter.check(checker, &piece) != Motion::Accepted {
+                if !self.piece_speed_ok(&piece) || counter.check(checker, &piece) != Motion::Accepted {
                     continue;
                 }
                 tree.push((prev.verts[a].clone(), q.clone()));
                 if last {
                     let to_goal = Piece::segment(&q, &p.goal, times[i], times[i + 1]);
                     if self.speed_ok(&q, &p.goal, times[i + 1] - times[i])
+                        && self.piece_speed_ok(&to_goal)
                         && counter.check(checker, &to_goal) == Motion::Accepted
                     {
                         tree.push((q.clone(), p.goal.clone()));
@@ -307,6 +315,10 @@ impl LayeredRrt {
 impl LayeredRrt {
     fn speed_ok(&self, a: &[f64], b: &[f64], dt: f64) -> bool {
         self.params.max_speed.is_none_or(|v| dist(a, b) <= v * dt)
+    }
+    /// Whether a piece keeps the speed limit, by the check every returned piece passes.
+    fn piece_speed_ok(&self, pc: &Piece) -> bool {
+        self.params.max_speed.is_none_or(|v| within_speed(pc, v))
     }
 }
 
@@ -393,13 +405,14 @@ impl Planner for LayeredRrt {
                 let short = shortcut(w, p.horizon, true, self.params.max_speed, checker, &counter, &mut rng, term);
                 sm.waypoints_after = short.len();
                 let bounds = (ws.lower.as_slice(), ws.upper.as_slice());
-                let smoothed =
-                    blend(&short, bounds, self.params.max_accel, checker, &counter, &mut sm, term).or_else(|| {
-                        sm.corners_sharp = short.len().saturating_sub(2);
-                        let s = super::smooth::straight(&short, &ws.lower, &ws.upper);
-                        (!checker.sound() || s.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted))
-                            .then_some(s)
-                    });
+                let limits = Limits { max_speed: self.params.max_speed, max_accel: self.params.max_accel };
+                let smoothed = blend(&short, bounds, limits, true, checker, &counter, &mut sm, term).or_else(|| {
+                    sm.corners_sharp = short.len().saturating_sub(2);
+                    let s = super::smooth::straight(&short, &ws.lower, &ws.upper);
+                    (s.iter().all(|pc| self.piece_speed_ok(pc))
+                        && (!checker.sound() || s.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted)))
+                    .then_some(s)
+                });
                 stats.improve_time_s = t_imp.elapsed().as_secs_f64();
                 if smoothed.is_some() {
                     stats.path_length = Some(short.windows(2).map(|x| dist(&x[0].1, &x[1].1)).sum());

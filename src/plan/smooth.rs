@@ -13,14 +13,23 @@
 //!    straight pieces with their position and velocity: the trajectory becomes C¹
 //!    with pieces of degree ≤ 2, its timing unchanged. `δ` is at most a third of each
 //!    neighbouring piece, at least `|v⁺ − v⁻|/(2·max_accel)` when an acceleration limit
-//!    is given, and halved until the blend is certified; a corner whose blend is never
-//!    certified is instead stopped at (`v = 0` at the corner, both neighbours re-timed
-//!    with a cubic ease, still on the same segments), and if even that is rejected the
-//!    corner is left sharp and counted.
+//!    is given, and halved until the blend is accepted; a corner whose blend is never
+//!    accepted is instead stopped at (`v = 0` at the corner, the neighbouring parts eased
+//!    by a cubic, still on the same segments), and if even that is rejected the corner is
+//!    left sharp and counted.
+//! 3. **Limits** ([`Limits`]): with a speed limit every returned piece — straight part,
+//!    blend or eased part — passes [`within_speed`], and a piece that does not is treated
+//!    like an uncertified one. An eased part on its segment's own time span peaks at 4/3
+//!    (one end stopped) or 3/2 (both) of the segment's speed; on static scenes, when that
+//!    breaks the limit, the path is re-timed over the same horizon so that every piece peaks
+//!    at one speed `u` (eased parts take longer, the rest goes faster: see [`blend`]);
+//!    stops that even this cannot afford are refused (the corner stays sharp). The
+//!    acceleration limit is a target: blends are made wide enough where the corner allows,
+//!    and every returned piece above it is counted in [`SmoothStats::accel_violations`].
 //!
-//! Every returned piece is certified by the same motion checker as the plan's edges.
+//! Every returned piece is accepted by the same motion checker as the plan's edges.
 
-use super::{dist, CheckCounter, Motion, MotionChecker, Termination};
+use super::{dist, taylor_shift, within_speed, CheckCounter, Motion, MotionChecker, Termination};
 use crate::scene::Piece;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -53,9 +62,11 @@ pub struct SmoothStats {
     pub corners_blended: usize,
     /// Corners stopped at (C¹ with zero velocity).
     pub corners_stopped: usize,
-    /// Corners left sharp (velocity jumps), because no blend or stop was certified.
+    /// Corners left sharp (velocity jumps), because no blend or stop was accepted (certified
+    /// and, with a speed limit, within it).
     pub corners_sharp: usize,
-    /// Blends narrower than `max_accel` asks for (the limit is then exceeded there).
+    /// Returned blends and eased parts whose peak acceleration is above `max_accel` (a
+    /// target, not refused: docs/design.md §6.8).
     pub accel_violations: usize,
 }
 
@@ -120,7 +131,7 @@ pub fn inside(mut piece: Piece, lower: &[f64], upper: &[f64]) -> Piece {
 /// Shortcuts a path. `timed = false` (static obstacles): the path is geometric, pieces
 /// are judged over the whole horizon and the result is re-timed at constant speed.
 /// `timed = true` (moving obstacles): a shortcut between the points at times `ta < tb`
-/// is the straight piece on `[ta, tb]`, and must respect `max_speed`.
+/// is the straight piece on `[ta, tb]`, and must pass [`within_speed`] under `max_speed`.
 #[allow(clippy::too_many_arguments)]
 pub fn shortcut(
     path: Vec<Waypoint>,
@@ -135,10 +146,11 @@ pub fn shortcut(
     let mut w = path;
     let judge = |a: &Waypoint, b: &Waypoint| {
         let piece = if timed {
-            if max_speed.is_some_and(|v| dist(&a.1, &b.1) > v * (b.0 - a.0)) {
+            let piece = Piece::segment(&a.1, &b.1, a.0, b.0);
+            if max_speed.is_some_and(|v| !within_speed(&piece, v)) {
                 return false;
             }
-            Piece::segment(&a.1, &b.1, a.0, b.0)
+            piece
         } else {
             Piece::segment(&a.1, &b.1, horizon.0, horizon.1)
         };
@@ -214,8 +226,12 @@ pub fn blend_piece(tc: f64, x: &[f64], vin: &[f64], vout: &[f64], delta: f64) ->
 }
 
 /// A straight move from `a` at `t0` to `b` at `t1` along the segment with start and
-/// end speeds scaled by `s0`, `s1` (1: the constant speed of the segment, 0: at rest),
-/// as a cubic Hermite in time; stays on the segment for `s0, s1 ∈ [0, 1]`.
+/// end speeds `s0`, `s1` relative to the move's mean speed `|b − a|/(t1 − t0)` (1: the
+/// mean speed, 0: at rest), as a cubic Hermite in time:
+/// `x(t) = a + (b − a)·σ(u)`, `u = (t − t0)/(t1 − t0)`, `σ(0) = 0`, `σ(1) = 1`,
+/// `σ'(0) = s0`, `σ'(1) = s1`. It stays on the segment when σ is monotone (`σ' ≥ 0` on
+/// [0, 1]), which holds for every profile in [`EASE_PROFILES`]; the peak of `σ'` (the
+/// peak speed over the mean speed) is given there.
 pub fn eased_segment(a: &[f64], b: &[f64], t0: f64, t1: f64, s0: f64, s1: f64) -> Piece {
     // x(t) = a + (b − a)·σ(u), u = (t − t0)/h, σ(u) = s0 u + (3 − 2s0 − s1) u² + (s0 + s1 − 2) u³
     let h = t1 - t0;
@@ -237,12 +253,244 @@ pub fn eased_segment(a: &[f64], b: &[f64], t0: f64, t1: f64, s0: f64, s1: f64) -
     Piece { t0, t1, coeffs }
 }
 
-/// Turns waypoints into C¹ pieces (see the module doc); every piece is certified.
-/// Returns `None` when a straight piece of the input itself is rejected.
+/// The eased parts `blend` makes, as `(s0, s1, peak)`: end speeds relative to the part's
+/// mean speed (see [`eased_segment`]) and the peak of its speed over its mean speed, exact
+/// (docs/design.md §6.8):
+/// - `(1, 0)`: `σ' = 1 + 2u − 3u²`, peak 4/3 at u = 1/3 (and `(0, 1)` mirrored);
+/// - `(0, 0)`: `σ' = 6u(1 − u)`, peak 3/2 at u = 1/2;
+/// - `(3/2, 0)`: `σ' = 3/2·(1 − u²)`, peak 3/2 at u = 0, its moving end (and `(0, 3/2)`
+///   mirrored).
+///
+/// All five have `σ' ≥ 0` on [0, 1], so they stay on their segment.
+pub const EASE_PROFILES: [(f64, f64, f64); 5] =
+    [(1.0, 0.0, 4.0 / 3.0), (0.0, 1.0, 4.0 / 3.0), (0.0, 0.0, 1.5), (1.5, 0.0, 1.5), (0.0, 1.5, 1.5)];
+
+/// The limits smoothing keeps (docs/design.md §6.8).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Limits {
+    /// Speed limit, kept by every returned piece: each passes [`within_speed`], and a
+    /// blend, eased part or straight part that does not is treated like an uncertified one.
+    pub max_speed: Option<f64>,
+    /// Acceleration target: blends are made at least `|v⁺ − v⁻|/(2·max_accel)` wide where
+    /// the corner allows it, and every returned blend or eased part whose peak acceleration
+    /// is above it is counted in [`SmoothStats::accel_violations`] (it is not refused: a
+    /// corner that cannot take a wide enough blend would otherwise stay sharp, which is
+    /// worse).
+    pub max_accel: Option<f64>,
+}
+
+/// How a corner is joined.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Corner {
+    /// A parabolic blend of this half-duration (0: the segments are collinear, no blend).
+    Blend(f64),
+    /// Stopped at: zero velocity, the neighbouring parts eased.
+    Stop,
+    /// Left sharp: the velocity jumps.
+    Sharp,
+}
+
+/// A timing of the waypoints the pieces are assembled in.
+struct Timing {
+    /// Waypoint times; the first and the last are the input's, exactly.
+    times: Vec<f64>,
+    /// Velocity of each segment's straight part, which the blends at its ends meet.
+    vel: Vec<Vec<f64>>,
+    /// Half-duration of each corner's blend in this timing (0 without one).
+    delta: Vec<f64>,
+    /// Share of each segment taken by the blends at its start and at its end.
+    cut: Vec<(f64, f64)>,
+    /// The static re-timing (else the input's own timing, whose blends are checked already).
+    retimed: bool,
+}
+
+/// `(s0, s1, stretch)` of segment `j`'s middle part in a re-timed static path (§6.8): a
+/// part with a stopped end is eased, its moving end matching the speed `u` of the rest of
+/// the path where it meets a blend or a collinear continuation (profile `(3/2, 0)`) and free
+/// at a sharp corner or at the path's ends (`(1, 0)`, the least peak for a free end), with
+/// both ends stopped `(0, 0)`; `stretch` = the profile's peak, so that the part, taking
+/// `stretch` times its duration at speed `u`, peaks at exactly `u`.
+fn retimed_profile(corners: &[Corner], j: usize) -> (f64, f64, f64) {
+    let n = corners.len();
+    let stop = |i: usize| 0 < i && i < n - 1 && corners[i] == Corner::Stop;
+    let joined = |i: usize| 0 < i && i < n - 1 && matches!(corners[i], Corner::Blend(_));
+    let pick = |k: usize| (EASE_PROFILES[k].0, EASE_PROFILES[k].1, EASE_PROFILES[k].2);
+    match (stop(j), stop(j + 1)) {
+        (false, false) => (1.0, 1.0, 1.0),
+        (true, true) => pick(2),
+        (false, true) if joined(j) => pick(3),
+        (false, true) => pick(0),
+        (true, false) if joined(j + 1) => pick(4),
+        (true, false) => pick(1),
+    }
+}
+
+/// The input's own timing.
+fn given_timing(w: &[Waypoint], corners: &[Corner]) -> Timing {
+    let n = w.len();
+    let delta: Vec<f64> = corners
+        .iter()
+        .enumerate()
+        .map(|(i, c)| match c {
+            Corner::Blend(d) if 0 < i && i < n - 1 => *d,
+            _ => 0.0,
+        })
+        .collect();
+    let h = |j: usize| w[j + 1].0 - w[j].0;
+    Timing {
+        times: w.iter().map(|p| p.0).collect(),
+        vel: (0..n - 1).map(|j| w[j].1.iter().zip(&w[j + 1].1).map(|(a, b)| (b - a) / h(j)).collect()).collect(),
+        cut: (0..n - 1).map(|j| (delta[j] / h(j), delta[j + 1] / h(j))).collect(),
+        delta,
+        retimed: false,
+    }
+}
+
+/// The static re-timing (docs/design.md §6.8) of a path timed at constant speed `u₀ = L/T`:
+/// the geometry is kept — segments, and each blend's reach `λ = δ·u₀` along its two
+/// segments — while straight parts and blends move at one speed `u` and each eased part
+/// takes `stretch` times its duration at `u` ([`retimed_profile`]), so that every piece
+/// peaks at `u`, and the horizon's ends stay where they are:
+/// `u = Σⱼ (λⱼ + λⱼ₊₁ + stretchⱼ·mⱼ)/T` with `mⱼ = ℓⱼ − λⱼ − λⱼ₊₁`. Returns the timing and
+/// `u`; `None` when rounding leaves two waypoint times out of order.
+fn retimed(w: &[Waypoint], corners: &[Corner]) -> Option<(Timing, f64)> {
+    let n = w.len();
+    let (t0, tf) = (w[0].0, w[n - 1].0);
+    let lens: Vec<f64> = w.windows(2).map(|p| dist(&p[0].1, &p[1].1)).collect();
+    let u0 = lens.iter().sum::<f64>() / (tf - t0);
+    let reach: Vec<f64> = corners
+        .iter()
+        .enumerate()
+        .map(|(i, c)| match c {
+            Corner::Blend(d) if 0 < i && i < n - 1 => d * u0,
+            _ => 0.0,
+        })
+        .collect();
+    let weights: Vec<f64> = (0..n - 1)
+        .map(|j| {
+            let mid = lens[j] - reach[j] - reach[j + 1];
+            reach[j] + reach[j + 1] + retimed_profile(corners, j).2 * mid
+        })
+        .collect();
+    let total: f64 = weights.iter().sum();
+    let u = total / (tf - t0);
+    let mut times = vec![t0];
+    let mut acc = 0.0;
+    for (j, wt) in weights.iter().enumerate() {
+        acc += wt;
+        times.push(if j + 2 == n { tf } else { t0 + (tf - t0) * (acc / total) });
+    }
+    if times.windows(2).any(|p| p[1] <= p[0]) || lens.iter().any(|&l| l <= 0.0) || !u.is_finite() {
+        return None;
+    }
+    let timing = Timing {
+        times,
+        vel: (0..n - 1)
+            .map(|j| w[j].1.iter().zip(&w[j + 1].1).map(|(a, b)| (b - a) * (u / lens[j])).collect())
+            .collect(),
+        delta: reach.iter().map(|r| r / u).collect(),
+        cut: (0..n - 1).map(|j| (reach[j] / lens[j], reach[j + 1] / lens[j])).collect(),
+        retimed: true,
+    };
+    Some((timing, u))
+}
+
+/// How an assembly ended.
+enum Assembly {
+    /// Every piece accepted.
+    Done(Vec<Piece>),
+    /// An eased part was rejected: its stopped corners.
+    EaseRejected(Vec<usize>),
+    /// A straight part or a blend was rejected, or the pieces are not contiguous.
+    Rejected,
+}
+
+/// The pieces of the path in `timing`: straight parts, blends, eased parts at stopped
+/// corners; each must be accepted (`accept`: the speed limit and the motion checker).
+fn assemble(
+    w: &[Waypoint],
+    corners: &[Corner],
+    timing: &Timing,
+    blends: &[Option<Piece>],
+    workspace: (&[f64], &[f64]),
+    accept: &dyn Fn(&Piece) -> bool,
+) -> Assembly {
+    let n = w.len();
+    let mut out = Vec::with_capacity(2 * n);
+    for i in 0..n - 1 {
+        let (d0, d1) = (timing.delta[i], timing.delta[i + 1]);
+        let (ta, tb) = (timing.times[i] + d0, timing.times[i + 1] - d1);
+        let (c0, c1) = timing.cut[i];
+        let (a, b) = (lerp(&w[i].1, &w[i + 1].1, c0), lerp(&w[i].1, &w[i + 1].1, 1.0 - c1));
+        let stop0 = i > 0 && corners[i] == Corner::Stop;
+        let stop1 = i + 1 < n - 1 && corners[i + 1] == Corner::Stop;
+        if stop0 || stop1 {
+            // on the input's timing the moving end keeps the segment's speed (σ' = 1)
+            let (s0, s1, _) = if timing.retimed {
+                retimed_profile(corners, i)
+            } else {
+                (if stop0 { 0.0 } else { 1.0 }, if stop1 { 0.0 } else { 1.0 }, 1.0)
+            };
+            let piece = eased_segment(&a, &b, ta, tb, s0, s1);
+            if !accept(&piece) {
+                return Assembly::EaseRejected(
+                    [(stop0, i), (stop1, i + 1)].iter().filter(|e| e.0).map(|e| e.1).collect(),
+                );
+            }
+            out.push(piece);
+        } else if tb > ta {
+            let piece = inside(Piece::segment(&a, &b, ta, tb), workspace.0, workspace.1);
+            if !accept(&piece) {
+                return Assembly::Rejected;
+            }
+            out.push(piece);
+        }
+        if i + 1 < n - 1 && timing.delta[i + 1] > 0.0 {
+            let piece = if timing.retimed {
+                let pc = blend_piece(
+                    timing.times[i + 1],
+                    &w[i + 1].1,
+                    &timing.vel[i],
+                    &timing.vel[i + 1],
+                    timing.delta[i + 1],
+                );
+                if !accept(&pc) {
+                    return Assembly::Rejected;
+                }
+                pc
+            } else {
+                match &blends[i + 1] {
+                    Some(pc) => pc.clone(),
+                    None => return Assembly::Rejected,
+                }
+            };
+            out.push(piece);
+        }
+    }
+    // the pieces must be exactly contiguous in time (a blend ends where the next starts)
+    if out.windows(2).any(|p| p[1].t0 != p[0].t1) {
+        return Assembly::Rejected;
+    }
+    Assembly::Done(out)
+}
+
+/// Turns waypoints into C¹ pieces (see the module doc and docs/design.md §6.8); every
+/// returned piece is accepted by `checker` and, with a speed limit, passes
+/// [`within_speed`]. `timed = false` (static obstacles): the waypoints are timed at
+/// constant speed over the horizon (as [`shortcut`] returns them) and only their geometry
+/// matters, so a path with stopped corners may be re-timed: first the input's timing is
+/// tried (eased parts peak at 4/3 or 3/2 of the path's speed), then the re-timing in which
+/// every piece peaks at one speed `u` (docs/design.md §6.8), and if `u` breaks the limit
+/// the stop whose refusal lowers `u` most is refused (the corner stays sharp), until the
+/// pieces keep it. `timed = true` (moving obstacles): times stay attached to the points, and a stop
+/// whose eased parts break the limit is refused. Returns `None` when a straight part is
+/// rejected (or, at a path without corners, any piece).
+#[allow(clippy::too_many_arguments)]
 pub fn blend(
     w: &[Waypoint],
     workspace: (&[f64], &[f64]),
-    max_accel: Option<f64>,
+    limits: Limits,
+    timed: bool,
     checker: &dyn MotionChecker,
     counter: &CheckCounter,
     stats: &mut SmoothStats,
@@ -250,21 +498,18 @@ pub fn blend(
 ) -> Option<Vec<Piece>> {
     let n = w.len();
     let (lower, upper) = workspace;
+    let accept = |pc: &Piece| {
+        limits.max_speed.is_none_or(|v| within_speed(pc, v)) && counter.check(checker, pc) == Motion::Accepted
+    };
     if n < 3 {
         let pieces = straight(w, lower, upper);
-        return pieces.iter().all(|p| counter.check(checker, p) == Motion::Accepted).then_some(pieces);
+        return pieces.iter().all(accept).then_some(pieces);
     }
     let vel = |i: usize| -> Vec<f64> {
         let h = w[i + 1].0 - w[i].0;
         w[i].1.iter().zip(&w[i + 1].1).map(|(a, b)| (b - a) / h).collect()
     };
-    // per interior corner: Some(δ) blended, None stopped or sharp (decided below)
-    #[derive(Clone, Copy, PartialEq)]
-    enum Corner {
-        Blend(f64),
-        Stop,
-        Sharp,
-    }
+    // 1. each corner: the widest accepted blend (on the input's timing), else a stop
     let mut corners = vec![Corner::Sharp; n];
     let mut blends: Vec<Option<Piece>> = vec![None; n];
     for i in 1..n - 1 {
@@ -279,14 +524,11 @@ pub fn blend(
             continue;
         }
         let max_delta = BLEND_SHARE * (w[i].0 - w[i - 1].0).min(w[i + 1].0 - w[i].0);
-        let need = max_accel.map(|a| jump / (2.0 * a));
+        let need = limits.max_accel.map(|a| jump / (2.0 * a));
         let mut delta = max_delta;
-        if need.is_some_and(|d| d > max_delta) {
-            stats.accel_violations += 1;
-        }
         for _ in 0..=BLEND_HALVINGS {
             let piece = blend_piece(w[i].0, &w[i].1, &vin, &vout, delta);
-            if counter.check(checker, &piece) == Motion::Accepted {
+            if accept(&piece) {
                 corners[i] = Corner::Blend(delta);
                 blends[i] = Some(piece);
                 break;
@@ -300,51 +542,54 @@ pub fn blend(
             corners[i] = Corner::Stop;
         }
     }
-    // the straight parts between blends (eased at stopped corners), certified
-    let mut out = Vec::with_capacity(2 * n);
-    for i in 0..n - 1 {
-        let d0 = match corners[i] {
-            Corner::Blend(d) if i > 0 => d,
-            _ => 0.0,
+    // 2. the pieces; a stop whose eased parts are rejected (or, on a static path, that the
+    // speed limit cannot afford) is refused and the path assembled again
+    let refuse = |corners: &mut Vec<Corner>, ends: &[usize]| {
+        for &i in ends {
+            corners[i] = Corner::Sharp;
+        }
+    };
+    let out = loop {
+        let stops: Vec<usize> = (1..n - 1).filter(|&i| corners[i] == Corner::Stop).collect();
+        let failed = match assemble(w, &corners, &given_timing(w, &corners), &blends, workspace, &accept) {
+            Assembly::Done(out) => break out,
+            Assembly::Rejected if stops.is_empty() => return None,
+            f => f,
         };
-        let d1 = match corners[i + 1] {
-            Corner::Blend(d) if i + 1 < n - 1 => d,
-            _ => 0.0,
-        };
-        let (ta, tb) = (w[i].0 + d0, w[i + 1].0 - d1);
-        let (a, b) = (
-            lerp(&w[i].1, &w[i + 1].1, d0 / (w[i + 1].0 - w[i].0)),
-            lerp(&w[i].1, &w[i + 1].1, 1.0 - d1 / (w[i + 1].0 - w[i].0)),
-        );
-        let stop0 = i > 0 && corners[i] == Corner::Stop;
-        let stop1 = i + 1 < n - 1 && corners[i + 1] == Corner::Stop;
-        let mut piece = if stop0 || stop1 {
-            // keep the segment's geometry, scale the end speeds (σ' = 1 is the segment's own speed)
-            eased_segment(&a, &b, ta, tb, if stop0 { 0.0 } else { 1.0 }, if stop1 { 0.0 } else { 1.0 })
-        } else {
-            inside(Piece::segment(&a, &b, ta, tb), lower, upper)
-        };
-        if (stop0 || stop1) && counter.check(checker, &piece) != Motion::Accepted {
-            // the eased timing is rejected (a moving obstacle): leave the corners sharp
-            for (flag, idx) in [(stop0, i), (stop1, i + 1)] {
-                if flag {
-                    corners[idx] = Corner::Sharp;
+        if timed {
+            match failed {
+                Assembly::EaseRejected(ends) => refuse(&mut corners, &ends),
+                _ => refuse(&mut corners, &stops),
+            }
+            continue;
+        }
+        // static: re-timed so that every piece peaks at one speed u
+        let speed = |c: &[Corner]| retimed(w, c).map_or(f64::INFINITY, |(_, u)| u);
+        if let Some((timing, _)) = retimed(w, &corners).filter(|(_, u)| limits.max_speed.is_none_or(|v| *u <= v)) {
+            match assemble(w, &corners, &timing, &blends, workspace, &accept) {
+                Assembly::Done(out) => break out,
+                Assembly::EaseRejected(ends) => {
+                    refuse(&mut corners, &ends);
+                    continue;
                 }
-            }
-            piece = inside(Piece::segment(&a, &b, ta, tb), lower, upper);
-        }
-        if tb > ta || stop0 || stop1 {
-            if counter.check(checker, &piece) != Motion::Accepted {
-                return None;
-            }
-            out.push(piece);
-        }
-        if let Some(b) = blends[i + 1].take() {
-            if i + 1 < n - 1 {
-                out.push(b);
+                Assembly::Rejected => {}
             }
         }
-    }
+        // refuse the stop whose refusal lowers the re-timed speed most (the first of equals)
+        let mut best: Option<(f64, usize)> = None;
+        for &i in &stops {
+            let mut c = corners.clone();
+            c[i] = Corner::Sharp;
+            let u = speed(&c);
+            if best.is_none_or(|(b, _)| u < b) {
+                best = Some((u, i));
+            }
+        }
+        match best {
+            Some((_, i)) => refuse(&mut corners, &[i]),
+            None => refuse(&mut corners, &stops),
+        }
+    };
     for c in &corners[1..n - 1] {
         match c {
             Corner::Blend(_) => stats.corners_blended += 1,
@@ -352,13 +597,33 @@ pub fn blend(
             Corner::Sharp => stats.corners_sharp += 1,
         }
     }
-    // make the pieces exactly contiguous in time (a blend ends where the next starts)
-    for k in 1..out.len() {
-        if out[k].t0 != out[k - 1].t1 {
-            return None;
-        }
+    if let Some(a) = limits.max_accel {
+        stats.accel_violations += out.iter().filter(|pc| pc.degree() >= 2 && peak_accel(pc) > a).count();
     }
     Some(out)
+}
+
+/// The largest acceleration of a piece of degree ≤ 3 (every piece smoothing makes): its
+/// acceleration is affine in t, so its norm is convex and largest at an end; evaluated
+/// about each end in floating point (for [`SmoothStats::accel_violations`], a count, not a
+/// guarantee). A piece of higher degree gets `+∞`.
+pub fn peak_accel(pc: &Piece) -> f64 {
+    if pc.degree() > 3 {
+        return f64::INFINITY;
+    }
+    [pc.t0, pc.t1]
+        .iter()
+        .map(|&t| {
+            pc.coeffs
+                .iter()
+                .map(|row| {
+                    let a = 2.0 * taylor_shift(row, t).get(2).copied().unwrap_or(0.0);
+                    a * a
+                })
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// The velocity of a piece at absolute time `t` (floating point, for tests and reports).
@@ -382,5 +647,197 @@ pub fn max_velocity_jump(pieces: &[Piece]) -> f64 {
         jump / top
     } else {
         jump
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::within_speed;
+
+    /// Rejects every parabolic blend (degree 2) that starts or ends within `radius` of
+    /// `point`, and accepts every other piece: a corner there whose blend is never
+    /// certified (an obstacle inside the turn), so `blend` has to stop at it.
+    struct NoBlendNear {
+        point: Vec<f64>,
+        radius: f64,
+    }
+
+    impl MotionChecker for NoBlendNear {
+        fn name(&self) -> &str {
+            "no-blend-near"
+        }
+        fn sound(&self) -> bool {
+            true
+        }
+        fn check(&self, piece: &Piece) -> Motion {
+            let near = |t: f64| dist(&piece.at(t), &self.point) <= self.radius;
+            if piece.degree() == 2 && (near(piece.t0) || near(piece.t1)) {
+                Motion::Rejected
+            } else {
+                Motion::Accepted
+            }
+        }
+        fn check_point(&self, _x: &[f64], _t: f64) -> Motion {
+            Motion::Accepted
+        }
+    }
+
+    /// Relative velocity jump at a joint below which the pieces are C¹ (the coefficients
+    /// are rounded floats in absolute time).
+    const JUMP_TOLERANCE: f64 = 1e-9;
+
+    /// How far above a piece's sampled peak speed `within_speed` must accept an eased part:
+    /// its bound on 64 sub-intervals over-estimates the cubic eases by less than this.
+    const EASE_BOUND_SLACK: f64 = 1e-3;
+
+    /// ... and a blend, whose speed is checked exactly at its ends up to the rounding
+    /// allowance: 64ε times the magnitudes of its coefficients in absolute time, about
+    /// 3·10⁻¹² of its speed for the blends here (at t ≈ 10, δ = 0.05).
+    const BLEND_BOUND_SLACK: f64 = 1e-10;
+
+    /// A sampled peak speed is at most the true one: `within_speed` must reject a limit this
+    /// much below it (far above the rounding of the sampled speeds, about 10⁻¹⁵).
+    const BELOW_PEAK: f64 = 1e-9;
+
+    /// The largest speed of the pieces at 4096 evenly spaced times each (an oracle that
+    /// shares no code with `within_speed`).
+    fn sampled_peak_speed(pieces: &[Piece]) -> f64 {
+        const SAMPLES: usize = 4096;
+        pieces
+            .iter()
+            .flat_map(|p| {
+                (0..=SAMPLES).map(move |k| {
+                    let t = p.t0 + (p.t1 - p.t0) * k as f64 / SAMPLES as f64;
+                    velocity(p, t).iter().map(|v| v * v).sum::<f64>().sqrt()
+                })
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// An L-shaped corner at (1, 0), constant speed 2 over [0, 1].
+    fn corner() -> Vec<Waypoint> {
+        vec![(0.0, vec![0.0, 0.0]), (0.5, vec![1.0, 0.0]), (1.0, vec![1.0, 1.0])]
+    }
+
+    fn smooth(w: &[Waypoint], limits: Limits, timed: bool, checker: &dyn MotionChecker) -> (Vec<Piece>, SmoothStats) {
+        let (counter, mut stats) = (CheckCounter::default(), SmoothStats::default());
+        let ws: (&[f64], &[f64]) = (&[-10.0, -10.0], &[10.0, 10.0]);
+        let pieces = blend(w, ws, limits, timed, checker, &counter, &mut stats, &Termination::never()).expect("pieces");
+        // contiguous, over the input's horizon exactly, positions continuous
+        let (t0, tf) = (w[0].0, w[w.len() - 1].0);
+        assert!(pieces[0].t0 == t0 && pieces[pieces.len() - 1].t1 == tf, "horizon: {pieces:?}");
+        crate::scene::Trajectory::new(pieces.clone()).validate(2, (t0, tf), 20.0).expect("a valid trajectory");
+        (pieces, stats)
+    }
+
+    /// Asserts that every piece keeps `v`, by `within_speed` and by sampling.
+    fn assert_within(pieces: &[Piece], v: f64) {
+        let peak = sampled_peak_speed(pieces);
+        for pc in pieces {
+            assert!(within_speed(pc, v), "a piece breaks max_speed {v} (sampled peak speed {peak}): {pc:?}");
+        }
+        assert!(peak <= v, "sampled peak speed {peak} > max_speed {v}");
+    }
+
+    /// Issue 17, item 4: a corner whose blend is never certified is stopped at, and the
+    /// eased parts on the segments' own time spans reach 4/3 of the path's speed 2. With
+    /// `max_speed` 10 % above the path's speed the stop is refused (re-timing would need
+    /// 4/3 of it too) and the corner stays sharp; with 2.7 the stop is kept. Every returned
+    /// piece keeps the limit. (Before the limit was applied to eased parts, the first case
+    /// returned a piece of sampled peak speed 2.667 under max_speed 2.2.)
+    #[test]
+    fn stopped_corner_keeps_a_tight_speed_limit() {
+        let no_blend = NoBlendNear { point: vec![1.0, 0.0], radius: 1.0 };
+        let (free, stats) = smooth(&corner(), Limits::default(), false, &no_blend);
+        assert_eq!(stats.corners_stopped, 1, "{stats:?}");
+        let peak = sampled_peak_speed(&free);
+        assert!((peak - 8.0 / 3.0).abs() < 1e-6, "eased parts peak at 4/3 of the path's speed 2: {peak}");
+        let (tight, stats) = smooth(&corner(), Limits { max_speed: Some(2.2), max_accel: None }, false, &no_blend);
+        assert_eq!((stats.corners_stopped, stats.corners_sharp), (0, 1), "{stats:?}");
+        assert_within(&tight, 2.2);
+        let (loose, stats) = smooth(&corner(), Limits { max_speed: Some(2.7), max_accel: None }, false, &no_blend);
+        assert_eq!(stats.corners_stopped, 1, "{stats:?}");
+        assert_within(&loose, 2.7);
+        assert!(max_velocity_jump(&loose) < JUMP_TOLERANCE);
+    }
+
+    /// With moving obstacles (times attached to the points) a stop whose eased parts break
+    /// the limit is refused; one they keep is kept.
+    #[test]
+    fn stopped_corner_in_time_keeps_the_speed_limit() {
+        let no_blend = NoBlendNear { point: vec![1.0, 0.0], radius: 1.0 };
+        let (tight, stats) = smooth(&corner(), Limits { max_speed: Some(2.2), max_accel: None }, true, &no_blend);
+        assert_eq!((stats.corners_stopped, stats.corners_sharp), (0, 1), "{stats:?}");
+        assert_within(&tight, 2.2);
+        let (loose, stats) = smooth(&corner(), Limits { max_speed: Some(2.7), max_accel: None }, true, &no_blend);
+        assert_eq!(stats.corners_stopped, 1, "{stats:?}");
+        assert_within(&loose, 2.7);
+    }
+
+    /// A path (0,0) → (4,0) → (4,1) → (8,1) at speed 9 whose corner at (4, 1) cannot be
+    /// blended: on the segments' own time spans its eased parts peak at 12; re-timed over
+    /// the same horizon every piece peaks at u = 32/3 (the blend at (4, 0) reaches 1/3 along
+    /// its segments; the eased parts take 3/2 and 4/3 of their time at u), so `max_speed` 11
+    /// keeps the stop, C¹, while 10.5 refuses it.
+    #[test]
+    fn retiming_keeps_a_stop_the_segment_timing_cannot() {
+        let pts = [vec![0.0, 0.0], vec![4.0, 0.0], vec![4.0, 1.0], vec![8.0, 1.0]];
+        let w = time_at_constant_speed(&pts, (0.0, 1.0));
+        let no_blend = NoBlendNear { point: vec![4.0, 1.0], radius: 0.5 };
+        let (free, stats) = smooth(&w, Limits::default(), false, &no_blend);
+        assert_eq!((stats.corners_blended, stats.corners_stopped), (1, 1), "{stats:?}");
+        let peak = sampled_peak_speed(&free);
+        assert!((peak - 12.0).abs() < 1e-5, "4/3 of the path's speed 9: {peak}");
+        let (pieces, stats) = smooth(&w, Limits { max_speed: Some(11.0), max_accel: None }, false, &no_blend);
+        assert_eq!((stats.corners_blended, stats.corners_stopped), (1, 1), "{stats:?}");
+        assert_within(&pieces, 11.0);
+        let peak = sampled_peak_speed(&pieces);
+        assert!((peak - 32.0 / 3.0).abs() < 1e-5, "every piece peaks at u = 32/3: {peak}");
+        assert!(max_velocity_jump(&pieces) < JUMP_TOLERANCE, "C¹: {}", max_velocity_jump(&pieces));
+        let (sharp, stats) = smooth(&w, Limits { max_speed: Some(10.5), max_accel: None }, false, &no_blend);
+        assert_eq!((stats.corners_blended, stats.corners_stopped, stats.corners_sharp), (1, 0, 1), "{stats:?}");
+        assert_within(&sharp, 10.5);
+    }
+
+    /// `within_speed` on blends and eased parts far from t = 0 (on [10, 10.3], where the
+    /// expansion in absolute time cancels by three orders of magnitude): never below the
+    /// sampled peak, and within [`EASE_BOUND_SLACK`] / [`BLEND_BOUND_SLACK`] above it. The
+    /// eases peak at their table's multiple of their mean speed.
+    #[test]
+    fn within_speed_is_tight_on_blends_and_eases() {
+        let (a, b) = ([1.0, 2.0], [2.0, 2.5]);
+        let mean = dist(&a, &b) / 0.3;
+        for &(s0, s1, ratio) in &EASE_PROFILES {
+            let pc = eased_segment(&a, &b, 10.0, 10.3, s0, s1);
+            let peak = sampled_peak_speed(std::slice::from_ref(&pc));
+            assert!((peak / mean - ratio).abs() < 1e-6, "({s0}, {s1}): peak {} × mean", peak / mean);
+            assert!(within_speed(&pc, peak * (1.0 + EASE_BOUND_SLACK)), "({s0}, {s1}) peak {peak}");
+            assert!(!within_speed(&pc, peak * (1.0 - BELOW_PEAK)), "({s0}, {s1}) peak {peak}");
+        }
+        for (vin, vout) in [([3.0, 0.0], [0.0, 3.0]), ([3.0, 1.0], [-2.0, 0.5]), ([1.0, 1.0], [4.0, -1.0])] {
+            let pc = blend_piece(10.15, &[1.0, 1.0], &vin, &vout, 0.05);
+            let peak = sampled_peak_speed(std::slice::from_ref(&pc));
+            assert!(within_speed(&pc, peak * (1.0 + BLEND_BOUND_SLACK)), "{vin:?} → {vout:?}: peak {peak}");
+            assert!(!within_speed(&pc, peak * (1.0 - BELOW_PEAK)), "{vin:?} → {vout:?}: peak {peak}");
+        }
+    }
+
+    /// `accel_violations` counts every returned blend and eased part above `max_accel`: the
+    /// corner's widest blend (δ = 1/6) accelerates at 2√2/(2δ) ≈ 8.49, an eased part
+    /// (1, 0) over length 1 in time 1/2 at up to 4/(1/2)² = 16.
+    #[test]
+    fn accel_violations_count_blends_and_eases_over_the_target() {
+        let anywhere = NoBlendNear { point: vec![100.0, 100.0], radius: 1.0 };
+        let accel = |a: f64| Limits { max_speed: None, max_accel: Some(a) };
+        let (pieces, stats) = smooth(&corner(), accel(0.1), false, &anywhere);
+        assert_eq!((stats.corners_blended, stats.accel_violations), (1, 1), "{stats:?}");
+        assert!((peak_accel(&pieces[1]) - 6.0 * 2f64.sqrt()).abs() < 1e-9, "{}", peak_accel(&pieces[1]));
+        let (_, stats) = smooth(&corner(), accel(100.0), false, &anywhere);
+        assert_eq!((stats.corners_blended, stats.accel_violations), (1, 0), "{stats:?}");
+        let no_blend = NoBlendNear { point: vec![1.0, 0.0], radius: 1.0 };
+        let (pieces, stats) = smooth(&corner(), accel(10.0), false, &no_blend);
+        assert_eq!((stats.corners_stopped, stats.accel_violations), (1, 2), "{stats:?}");
+        assert!(pieces.iter().all(|pc| (peak_accel(pc) - 16.0).abs() < 1e-9), "{pieces:?}");
     }
 }

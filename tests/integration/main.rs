@@ -23,3 +23,4 @@ mod proto_examples;
 mod reference_scenes;
 #[cfg(all(feature = "service", feature = "cli"))]
 mod service_shutdown;
+mod smooth_limits;
