@@ -634,7 +634,7 @@ pub fn final_check(
     let (first, last) = (&traj.pieces[0], &traj.pieces[traj.pieces.len() - 1]);
     for (which, at, want) in [("start", first.at(first.t0), endpoints.0), ("goal", last.at(last.t1), endpoints.1)] {
         let gap = at.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        if !(gap <= tol) {
+        if gap.is_nan() || gap > tol {
             return Ok(done(Some(FinalFailure::Invalid(format!("the trajectory misses the {which} by {gap:e}")))));
         }
     }
