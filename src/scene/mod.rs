@@ -395,7 +395,27 @@ fn validate_workspace(w: &WorkspaceFile, dim: usize) -> Result<Workspace, SceneE
             ));
         }
     }
-    Ok(Workspace { lower: w.lower.iter().map(Num::f64).collect(), upper: w.upper.iter().map(Num::f64).collect() })
+    let (lower, upper): (Vec<f64>, Vec<f64>) =
+        (w.lower.iter().map(Num::f64).collect(), w.upper.iter().map(Num::f64).collect());
+    // every bound a finite float, every side of positive finite length in floats, and a
+    // finite diagonal: tolerances are relative to the diagonal, and an infinite or
+    // collapsed box would make them meaningless (issue 17 review)
+    for i in 0..dim {
+        let side = upper[i] - lower[i];
+        if !(lower[i].is_finite() && upper[i].is_finite() && side > 0.0 && side.is_finite()) {
+            return Err(err(
+                format!("workspace.upper[{i}]"),
+                format!(
+                    "the bounds must be finite floats a positive, finite distance apart (got {} and {})",
+                    lower[i], upper[i]
+                ),
+            ));
+        }
+    }
+    if !lower.iter().zip(&upper).map(|(l, u)| (u - l) * (u - l)).sum::<f64>().sqrt().is_finite() {
+        return Err(err("workspace", "the diagonal of the box must be a finite float"));
+    }
+    Ok(Workspace { lower, upper })
 }
 
 fn validate_horizon(h: &[Num]) -> Result<(f64, f64), SceneError> {
@@ -405,7 +425,14 @@ fn validate_horizon(h: &[Num]) -> Result<(f64, f64), SceneError> {
     if h[0] >= h[1] {
         return Err(err("horizon", format!("t0 must be less than tf, got [{}, {}]", h[0].f64(), h[1].f64())));
     }
-    Ok((h[0].f64(), h[1].f64()))
+    let (t0, t1) = (h[0].f64(), h[1].f64());
+    if !(t0.is_finite() && t1.is_finite() && t0 < t1 && (t1 - t0).is_finite()) {
+        return Err(err(
+            "horizon",
+            format!("t0 and tf must be finite floats with t0 < tf and a finite duration, got [{t0}, {t1}]"),
+        ));
+    }
+    Ok((t0, t1))
 }
 
 /// Δ must lie in the open interval (0, 1).

@@ -38,6 +38,24 @@ fn broken_scenes_name_the_field() {
         ("workspace length", |v| v["workspace"]["lower"] = serde_json::json!([0]), "workspace.lower"),
         ("empty workspace", |v| v["workspace"]["upper"] = serde_json::json!([1, -1]), "workspace.upper[1]"),
         ("horizon reversed", |v| v["horizon"] = serde_json::json!([1, 0]), "horizon"),
+        // issue 17 review: bounds that are not finite floats, a box whose sides or
+        // diagonal overflow, a horizon that is one float
+        (
+            "workspace bound -1e400",
+            |v| v["workspace"]["lower"] = serde_json::json!(["-1e400", -1]),
+            "workspace.upper[0]",
+        ),
+        (
+            "workspace side overflows",
+            |v| v["workspace"] = serde_json::json!({"lower": [-1e308, -1], "upper": [1e308, 1]}),
+            "workspace.upper[0]",
+        ),
+        (
+            "workspace diagonal overflows",
+            |v| v["workspace"] = serde_json::json!({"lower": [-8e307, -8e307], "upper": [8e307, 8e307]}),
+            "workspace",
+        ),
+        ("horizon one float", |v| v["horizon"] = serde_json::json!(["1e18", "1000000000000000000.001"]), "horizon"),
         ("risk 1.5", |v| v["risk"] = 1.5.into(), "risk"),
         ("risk as text", |v| v["risk"] = "ten percent".into(), "risk"),
         ("undeclared parameter", |v| v["obstacles"][0]["poly"] = "q^2 - x1^2".into(), "obstacles[0].poly"),

@@ -376,10 +376,12 @@ pub struct FramedContours {
     center: Vec<f64>,
     inv_scale: Vec<f64>,
     polys: Option<Vec<(crate::poly::Poly<Interval>, crate::poly::Poly<Interval>)>>,
-    /// With more than [`FramedContours::NEAR_MIN_OBSTACLES`] obstacles: each
-    /// obstacle's contour polynomials rewritten exactly around its own centre, for a
-    /// box test that clears distant obstacles without a composition.
-    near: Option<Vec<Near>>,
+    /// With more than [`FramedContours::NEAR_MIN_OBSTACLES`] obstacles in at most
+    /// [`FramedContours::NEAR_MAX_DIM`] dimensions: each obstacle's contour polynomials
+    /// rewritten exactly around a point of its own, for a box test that clears distant
+    /// obstacles without a composition (`None` for an obstacle whose point is not
+    /// finite). Built by the first final check that needs it, asking its `stop`.
+    near: OnceLock<Option<Vec<Option<Near>>>>,
 }
 
 /// One obstacle's contour polynomials around a point of its own (`y = x − c`), with
@@ -422,35 +424,46 @@ impl FramedContours {
     /// it composing with every obstacle costs less than preparing the test (a few
     /// tenths of a millisecond per obstacle, once per scene).
     const NEAR_MIN_OBSTACLES: usize = 16;
+    /// The box tests' points are found on a grid of 16^dim points per obstacle
+    /// (`index::obstacle_center`): beyond 3 dimensions that costs more than it saves.
+    const NEAR_MAX_DIM: usize = 3;
 
-    /// The box tests of every obstacle, when the scene has enough obstacles.
-    fn near(scene: &Scene) -> Option<Vec<Near>> {
-        if scene.obstacles.len() <= Self::NEAR_MIN_OBSTACLES {
-            return None;
+    /// The box tests of every obstacle (`None` when the scene has too few obstacles or
+    /// too many dimensions), built on first use; `Err` when `stop` says stop first
+    /// (nothing is kept then).
+    fn near(&self, scene: &Scene, stop: &dyn Fn() -> bool) -> Result<Option<&[Option<Near>]>, Interrupted> {
+        if let Some(n) = self.near.get() {
+            return Ok(n.as_deref());
+        }
+        if scene.obstacles.len() <= Self::NEAR_MIN_OBSTACLES || scene.dim > Self::NEAR_MAX_DIM {
+            return Ok(self.near.get_or_init(|| None).as_deref());
         }
         let ws = &scene.workspace;
         let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
         region.push(scene.horizon);
-        let near = scene
-            .obstacles
-            .iter()
-            .map(|o| {
-                let center = index::obstacle_center(&o.contour, &region);
-                let subs: Vec<crate::poly::QPoly> = center
-                    .iter()
-                    .enumerate()
-                    .map(|(v, &c)| {
-                        crate::poly::Poly::var(v as crate::poly::Var)
-                            .add(&crate::poly::Poly::constant(BigRational::from_float(c).unwrap_or_default()))
-                    })
-                    .collect();
-                let around = |p: &crate::poly::QPoly| {
-                    p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational)
-                };
-                Near { mean: around(&o.contour.mean), second: around(&o.contour.second), center }
-            })
-            .collect();
-        Some(near)
+        let mut near = Vec::with_capacity(scene.obstacles.len());
+        for o in &scene.obstacles {
+            if stop() {
+                return Err(Interrupted);
+            }
+            let center = index::obstacle_center(&o.contour, &region);
+            // the same exact values substituted and subtracted; a point that is not a
+            // finite float gets no box test
+            let Some(exact) = center.iter().map(|&c| BigRational::from_float(c)).collect::<Option<Vec<_>>>() else {
+                near.push(None);
+                continue;
+            };
+            let subs: Vec<crate::poly::QPoly> = exact
+                .into_iter()
+                .enumerate()
+                .map(|(v, c)| crate::poly::Poly::var(v as crate::poly::Var).add(&crate::poly::Poly::constant(c)))
+                .collect();
+            let around = |p: &crate::poly::QPoly| {
+                p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational)
+            };
+            near.push(Some(Near { mean: around(&o.contour.mean), second: around(&o.contour.second), center }));
+        }
+        Ok(self.near.get_or_init(|| Some(near)).as_deref())
     }
 
     fn new(scene: &Scene) -> Self {
@@ -481,7 +494,7 @@ impl FramedContours {
         }
         if center.iter().all(|&c| c == 0.0) && exps.iter().all(|&e| e == 0) {
             let n = center.len();
-            return FramedContours { center, inv_scale: vec![1.0; n], polys: None, near: Self::near(scene) };
+            return FramedContours { center, inv_scale: vec![1.0; n], polys: None, near: OnceLock::new() };
         }
         let two = BigRational::from_integer(2.into());
         let subs: Vec<crate::poly::QPoly> = center
@@ -498,8 +511,8 @@ impl FramedContours {
         let frame =
             |p: &crate::poly::QPoly| p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational);
         let polys = scene.obstacles.iter().map(|o| (frame(&o.contour.mean), frame(&o.contour.second))).collect();
-        let inv_scale = exps.iter().map(|&e| 2f64.powi(-e)).collect();
-        FramedContours { center, inv_scale, polys: Some(polys), near: Self::near(scene) }
+        let inv_scale = exps.iter().map(|&e| crate::certify::fast::pow2(-e)).collect();
+        FramedContours { center, inv_scale, polys: Some(polys), near: OnceLock::new() }
     }
 
     /// The constraints of obstacle `o` (the scene's `i`-th) restricted to a piece, in
@@ -534,6 +547,10 @@ impl FramedContours {
     }
 }
 
+/// The box tests of a final check: per obstacle its test (if any) and its Cantelli
+/// polynomial at its Δᵢ, formed on first use.
+type NearTests<'a> = (&'a [Option<Near>], &'a [std::cell::OnceCell<crate::poly::Poly<Interval>>]);
+
 /// Whether one piece passes the verify path at one risk level per obstacle: inside the
 /// workspace (exact check) and, for every obstacle, both constraints proven positive
 /// on the general interval restriction in [`FramedContours`] with the exact rational
@@ -542,7 +559,7 @@ impl FramedContours {
 fn piece_passes_verify_path(
     scene: &Scene,
     framed: &FramedContours,
-    cantelli: &[std::cell::OnceCell<crate::poly::Poly<Interval>>],
+    near: Option<NearTests<'_>>,
     pr: PieceRef<'_>,
     deltas: &[RiskLevel],
 ) -> bool {
@@ -553,7 +570,7 @@ fn piece_passes_verify_path(
     }
     // the piece's bounding box (outward-rounded Bernstein hull of each coordinate), for
     // the box tests of distant obstacles
-    let bbox: Option<Vec<Interval>> = framed.near.as_ref().and_then(|_| {
+    let bbox: Option<Vec<Interval>> = near.and_then(|_| {
         let t0 = Interval::point(pr.t0);
         let h = Interval::point(pr.t1) - t0;
         pr.coeffs
@@ -566,8 +583,8 @@ fn piece_passes_verify_path(
     });
     scene.obstacles.iter().zip(deltas).enumerate().all(|(i, (o, d))| {
         let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational()));
-        if let (Some(near), Some(b), Some(g1)) = (&framed.near, &bbox, cantelli.get(i)) {
-            if near[i].clears(b, Interval::new(pr.t0, pr.t1), g1.get_or_init(|| near[i].cantelli(omd))) {
+        if let (Some((Some(n), g1)), Some(b)) = (near.map(|(n, c)| (&n[i], &c[i])), &bbox) {
+            if n.clears(b, Interval::new(pr.t0, pr.t1), g1.get_or_init(|| n.cantelli(omd))) {
                 return true;
             }
         }
@@ -634,19 +651,24 @@ pub fn final_check(
     let (first, last) = (&traj.pieces[0], &traj.pieces[traj.pieces.len() - 1]);
     for (which, at, want) in [("start", first.at(first.t0), endpoints.0), ("goal", last.at(last.t1), endpoints.1)] {
         let gap = at.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        if gap.is_nan() || gap > tol {
+        if at.len() != want.len() || gap.is_nan() || gap > tol {
             return Ok(done(Some(FinalFailure::Invalid(format!("the trajectory misses the {which} by {gap:e}")))));
         }
     }
+    if deltas.len() != scene.obstacles.len() {
+        return Ok(done(Some(FinalFailure::Invalid("one risk level per obstacle is needed".into()))));
+    }
     let framed = index::framed(scene);
+    let near = framed.near(scene, stop)?;
     // each obstacle's Cantelli polynomial for the box tests, formed on first use
     let cantelli: Vec<std::cell::OnceCell<_>> = scene.obstacles.iter().map(|_| std::cell::OnceCell::new()).collect();
+    let near = near.map(|n| (n, cantelli.as_slice()));
     for (i, pc) in traj.pieces.iter().enumerate() {
         if stop() {
             return Err(Interrupted);
         }
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
-        if !piece_passes_verify_path(scene, &framed, &cantelli, pr, deltas) {
+        if !piece_passes_verify_path(scene, &framed, near, pr, deltas) {
             return Ok(done(Some(FinalFailure::NotProven(i))));
         }
     }
@@ -862,7 +884,7 @@ impl MotionChecker for SceneCertifier {
             return Motion::Rejected;
         }
         if !self.fast {
-            return if piece_passes_verify_path(&self.scene, &index::framed(&self.scene), &[], pr, &self.deltas) {
+            return if piece_passes_verify_path(&self.scene, &index::framed(&self.scene), None, pr, &self.deltas) {
                 Motion::Accepted
             } else {
                 Motion::Rejected
