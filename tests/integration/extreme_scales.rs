@@ -125,23 +125,54 @@ impl riskplan::plan::MotionChecker for Lying {
     }
 }
 
+/// illustrative-3 moved to UTM-like coordinates (x ≈ 5·10⁵, y ≈ 5·10⁶): the final check
+/// composes in its own exact frame there.
+fn utm_scene() -> Arc<Scene> {
+    let text = r#"{"format": "riskplan-scene/1", "name": "illustrative-3-utm", "dim": 2,
+        "workspace": {"lower": [499999, 4999999], "upper": [500001, 5000001]}, "horizon": [0, 1], "risk": 0.1,
+        "params": {"w": {"dist": "uniform", "low": 0.3, "high": 0.4}},
+        "obstacles": [{"id": "disk", "poly": "w^2 - (x1 - 500000)^2 - (x2 - 5000000)^2"}],
+        "start": [499999, 4999999], "goal": [500001, 5000001]}"#;
+    Arc::new(Scene::from_json(text).unwrap())
+}
+
+/// A disk across the straight line from start to goal and 16 small disks in a corner:
+/// with more than 16 obstacles the final check clears distant ones by its box test.
+fn seventeen_disks() -> Arc<Scene> {
+    let mut obstacles = vec![serde_json::json!({"id": "middle", "poly": "w^2 - (x1 - 5)^2 - (x2 - 5)^2"})];
+    for i in 0..16 {
+        let (cx, cy) = (0.6 + 0.6 * (i % 4) as f64, 7.6 + 0.6 * (i / 4) as f64);
+        obstacles.push(
+            serde_json::json!({"id": format!("corner{i}"), "poly": format!("(w/8)^2 - (x1 - {cx})^2 - (x2 - {cy})^2")}),
+        );
+    }
+    let text = serde_json::json!({"format": "riskplan-scene/1", "name": "seventeen-disks", "dim": 2,
+        "workspace": {"lower": [0, 0], "upper": [10, 10]}, "horizon": [0, 1], "risk": 0.1,
+        "params": {"w": {"dist": "uniform", "low": 0.9, "high": 1.1}},
+        "obstacles": obstacles, "start": [0.5, 0.5], "goal": [9.5, 9.5]});
+    Arc::new(Scene::from_json(&text.to_string()).unwrap())
+}
+
 /// Defence in depth (docs/design.md §5.12): a checker that accepts the straight line
-/// through illustrative-3's disk is caught by the final check; the disagreement is
-/// counted, the plan is made again without the fast path, and what comes back certified
-/// passes `verify` and the independent oracle.
+/// through the obstacle in the middle is caught by the final check — in the scene's own
+/// coordinates (illustrative-3), in the check's own frame (UTM-like coordinates) and with
+/// its box tests of distant obstacles (17 disks); the disagreement is counted, the plan
+/// is made again without the fast path, and what comes back certified passes `verify`
+/// and the independent oracle.
 #[test]
 fn the_final_check_catches_a_lying_checker_and_plans_again() {
-    let s = Arc::new(common::scene("illustrative-3"));
-    let request = PlanRequest { seed: 1, time_limit: Duration::from_secs(20), ..PlanRequest::default() };
-    let mut prepared = request.prepare(s.clone()).unwrap();
-    prepared.checker = Box::new(Lying);
-    let out = prepared.solve(&request.termination(None)).unwrap();
-    let fc = out.stats.final_check.clone().expect("final check stats");
-    assert_eq!(fc.disagreements, 1, "{fc:?}");
-    assert!(out.certified);
-    let t = out.trajectory.expect("a plan after the re-plan");
-    assert!(t.pieces.len() > 1, "the straight line through the disk came back");
-    let r = verify(&s, &t, &s.risk, Method::Exact, &Default::default());
-    assert!(r.safe);
-    oracle::check_trajectory(&s, &t.pieces, &s.risk).unwrap();
+    for s in [Arc::new(common::scene("illustrative-3")), utm_scene(), seventeen_disks()] {
+        let request = PlanRequest { seed: 1, time_limit: Duration::from_secs(20), ..PlanRequest::default() };
+        let mut prepared = request.prepare(s.clone()).unwrap();
+        prepared.checker = Box::new(Lying);
+        let out = prepared.solve(&request.termination(None)).unwrap();
+        let fc = out.stats.final_check.clone().expect("final check stats");
+        assert_eq!(fc.disagreements, 1, "{}: {fc:?}", s.name);
+        assert!(out.certified, "{}", s.name);
+        let t = out.trajectory.expect("a plan after the re-plan");
+        assert!(t.pieces.len() > 1, "{}: the straight line through the disk came back", s.name);
+        let r = verify(&s, &t, &s.risk, Method::Exact, &Default::default());
+        assert!(r.safe, "{}", s.name);
+        oracle::check_trajectory(&s, &t.pieces, &s.risk).unwrap();
+    }
 }
