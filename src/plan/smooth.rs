@@ -700,20 +700,7 @@ mod tests {
     /// much below it (far above the rounding of the sampled speeds, about 10⁻¹⁵).
     const BELOW_PEAK: f64 = 1e-9;
 
-    /// The largest speed of the pieces at 4096 evenly spaced times each (an oracle that
-    /// shares no code with `within_speed`).
-    fn sampled_peak_speed(pieces: &[Piece]) -> f64 {
-        const SAMPLES: usize = 4096;
-        pieces
-            .iter()
-            .flat_map(|p| {
-                (0..=SAMPLES).map(move |k| {
-                    let t = p.t0 + (p.t1 - p.t0) * k as f64 / SAMPLES as f64;
-                    velocity(p, t).iter().map(|v| v * v).sum::<f64>().sqrt()
-                })
-            })
-            .fold(0.0, f64::max)
-    }
+    use crate::plan::testing::sampled_peak_speed;
 
     /// An L-shaped corner at (1, 0), constant speed 2 over [0, 1].
     fn corner() -> Vec<Waypoint> {

@@ -56,3 +56,19 @@ pub fn conformance(planner: &mut dyn Planner, p: &Problem, checker: &dyn MotionC
         assert_eq!(cancelled.status, PlanStatus::Cancelled, "{name}: cancel");
     }
 }
+
+/// The largest speed of the pieces at 4096 evenly spaced times each: an oracle for the
+/// speed limit that shares no code with `within_speed` (a sampled peak is at most the
+/// true one).
+pub fn sampled_peak_speed(pieces: &[crate::scene::Piece]) -> f64 {
+    const SAMPLES: usize = 4096;
+    pieces
+        .iter()
+        .flat_map(|p| {
+            (0..=SAMPLES).map(move |k| {
+                let t = p.t0 + (p.t1 - p.t0) * k as f64 / SAMPLES as f64;
+                super::smooth::velocity(p, t).iter().map(|v| v * v).sum::<f64>().sqrt()
+            })
+        })
+        .fold(0.0, f64::max)
+}

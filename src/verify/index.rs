@@ -92,32 +92,31 @@ pub fn scene_frame(scene: &Scene) -> Frame {
     Frame::new(&scene_center(scene), &half)
 }
 
-/// The scene's compiled contours (built once, shared by every checker of the scene).
-pub fn compiled(scene: &Scene) -> Arc<Vec<CompiledContour>> {
-    let build = || {
-        let frame = scene_frame(scene);
-        Arc::new(scene.obstacles.iter().map(|o| CompiledContour::new(&o.contour, &frame)).collect::<Vec<_>>())
-    };
+/// What `cell` holds for `scene`, built by `build` on first use; built afresh (not
+/// kept) for a scene whose contours, workspace or horizon differ from the cached
+/// entry's (a cloned scene with changed data).
+fn cached<T>(scene: &Scene, cell: &OnceLock<(Fingerprint, Arc<T>)>, build: impl Fn() -> T) -> Arc<T> {
     let fp = Fingerprint::of(scene);
-    let (f, c) = scene.kernel.compiled.get_or_init(|| (fp.clone(), build()));
+    let (f, c) = cell.get_or_init(|| (fp.clone(), Arc::new(build())));
     if *f == fp {
         c.clone()
     } else {
-        build()
+        Arc::new(build())
     }
+}
+
+/// The scene's compiled contours (built once, shared by every checker of the scene).
+pub fn compiled(scene: &Scene) -> Arc<Vec<CompiledContour>> {
+    cached(scene, &scene.kernel.compiled, || {
+        let frame = scene_frame(scene);
+        scene.obstacles.iter().map(|o| CompiledContour::new(&o.contour, &frame)).collect()
+    })
 }
 
 /// The scene's contours in the verify path's own frame (built once, shared by every
 /// final check of the scene; docs/design.md §5.12).
 pub fn framed(scene: &Scene) -> Arc<super::FramedContours> {
-    let build = || Arc::new(super::FramedContours::new(scene));
-    let fp = Fingerprint::of(scene);
-    let (f, c) = scene.kernel.framed.get_or_init(|| (fp.clone(), build()));
-    if *f == fp {
-        c.clone()
-    } else {
-        build()
-    }
+    cached(scene, &scene.kernel.framed, || super::FramedContours::new(scene))
 }
 
 /// One time slab of an obstacle and its proven cover.

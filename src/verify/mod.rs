@@ -468,8 +468,7 @@ impl FramedContours {
 
     fn new(scene: &Scene) -> Self {
         let ws = &scene.workspace;
-        let mut center: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * l + 0.5 * u).collect();
-        center.push(0.5 * scene.horizon.0 + 0.5 * scene.horizon.1);
+        let mut center = index::scene_center(scene);
         let mut half: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * u - 0.5 * l).collect();
         half.push(0.5 * scene.horizon.1 - 0.5 * scene.horizon.0);
         let exps: Vec<i32> = half
@@ -563,24 +562,12 @@ fn piece_passes_verify_path(
     pr: PieceRef<'_>,
     deltas: &[RiskLevel],
 ) -> bool {
-    if !piece_is_finite(pr)
-        || check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe
-    {
+    if !pr.is_finite() || check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe {
         return false;
     }
     // the piece's bounding box (outward-rounded Bernstein hull of each coordinate), for
     // the box tests of distant obstacles
-    let bbox: Option<Vec<Interval>> = near.and_then(|_| {
-        let t0 = Interval::point(pr.t0);
-        let h = Interval::point(pr.t1) - t0;
-        pr.coeffs
-            .iter()
-            .map(|row| {
-                let x = UPoly::new(row.iter().map(|&c| Interval::point(c)).collect()).compose_affine(&t0, &h);
-                bernstein::bernstein_enclosure(x.coeffs())
-            })
-            .collect()
-    });
+    let bbox = near.and_then(|_| workspace::interval_hull(pr));
     scene.obstacles.iter().zip(deltas).enumerate().all(|(i, (o, d))| {
         let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational()));
         if let (Some((Some(n), g1)), Some(b)) = (near.map(|(n, c)| (&n[i], &c[i])), &bbox) {
@@ -617,12 +604,6 @@ pub struct FinalCheck {
     pub pieces: usize,
     /// Wall time, seconds.
     pub seconds: f64,
-}
-
-/// Whether every number of a piece is finite: the exact conversions read a
-/// non-finite float as nothing, so such a piece is never judged (issue 17 review).
-fn piece_is_finite(pr: PieceRef<'_>) -> bool {
-    pr.t0.is_finite() && pr.t1.is_finite() && pr.coeffs.iter().flatten().all(|c| c.is_finite())
 }
 
 /// The final check of every planned trajectory before it is called certified
@@ -880,7 +861,7 @@ impl MotionChecker for SceneCertifier {
 
     fn check(&self, piece: &Piece) -> Motion {
         let pr = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
-        if !piece_is_finite(pr) {
+        if !pr.is_finite() {
             return Motion::Rejected;
         }
         if !self.fast {

@@ -27,22 +27,31 @@ pub struct WorkspaceStatus {
 /// check decides everything else). Pieces that end on the boundary overshoot by
 /// rounding and go on to the exact check.
 fn inside_by_intervals(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> bool {
+    interval_hull(piece)
+        .is_some_and(|hull| hull.iter().zip(lower.iter().zip(upper)).all(|(b, (&lo, &hi))| lo <= b.lo && b.hi <= hi))
+}
+
+/// An enclosure of each coordinate of a piece over its time interval: the
+/// outward-rounded Bernstein hull of the coordinate composed with `t0 + hτ` in interval
+/// arithmetic (general polynomial code, not the planners' compiled path); `None` when
+/// a hull is not finite.
+pub fn interval_hull(piece: PieceRef<'_>) -> Option<Vec<Interval>> {
     let t0 = Interval::point(piece.t0);
     let h = Interval::point(piece.t1) - t0;
-    piece.coeffs.iter().enumerate().all(|(d, row)| {
-        let x = UPoly::new(row.iter().map(|&c| Interval::point(c)).collect()).compose_affine(&t0, &h);
-        let (Some(b), Some(&lo), Some(&hi)) = (bernstein::bernstein_enclosure(x.coeffs()), lower.get(d), upper.get(d))
-        else {
-            return false;
-        };
-        lo <= b.lo && b.hi <= hi
-    })
+    piece
+        .coeffs
+        .iter()
+        .map(|row| {
+            let x = UPoly::new(row.iter().map(|&c| Interval::point(c)).collect()).compose_affine(&t0, &h);
+            bernstein::bernstein_enclosure(x.coeffs())
+        })
+        .collect()
 }
 
 /// Checks the box along a piece.
 pub fn check_workspace(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> WorkspaceStatus {
     // the exact conversion reads a non-finite float as 0: never judge such a piece
-    if !(piece.t0.is_finite() && piece.t1.is_finite() && piece.coeffs.iter().flatten().all(|c| c.is_finite())) {
+    if !piece.is_finite() {
         return WorkspaceStatus { status: Status::Undecided, witness: None };
     }
     if piece.coeffs.len() == lower.len() && inside_by_intervals(lower, upper, piece) {

@@ -6,7 +6,7 @@
 //! about 2·10⁻³ into the turn) cuts the far obstacle.
 
 use riskplan::app::PlanRequest;
-use riskplan::plan::smooth::velocity;
+use riskplan::plan::testing::sampled_peak_speed;
 use riskplan::plan::{within_speed, ConnectParams, ConnectRrt, PlanStats, Termination};
 use riskplan::scene::{Piece, Scene, Trajectory};
 use std::sync::Arc;
@@ -24,21 +24,6 @@ const NECK: &str = r#"{
 /// Seed whose path has one corner, at the neck (found by running seeds 1–12: seeds 1, 2,
 /// 4 and 5 stop there).
 const SEED: u64 = 1;
-
-/// The largest speed of the pieces at 4096 evenly spaced times each (an oracle that
-/// shares no code with the planner's speed check).
-fn sampled_peak_speed(pieces: &[Piece]) -> f64 {
-    const SAMPLES: usize = 4096;
-    pieces
-        .iter()
-        .flat_map(|p| {
-            (0..=SAMPLES).map(move |k| {
-                let t = p.t0 + (p.t1 - p.t0) * k as f64 / SAMPLES as f64;
-                velocity(p, t).iter().map(|v| v * v).sum::<f64>().sqrt()
-            })
-        })
-        .fold(0.0, f64::max)
-}
 
 /// Asserts that every piece keeps `v`, by `within_speed` and by sampling.
 fn assert_within(pieces: &[Piece], v: f64, what: &str) {
