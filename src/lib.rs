@@ -31,6 +31,7 @@ pub mod contour;
 pub mod fuzzing;
 pub mod mc;
 pub mod moments;
+pub mod motion;
 pub mod plan;
 pub mod poly;
 pub mod relax;

@@ -9,7 +9,7 @@ use crate::plan::{
     NoPlanReason, PlanError, PlanOptions, PlanOutcome, PlanStatus, Planner, Problem, Termination, TvSos, TvSosParams,
 };
 use crate::scene::Scene;
-use crate::verify::{final_check, FinalFailure, Interrupted, Method, SceneCertifier};
+use crate::verify::{final_check, FinalFailure, Interrupted, Method, SceneCertifier, SceneKernel};
 use num_rational::BigRational;
 use std::fmt;
 use std::str::FromStr;
@@ -213,6 +213,8 @@ pub struct PreparedPlan {
     pub allocation: Option<Vec<(String, f64)>>,
     /// The risk level Δᵢ of each obstacle: what the final check proves.
     pub deltas: Vec<RiskLevel>,
+    /// The scene's kernel: what its checkers and the final check cache.
+    pub kernel: SceneKernel,
 }
 
 /// How long the final check of a plan found in time may run past the plan's deadline
@@ -234,7 +236,7 @@ impl PreparedPlan {
         let stop = || term.expired_by(FINAL_CHECK_GRACE);
         while let Some(traj) = out.trajectory.as_ref().filter(|_| out.certified) {
             let ends = (self.problem.start.as_slice(), self.problem.goal.as_slice());
-            let check = match final_check(&self.problem.scene, traj, ends, &self.deltas, &stop) {
+            let check = match final_check(&self.kernel, traj, ends, &self.deltas, &stop) {
                 Ok(c) => c,
                 Err(Interrupted) => {
                     let status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
@@ -254,7 +256,7 @@ impl PreparedPlan {
                         // the fast path accepted what the verify path does not prove:
                         // plan again without it
                         self.checker = Box::new(
-                            SceneCertifier::with_deltas(self.problem.scene.clone(), self.deltas.clone(), Method::Exact)
+                            SceneCertifier::with_deltas(&self.kernel, self.deltas.clone(), Method::Exact)
                                 .without_fast_path(),
                         );
                         out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
@@ -294,9 +296,11 @@ impl PlanRequest {
         Ok(p)
     }
 
-    /// The problem, the planner and the checker, with every option checked.
-    pub fn prepare(&self, scene: Arc<Scene>) -> Result<PreparedPlan, PlanError> {
-        let problem = self.problem(scene)?;
+    /// The problem, the planner and the checker, with every option checked, on a scene
+    /// (or its [`SceneKernel`], to share what its checkers cache across plans).
+    pub fn prepare(&self, scene: impl Into<SceneKernel>) -> Result<PreparedPlan, PlanError> {
+        let kernel = scene.into();
+        let problem = self.problem(kernel.scene().clone())?;
         let options = PlanOptions {
             pieces: self.pieces,
             improve: self.improve,
@@ -304,7 +308,7 @@ impl PlanRequest {
             max_accel: self.max_accel,
             smooth: self.smooth,
         };
-        let deltas = allocate(&problem, self.risk_mode)?;
+        let deltas = allocate(&kernel, &problem, self.risk_mode)?;
         let planner: Box<dyn Planner> = match self.planner {
             PlannerKind::TvSos => Box::new(self.tv_sos(&problem, &deltas)?),
             PlannerKind::Moment | PlannerKind::MomentPoly => Box::new(self.moment(&problem, &deltas)?),
@@ -312,13 +316,12 @@ impl PlanRequest {
         };
         let checker: Box<dyn MotionChecker> = match self.planner {
             PlannerKind::RrtSos | PlannerKind::RrtSosPaper => {
-                Box::new(SceneCertifier::with_deltas(problem.scene.clone(), deltas.clone(), self.certifier))
+                Box::new(SceneCertifier::with_deltas(&kernel, deltas.clone(), self.certifier))
             }
             // a handful of pieces to check: covers would cost more than they save
-            PlannerKind::TvSos | PlannerKind::Moment | PlannerKind::MomentPoly => Box::new(
-                SceneCertifier::with_deltas(problem.scene.clone(), deltas.clone(), self.certifier)
-                    .without_index_build(),
-            ),
+            PlannerKind::TvSos | PlannerKind::Moment | PlannerKind::MomentPoly => {
+                Box::new(SceneCertifier::with_deltas(&kernel, deltas.clone(), self.certifier).without_index_build())
+            }
             PlannerKind::McRrt => {
                 if self.risk_mode != RiskMode::PerObstacle {
                     return Err(PlanError::InvalidOption {
@@ -335,7 +338,7 @@ impl PlanRequest {
         };
         let allocation = (self.risk_mode != RiskMode::PerObstacle)
             .then(|| problem.scene.obstacles.iter().zip(&deltas).map(|(o, d)| (o.id.clone(), d.to_f64())).collect());
-        Ok(PreparedPlan { problem, planner, checker, allocation, deltas })
+        Ok(PreparedPlan { problem, planner, checker, allocation, deltas, kernel })
     }
 
     /// The optimisation planners refuse the RRT planners' options (typed errors).
@@ -403,7 +406,11 @@ impl PlanRequest {
     }
 
     /// Prepares and runs the request; returns the problem it solved and the outcome.
-    pub fn run(&self, scene: Arc<Scene>, cancel: Option<Arc<AtomicBool>>) -> Result<(Problem, PlanOutcome), PlanError> {
+    pub fn run(
+        &self,
+        scene: impl Into<SceneKernel>,
+        cancel: Option<Arc<AtomicBool>>,
+    ) -> Result<(Problem, PlanOutcome), PlanError> {
         let mut prepared = self.prepare(scene)?;
         let outcome = prepared.solve(&self.termination(cancel))?;
         Ok((prepared.problem, outcome))
@@ -429,8 +436,9 @@ pub fn no_plan_reason(out: &PlanOutcome, limit: Duration) -> String {
 
 /// The risk level of each obstacle for `mode` (docs/design.md §3.6): Δ for each in the
 /// paper's mode; in a joint mode exact rationals with Σ Δᵢ = Δ, so that by Boole's
-/// inequality the probability of colliding with any obstacle at an instant is ≤ Δ.
-pub fn allocate(p: &Problem, mode: RiskMode) -> Result<Vec<RiskLevel>, PlanError> {
+/// inequality the probability of colliding with any obstacle at an instant is ≤ Δ
+/// (`kernel`: the scene's, whose covers weigh the obstacles near the straight path).
+pub fn allocate(kernel: &SceneKernel, p: &Problem, mode: RiskMode) -> Result<Vec<RiskLevel>, PlanError> {
     let n = p.scene.obstacles.len();
     let delta = p.delta.rational().clone();
     let weights: Vec<BigRational> = match mode {
@@ -440,7 +448,7 @@ pub fn allocate(p: &Problem, mode: RiskMode) -> Result<Vec<RiskLevel>, PlanError
             // covers at the uniform allocation locate each obstacle
             let uniform = RiskLevel::new(&delta / BigRational::from_integer(n.max(1).into()))
                 .map_err(|e| PlanError::InvalidOption { option: "risk_mode".into(), message: e.to_string() })?;
-            let index = crate::verify::SceneIndex::cached(&p.scene, &vec![uniform; n], &|| false);
+            let index = kernel.index(&vec![uniform; n], &|| false);
             let side = crate::plan::scale::Scale::of(p).side.max(f64::MIN_POSITIVE);
             index
                 .cover_hulls()

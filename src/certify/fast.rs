@@ -664,16 +664,6 @@ pub fn to_frame(p: &QPoly, frame: &Frame) -> QPoly {
     p.subst(&|v| subs.get(v as usize).cloned().flatten())
 }
 
-/// `p(x + c)`: the polynomial in centred variables, exactly (`c[v]` for variables
-/// `0..c.len()`).
-pub fn shift(p: &QPoly, c: &[f64]) -> QPoly {
-    let cs: Vec<BigRational> = c.iter().map(|&v| BigRational::from_float(v).unwrap_or_default()).collect();
-    p.subst(&|v| {
-        let v_ = v as usize;
-        (v_ < cs.len() && !cs[v_].is_zero()).then(|| Poly::var(v).add(&Poly::constant(cs[v_].clone())))
-    })
-}
-
 /// `∂p/∂x_v`, exactly.
 pub fn derivative(p: &QPoly, v: usize) -> QPoly {
     let mut out = QPoly::zero();

@@ -1,4 +1,4 @@
-//! Continuous-time certification (eq. (15), `SOS_Cond`) — layer L2.
+//! Continuous-time certification (eq. (15), `SOS_Cond`).
 //!
 //! A trajectory piece is safe for an obstacle over its whole time interval when both
 //! contour constraints composed with the piece are positive on the interval
@@ -6,11 +6,14 @@
 //! polynomial on [0, 1]; see [`Verdict`]. Two independent deciders: [`bernstein`]
 //! (exact subdivision, no SDP) and [`sos`] (the SOS certificate of eq. (15) on
 //! Clarabel, re-checked rigorously); [`sturm`] is the exact oracle of the tests.
+//! [`scene`] certifies pieces against a whole scene: the planners' motion checker and
+//! the verify path.
 
 pub mod bernstein;
 mod compose;
 pub mod fast;
 pub mod region;
+pub mod scene;
 pub mod sos;
 #[cfg(any(test, feature = "test-support"))]
 pub mod sturm;

@@ -17,8 +17,9 @@
 //! the piece. The polynomials are exact symbolic constraints (the cancellation in
 //! `g1` is done in rationals), compiled in centred variables.
 
-use super::fast::{derivative, shift, Compiled};
+use super::fast::{derivative, Compiled};
 use crate::contour::RiskContour;
+use crate::poly::shift;
 use crate::poly::{Interval, QPoly};
 use num_rational::BigRational;
 

@@ -67,7 +67,15 @@ pub fn sampled_peak_speed(pieces: &[crate::scene::Piece]) -> f64 {
         .flat_map(|p| {
             (0..=SAMPLES).map(move |k| {
                 let t = p.t0 + (p.t1 - p.t0) * k as f64 / SAMPLES as f64;
-                super::smooth::velocity(p, t).iter().map(|v| v * v).sum::<f64>().sqrt()
+                // dx/dt term by term (Σ k·c_k·t^(k−1)), not the planners' Horner form
+                p.coeffs
+                    .iter()
+                    .map(|c| {
+                        c.iter().enumerate().skip(1).map(|(k, &v)| k as f64 * v * t.powi(k as i32 - 1)).sum::<f64>()
+                    })
+                    .map(|v| v * v)
+                    .sum::<f64>()
+                    .sqrt()
             })
         })
         .fold(0.0, f64::max)

@@ -6,6 +6,7 @@
 //! operation on any reals in the operands (docs/design.md §5.3). This makes "all
 //! lower bounds > 0" a proof of positivity, at a cost of a few ulps of width.
 
+use super::ring::{rational_to_f64, Ring};
 use num_rational::BigRational;
 use std::ops::{Add, Mul, Neg, Sub};
 
@@ -43,7 +44,7 @@ impl Interval {
     /// The tightest float interval containing the rational `r`: a point when `r` is a
     /// float, otherwise the two floats around it.
     pub fn enclose_rational(r: &BigRational) -> Self {
-        let f = super::ring::rational_to_f64(r);
+        let f = rational_to_f64(r);
         if !f.is_finite() {
             return if f > 0.0 {
                 Interval { lo: f64::MAX, hi: f64::INFINITY }
@@ -140,6 +141,34 @@ impl Mul for Interval {
             return Interval::ENTIRE;
         }
         Interval::widen(a.min(b).min(c.min(d)), a.max(b).max(c.max(d)))
+    }
+}
+
+/// Intervals as a coefficient ring (docs/design.md §5.3): every operation outward-rounded.
+impl Ring for Interval {
+    fn zero() -> Self {
+        Interval::point(0.0)
+    }
+    fn one() -> Self {
+        Interval::point(1.0)
+    }
+    fn is_zero(&self) -> bool {
+        self.lo == 0.0 && self.hi == 0.0
+    }
+    fn radd(&self, o: &Self) -> Self {
+        *self + *o
+    }
+    fn rsub(&self, o: &Self) -> Self {
+        *self - *o
+    }
+    fn rmul(&self, o: &Self) -> Self {
+        *self * *o
+    }
+    fn rneg(&self) -> Self {
+        -*self
+    }
+    fn from_rational(r: &BigRational) -> Self {
+        Interval::enclose_rational(r)
     }
 }
 

@@ -533,5 +533,15 @@ impl VarTable {
 /// Exact-rational polynomial, the form scenes and contours are kept in.
 pub type QPoly = Poly<BigRational>;
 
+/// `p(x + c)`: the polynomial in centred variables, exactly (`c[v]` for variables
+/// `0..c.len()`).
+pub fn shift(p: &QPoly, c: &[f64]) -> QPoly {
+    let cs: Vec<BigRational> = c.iter().map(|&v| BigRational::from_float(v).unwrap_or_default()).collect();
+    p.subst(&|v| {
+        let v_ = v as usize;
+        (v_ < cs.len() && !cs[v_].is_zero()).then(|| Poly::var(v).add(&Poly::constant(cs[v_].clone())))
+    })
+}
+
 #[cfg(test)]
 mod tests;

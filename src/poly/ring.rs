@@ -3,9 +3,8 @@
 //! Three rings matter to riskplan: exact rationals ([`BigRational`]) for the
 //! contour polynomials E[P], E[P²] (docs/design.md §1.4: exact arithmetic makes
 //! certification reproducible), `f64` for plotting and sampling, and
-//! outward-rounded [`Interval`]s for fast *sound* certification (§5.3).
+//! outward-rounded [`Interval`](super::Interval)s (their ring instance beside the type) for fast *sound* certification (§5.3).
 
-use super::interval::Interval;
 use num_bigint::BigInt;
 use num_rational::BigRational;
 use num_traits::{One, Signed, ToPrimitive, Zero};
@@ -99,33 +98,6 @@ impl Ring for f64 {
     }
     fn from_rational(r: &BigRational) -> Self {
         rational_to_f64(r)
-    }
-}
-
-impl Ring for Interval {
-    fn zero() -> Self {
-        Interval::point(0.0)
-    }
-    fn one() -> Self {
-        Interval::point(1.0)
-    }
-    fn is_zero(&self) -> bool {
-        self.lo == 0.0 && self.hi == 0.0
-    }
-    fn radd(&self, o: &Self) -> Self {
-        *self + *o
-    }
-    fn rsub(&self, o: &Self) -> Self {
-        *self - *o
-    }
-    fn rmul(&self, o: &Self) -> Self {
-        *self * *o
-    }
-    fn rneg(&self) -> Self {
-        -*self
-    }
-    fn from_rational(r: &BigRational) -> Self {
-        Interval::enclose_rational(r)
     }
 }
 

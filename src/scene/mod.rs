@@ -155,10 +155,6 @@ pub struct Scene {
     pub vars: VarTable,
     /// The file as read (for re-serialising and for free-form blocks).
     pub file: SceneFile,
-    /// Compiled contours and proven covers for motion checkers (built on first use;
-    /// each entry remembers the obstacles, workspace and horizon it was built for and
-    /// is ignored for a scene that differs, e.g. one made with `..scene.clone()`).
-    pub kernel: Arc<crate::verify::KernelCache>,
 }
 
 impl Scene {
@@ -248,7 +244,6 @@ impl Scene {
             goal,
             vars,
             file,
-            kernel: Default::default(),
         })
     }
 
@@ -267,6 +262,15 @@ impl Scene {
         self.obstacles.iter().find(|o| o.id == id)
     }
 
+    /// The centre of the scene's space-time box: the workspace centre and the middle of
+    /// the horizon (the origin of the compiled and Monte Carlo variables, docs/design.md §5.10).
+    pub fn center(&self) -> Vec<f64> {
+        let ws = &self.workspace;
+        let mut c: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * l + 0.5 * u).collect();
+        c.push(0.5 * self.horizon.0 + 0.5 * self.horizon.1);
+        c
+    }
+
     /// A Monte Carlo model of the scene: parameters sampled jointly per scenario, so
     /// a parameter named by two obstacles is one random variable (docs/design.md §7.1).
     pub fn mc_model(&self) -> Result<McModel, SceneError> {
@@ -275,12 +279,9 @@ impl Scene {
             let s = p.dist.sampler().map_err(|e| SceneError { path: format!("params.{}", p.name), kind: e.into() })?;
             samplers.push((p.var, s));
         }
-        let center = crate::verify::scene_center(self);
-        let polys = self
-            .obstacles
-            .iter()
-            .map(|o| crate::certify::fast::shift(&o.poly, &center).map_coeffs(rational_to_f64))
-            .collect();
+        let center = self.center();
+        let polys =
+            self.obstacles.iter().map(|o| crate::poly::shift(&o.poly, &center).map_coeffs(rational_to_f64)).collect();
         Ok(McModel::new(self.layout(), self.vars.len(), polys, samplers, center))
     }
 }

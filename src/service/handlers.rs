@@ -87,7 +87,7 @@ pub fn plan(
         return Err(ServiceError::DeadlineExceeded("the plan's time limit passed while it waited for a worker".into()));
     }
     request.time_limit = left;
-    let (problem, out) = request.run(entry.scene.clone(), Some(cancel))?;
+    let (problem, out) = request.run(&entry.kernel, Some(cancel))?;
     if let Some(n) = out.stats.final_check.as_ref().map(|f| f.disagreements).filter(|&n| n > 0) {
         #[cfg(feature = "service")]
         tracing::error!(
@@ -143,14 +143,14 @@ pub fn verify_request(entry: &Entry, req: &VerifyRequest, deadline: Instant) -> 
         }
         _ => return Err(invalid("trajectory", "give exactly one of trajectory and segment")),
     };
-    let diag = crate::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
+    let diag = crate::motion::dist(&scene.workspace.lower, &scene.workspace.upper);
     traj.validate(scene.dim, scene.horizon, diag).map_err(|e| ServiceError::InvalidTrajectory {
         message: e.message.clone(),
         field: Some(format!("trajectory.{}", e.path)),
     })?;
     let delta = delta_of(req.delta)?.unwrap_or_else(|| scene.risk.clone());
     let method = method_of(req.method.as_deref(), "method")?;
-    let r = verify_until(scene, &traj, &delta, method, &Default::default(), &|| Instant::now() >= deadline)
+    let r = verify_until(&entry.kernel, &traj, &delta, method, &Default::default(), &|| Instant::now() >= deadline)
         .map_err(|_| ServiceError::DeadlineExceeded(format!("verifying {} pieces", traj.pieces.len())))?;
     let pieces = if req.summary.unwrap_or(false) {
         r.pieces.into_iter().filter(|p| !p.safe).take(1).collect()

@@ -6,6 +6,7 @@
 use super::error::{invalid, ServiceError};
 use super::proto::{Change, EmbeddedJson, ObstaclePut};
 use super::store::Store;
+use crate::certify::scene::SceneKernel;
 use crate::scene::{ContourCache, Scene};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, RwLock};
@@ -19,10 +20,20 @@ pub const MAX_CHANGES: usize = 512;
 pub struct Entry {
     /// The validated scene with its cached contours.
     pub scene: Arc<Scene>,
+    /// What the scene's checkers cache (compiled contours, covers), kept while the
+    /// scene is live at this revision.
+    pub kernel: SceneKernel,
     /// Revision (increases with every update).
     pub revision: u64,
     /// The scene file as JSON.
     pub json: serde_json::Value,
+}
+
+impl Entry {
+    fn new(scene: Scene, revision: u64, json: serde_json::Value) -> Entry {
+        let scene = Arc::new(scene);
+        Entry { kernel: SceneKernel::new(scene.clone()), scene, revision, json }
+    }
 }
 
 /// A committed change of one scene, as replicas follow it: the scene at `revision`,
@@ -140,7 +151,7 @@ impl Registry {
             match reg.build(&s.scene) {
                 Ok(scene) => {
                     if let Ok(mut m) = reg.scenes.write() {
-                        m.insert(s.name.clone(), Entry { scene: Arc::new(scene), revision: s.revision, json: s.scene });
+                        m.insert(s.name.clone(), Entry::new(scene, s.revision, s.scene));
                     }
                 }
                 Err(e) => {
@@ -257,7 +268,7 @@ impl Registry {
         self.notify(name, revision, Some(&json));
         self.history.lock().map_err(internal)?.remove(name);
         let mut m = self.scenes.write().map_err(internal)?;
-        m.insert(name.to_string(), Entry { scene: Arc::new(scene), revision, json });
+        m.insert(name.to_string(), Entry::new(scene, revision, json));
         self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
         Ok(())
     }

@@ -1,89 +1,30 @@
-//! Verification of trajectories against a scene (layer L3): the kernel behind
-//! `riskplan verify`, the service's edge-verification query, and the motion checker
-//! of the RRT-SOS planners ([`SceneCertifier`]).
+//! Verification of trajectories against a scene: the reports behind `riskplan verify`
+//! and the service's edge-verification query ([`verify`], [`verify_until`]), the final
+//! check of every planned trajectory ([`final_check`], docs/design.md §5.12), and the
+//! Monte Carlo audits ([`audit_trajectory`]).
 //!
-//! For each piece and obstacle, the cached contour polynomials are composed with the
-//! piece on its own absolute time interval (moving obstacles) and both constraints
-//! of eq. (15) are decided on [0, 1] (docs/design.md §5) by the exact checker
-//! (Bernstein subdivision in outward-rounded interval arithmetic, exact rational
-//! fallback), the SOS certificate (Clarabel, rigorously re-checked), or both.
-//! Only a proof counts as safe: an undecided constraint makes the piece unsafe.
+//! The decisions themselves are the certifiers' (`certify::scene`): for each piece and
+//! obstacle both constraints of eq. (15) are decided on [0, 1] (docs/design.md §5) by
+//! the exact checker (Bernstein subdivision in outward-rounded interval arithmetic,
+//! exact rational fallback), the SOS certificate (Clarabel, rigorously re-checked), or
+//! both. Only a proof counts as safe: an undecided constraint makes the piece unsafe.
 //! The workspace box is checked exactly (non-strictly: start and goal may lie on it).
 
 mod audit;
-mod index;
-mod workspace;
 
-use crate::certify::fast::{CompiledContour, Substitution};
-use crate::certify::{bernstein, restrict_exact, restrict_interval, sos, PieceRef, Undecided, Verdict};
+use crate::certify::fast::CompiledContour;
+use crate::certify::scene::{combine, decide_obstacle, piece_passes_verify_path, worst};
+use crate::certify::sos;
+use crate::certify::{PieceRef, Undecided, Verdict};
 use crate::contour::RiskLevel;
-use crate::plan::{Motion, MotionChecker, Termination};
-use crate::poly::{Interval, UPoly};
-use crate::scene::{Obstacle, Piece, Scene, Trajectory};
-use num_rational::BigRational;
-use num_traits::Signed;
+use crate::scene::{Obstacle, Trajectory};
 use serde::{Deserialize, Serialize};
-use std::sync::{Arc, OnceLock};
 
+pub use crate::certify::scene::{
+    check_workspace, point_safe, point_safe_with, point_status, Interrupted, Method, PointStatus, SceneCertifier,
+    SceneIndex, SceneKernel, Status, WitnessReport, WorkspaceStatus,
+};
 pub use audit::{audit_trajectory, audit_trajectory_joint, Audit, AuditOptions, Exceedance};
-pub use index::{compiled, piece_bbox, scene_center, scene_frame, KernelCache, SceneIndex};
-pub use workspace::{check_workspace, WorkspaceStatus};
-
-/// Which method decides positivity.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Method {
-    /// The SOS certificate of eq. (15) on Clarabel, re-checked rigorously.
-    Sos,
-    /// Bernstein subdivision in interval arithmetic with an exact fallback.
-    Exact,
-    /// Both; safe only when both prove it.
-    Both,
-}
-
-impl std::str::FromStr for Method {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "sos" => Ok(Method::Sos),
-            "exact" => Ok(Method::Exact),
-            "both" => Ok(Method::Both),
-            _ => Err(format!("unknown method '{s}' (expected sos, exact or both)")),
-        }
-    }
-}
-
-impl Method {
-    /// The name used in reports.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            Method::Sos => "sos",
-            Method::Exact => "exact",
-            Method::Both => "both",
-        }
-    }
-}
-
-/// `safe`, `unsafe` or `undecided`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Status {
-    /// Proven safe.
-    Safe,
-    /// Proven unsafe (with a witness).
-    Unsafe,
-    /// Not proven either way: never counts as safe.
-    Undecided,
-}
-
-/// A time at which a constraint is ≤ 0, in absolute time.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct WitnessReport {
-    /// Absolute time.
-    pub t: f64,
-    /// Constraint value there (≤ 0, proven).
-    pub value: f64,
-}
 
 /// One method's verdict on one constraint.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -185,77 +126,6 @@ fn undecided_text(u: &Undecided) -> String {
     }
 }
 
-/// Decides one restricted constraint with `method`.
-pub fn decide(
-    method: Method,
-    p: &UPoly<Interval>,
-    exact: &dyn Fn() -> UPoly<BigRational>,
-    sos_settings: &sos::SosSettings,
-) -> Vec<(&'static str, Verdict)> {
-    match method {
-        Method::Exact => vec![("exact", bernstein::check(p, exact))],
-        Method::Sos => vec![("sos", sos::certify(p, sos_settings).verdict)],
-        Method::Both => vec![("exact", bernstein::check(p, exact)), ("sos", sos::certify(p, sos_settings).verdict)],
-    }
-}
-
-fn combine(vs: &[(&'static str, Verdict)]) -> Status {
-    if vs.iter().any(|(_, v)| v.is_unsafe()) {
-        Status::Unsafe
-    } else if vs.iter().all(|(_, v)| v.is_safe()) {
-        Status::Safe
-    } else {
-        Status::Undecided
-    }
-}
-
-fn worst(a: Status, b: Status) -> Status {
-    match (a, b) {
-        (Status::Unsafe, _) | (_, Status::Unsafe) => Status::Unsafe,
-        (Status::Undecided, _) | (_, Status::Undecided) => Status::Undecided,
-        _ => Status::Safe,
-    }
-}
-
-/// Decides an obstacle's two constraints over a piece in order (`mean`, the lower
-/// degree, first; then `cantelli`) and hands each decision to `visit`, which returns
-/// whether to go on. The interval restriction is built once — from the compiled,
-/// centred contour when given and within its capacity, else by general composition —
-/// and the exact one only if a decision needs the exact fallback, then once for both.
-fn decide_obstacle(
-    o: &Obstacle,
-    compiled: Option<&CompiledContour>,
-    piece: PieceRef<'_>,
-    delta: &BigRational,
-    method: Method,
-    settings: &sos::SosSettings,
-    mut visit: impl FnMut(&'static str, Vec<(&'static str, Verdict)>) -> bool,
-) {
-    let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - delta));
-    let fast = compiled.and_then(|c| c.restrict(piece)).and_then(|r| r.constraints(omd));
-    let (cantelli, mean) = match fast {
-        Some((g1, g2)) => (UPoly::new(g1.coeffs().to_vec()), UPoly::new(g2.coeffs().to_vec())),
-        None => {
-            let iv = restrict_interval(&o.contour, piece, delta);
-            (iv.cantelli, iv.mean)
-        }
-    };
-    let exact = std::cell::OnceCell::new();
-    for (name, poly) in [("mean", &mean), ("cantelli", &cantelli)] {
-        let ex = || {
-            let r = exact.get_or_init(|| restrict_exact(&o.contour, piece, delta));
-            if name == "mean" {
-                r.mean.clone()
-            } else {
-                r.cantelli.clone()
-            }
-        };
-        if !visit(name, decide(method, poly, &ex, settings)) {
-            return;
-        }
-    }
-}
-
 /// Verifies one obstacle over one piece, constraint by constraint.
 pub fn verify_obstacle(
     o: &Obstacle,
@@ -305,9 +175,10 @@ pub fn verify_obstacle_with(
     ObstacleReport { id: o.id.clone(), status, constraints }
 }
 
-/// Verifies a trajectory against a scene at risk level `delta`.
+/// Verifies a trajectory against a scene (or its [`SceneKernel`], to reuse its
+/// compiled contours) at risk level `delta`.
 pub fn verify(
-    scene: &Scene,
+    scene: impl Into<SceneKernel>,
     traj: &Trajectory,
     delta: &RiskLevel,
     method: Method,
@@ -315,7 +186,7 @@ pub fn verify(
 ) -> VerifyReport {
     // `stop` never says yes, so this is never interrupted; were it, the answer would
     // be "not safe" with no pieces, never a false "safe".
-    verify_until(scene, traj, delta, method, settings, &|| false).unwrap_or_else(|Interrupted| VerifyReport {
+    verify_until(&scene.into(), traj, delta, method, settings, &|| false).unwrap_or_else(|Interrupted| VerifyReport {
         safe: false,
         method: method.as_str().to_string(),
         risk: delta.to_f64(),
@@ -323,23 +194,20 @@ pub fn verify(
     })
 }
 
-/// `verify` stopped by its caller (a deadline or a cancellation): no verdict.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Interrupted;
-
 /// [`verify`] that asks `stop` before each piece and obstacle and gives up with
 /// [`Interrupted`] as soon as it says yes (a service deadline). One check of one piece
 /// against one obstacle is the largest step between two questions.
 pub fn verify_until(
-    scene: &Scene,
+    kernel: &SceneKernel,
     traj: &Trajectory,
     delta: &RiskLevel,
     method: Method,
     settings: &sos::SosSettings,
     stop: &dyn Fn() -> bool,
 ) -> Result<VerifyReport, Interrupted> {
+    let scene = kernel.scene();
     let mut pieces = Vec::with_capacity(traj.pieces.len());
-    let compiled = compiled(scene);
+    let compiled = kernel.compiled();
     for pc in &traj.pieces {
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
         let workspace = check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr);
@@ -358,228 +226,6 @@ pub fn verify_until(
         method: method.as_str().to_string(),
         risk: delta.to_f64(),
         pieces,
-    })
-}
-
-/// A scene's contour polynomials for the final check (docs/design.md §5.12), written in
-/// the verify path's own frame `z_v = (x_v − c_v)·2^(−e_v)` (centre and power-of-two
-/// scale from the workspace and the horizon) by general polynomial substitution in
-/// exact arithmetic, then enclosed coefficient by coefficient. In the scene's own
-/// coordinates a workspace at x ≈ 5·10⁶ (UTM) makes the monomials cancel by many orders
-/// of magnitude and nearly every piece would go to the exact fallback. This is
-/// deliberately not the compiled path's frame code (`certify::fast`): the final check
-/// shares no code with it beyond the contour polynomials. A scene near the origin at
-/// moderate scale keeps its own coordinates (`polys` is `None`): the exact substitution
-/// costs about 0.25 ms per obstacle, more than the final check saves there.
-#[derive(Debug)]
-pub struct FramedContours {
-    center: Vec<f64>,
-    inv_scale: Vec<f64>,
-    polys: Option<Vec<(crate::poly::Poly<Interval>, crate::poly::Poly<Interval>)>>,
-    /// With more than [`FramedContours::NEAR_MIN_OBSTACLES`] obstacles in at most
-    /// [`FramedContours::NEAR_MAX_DIM`] dimensions: each obstacle's contour polynomials
-    /// rewritten exactly around a point of its own, for a box test that clears distant
-    /// obstacles without a composition (`None` for an obstacle whose point is not
-    /// finite). Built by the first final check that needs it, asking its `stop`.
-    near: OnceLock<Option<Vec<Option<Near>>>>,
-}
-
-/// One obstacle's contour polynomials around a point of its own (`y = x − c`), with
-/// interval coefficients: evaluated over a piece's bounding box they bound E[P] and
-/// E[P²] there.
-#[derive(Debug)]
-struct Near {
-    center: Vec<f64>,
-    mean: crate::poly::Poly<Interval>,
-    second: crate::poly::Poly<Interval>,
-}
-
-impl Near {
-    /// The Cantelli polynomial g₁ = E[P]² − (1−Δ)·E[P²] around the centre, formed
-    /// before any evaluation so that its leading terms cancel symbolically (evaluating
-    /// E[P]² and E[P²] separately over a box cannot prove g₁ > 0 a few box-widths away).
-    fn cantelli(&self, one_minus_delta: Interval) -> crate::poly::Poly<Interval> {
-        self.mean.mul(&self.mean).sub(&self.second.scale(&one_minus_delta))
-    }
-
-    /// Whether both constraints of eq. (15) are proven over the box `bbox × t` by naive
-    /// interval evaluation of −E[P] and of `cantelli` (from [`Near::cantelli`]).
-    fn clears(&self, bbox: &[Interval], t: Interval, cantelli: &crate::poly::Poly<Interval>) -> bool {
-        let mut vals: Vec<Interval> = bbox.iter().zip(&self.center).map(|(&b, &c)| b - Interval::point(c)).collect();
-        vals.push(t - Interval::point(self.center[bbox.len()]));
-        self.mean.eval(&vals).hi < 0.0 && cantelli.eval(&vals).lo > 0.0
-    }
-}
-
-impl FramedContours {
-    /// Largest scale exponent: `2^±1000` is a normal float.
-    const MAX_EXPONENT: i32 = 1000;
-    /// A centre within this many half-widths of the origin is not shifted: the
-    /// monomials then cancel by at most about this factor to the power of the degree,
-    /// which the interval enclosures absorb (Bernstein decides such scenes today).
-    const CENTRE_KEPT: f64 = 16.0;
-    /// A scale exponent of at most this magnitude is not applied (2^±16).
-    const SCALE_KEPT: i32 = 16;
-    /// Above this many obstacles distant ones are cleared by a box test first: below
-    /// it composing with every obstacle costs less than preparing the test (a few
-    /// tenths of a millisecond per obstacle, once per scene).
-    const NEAR_MIN_OBSTACLES: usize = 16;
-    /// The box tests' points are found on a grid of 16^dim points per obstacle
-    /// (`index::obstacle_center`): beyond 3 dimensions that costs more than it saves.
-    const NEAR_MAX_DIM: usize = 3;
-
-    /// The box tests of every obstacle (`None` when the scene has too few obstacles or
-    /// too many dimensions), built on first use; `Err` when `stop` says stop first
-    /// (nothing is kept then).
-    fn near(&self, scene: &Scene, stop: &dyn Fn() -> bool) -> Result<Option<&[Option<Near>]>, Interrupted> {
-        if let Some(n) = self.near.get() {
-            return Ok(n.as_deref());
-        }
-        if scene.obstacles.len() <= Self::NEAR_MIN_OBSTACLES || scene.dim > Self::NEAR_MAX_DIM {
-            return Ok(self.near.get_or_init(|| None).as_deref());
-        }
-        let ws = &scene.workspace;
-        let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
-        region.push(scene.horizon);
-        let mut near = Vec::with_capacity(scene.obstacles.len());
-        for o in &scene.obstacles {
-            if stop() {
-                return Err(Interrupted);
-            }
-            let center = index::obstacle_center(&o.contour, &region);
-            // the same exact values substituted and subtracted; a point that is not a
-            // finite float gets no box test
-            let Some(exact) = center.iter().map(|&c| BigRational::from_float(c)).collect::<Option<Vec<_>>>() else {
-                near.push(None);
-                continue;
-            };
-            let subs: Vec<crate::poly::QPoly> = exact
-                .into_iter()
-                .enumerate()
-                .map(|(v, c)| crate::poly::Poly::var(v as crate::poly::Var).add(&crate::poly::Poly::constant(c)))
-                .collect();
-            let around = |p: &crate::poly::QPoly| {
-                p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational)
-            };
-            near.push(Some(Near { mean: around(&o.contour.mean), second: around(&o.contour.second), center }));
-        }
-        Ok(self.near.get_or_init(|| Some(near)).as_deref())
-    }
-
-    fn new(scene: &Scene) -> Self {
-        let ws = &scene.workspace;
-        let mut center = index::scene_center(scene);
-        let mut half: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * u - 0.5 * l).collect();
-        half.push(0.5 * scene.horizon.1 - 0.5 * scene.horizon.0);
-        let exps: Vec<i32> = half
-            .iter()
-            .map(|&w| {
-                let e = if w > 0.0 && w.is_finite() {
-                    (w.log2().floor() as i32).clamp(-Self::MAX_EXPONENT, Self::MAX_EXPONENT)
-                } else {
-                    0
-                };
-                if e.abs() <= Self::SCALE_KEPT {
-                    0
-                } else {
-                    e
-                }
-            })
-            .collect();
-        for (c, w) in center.iter_mut().zip(&half) {
-            if c.abs() <= Self::CENTRE_KEPT * w {
-                *c = 0.0;
-            }
-        }
-        if center.iter().all(|&c| c == 0.0) && exps.iter().all(|&e| e == 0) {
-            let n = center.len();
-            return FramedContours { center, inv_scale: vec![1.0; n], polys: None, near: OnceLock::new() };
-        }
-        let two = BigRational::from_integer(2.into());
-        let subs: Vec<crate::poly::QPoly> = center
-            .iter()
-            .zip(&exps)
-            .enumerate()
-            .map(|(v, (&c, &e))| {
-                let scale: BigRational = num_traits::Pow::pow(&two, e);
-                crate::poly::Poly::var(v as crate::poly::Var)
-                    .scale(&scale)
-                    .add(&crate::poly::Poly::constant(BigRational::from_float(c).unwrap_or_default()))
-            })
-            .collect();
-        let frame =
-            |p: &crate::poly::QPoly| p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational);
-        let polys = scene.obstacles.iter().map(|o| (frame(&o.contour.mean), frame(&o.contour.second))).collect();
-        let inv_scale = exps.iter().map(|&e| crate::certify::fast::pow2(-e)).collect();
-        FramedContours { center, inv_scale, polys: Some(polys), near: OnceLock::new() }
-    }
-
-    /// The constraints of obstacle `o` (the scene's `i`-th) restricted to a piece, in
-    /// interval arithmetic: `(g1, g2)` = (Cantelli, mean) of eq. (15) in τ ∈ [0, 1].
-    fn restrict(
-        &self,
-        i: usize,
-        o: &Obstacle,
-        pr: PieceRef<'_>,
-        one_minus_delta: Interval,
-    ) -> (UPoly<Interval>, UPoly<Interval>) {
-        let t0 = Interval::point(pr.t0);
-        let h = Interval::point(pr.t1) - t0;
-        let n = self.center.len();
-        let mut subs: Vec<UPoly<Interval>> = (0..n - 1)
-            .map(|d| {
-                let row = pr.coeffs.get(d).map(|r| r.as_slice()).unwrap_or(&[]);
-                let x = UPoly::new(row.iter().map(|&c| Interval::point(c)).collect()).compose_affine(&t0, &h);
-                x.sub(&UPoly::constant(Interval::point(self.center[d]))).scale(&Interval::point(self.inv_scale[d]))
-            })
-            .collect();
-        subs.push(
-            UPoly::linear(t0 - Interval::point(self.center[n - 1]), h).scale(&Interval::point(self.inv_scale[n - 1])),
-        );
-        let (m, s) = match &self.polys {
-            Some(p) => (&p[i].0, &p[i].1),
-            None => o.contour.interval_polys(),
-        };
-        let e1 = m.compose_univariate(&subs);
-        let e2 = s.compose_univariate(&subs);
-        (e1.mul(&e1).sub(&e2.scale(&one_minus_delta)), e1.neg())
-    }
-}
-
-/// The box tests of a final check: per obstacle its test (if any) and its Cantelli
-/// polynomial at its Δᵢ, formed on first use.
-type NearTests<'a> = (&'a [Option<Near>], &'a [std::cell::OnceCell<crate::poly::Poly<Interval>>]);
-
-/// Whether one piece passes the verify path at one risk level per obstacle: inside the
-/// workspace (exact check) and, for every obstacle, both constraints proven positive
-/// on the general interval restriction in [`FramedContours`] with the exact rational
-/// fallback (the `exact` method of [`verify`], without the compiled contours or the
-/// covers of the fast path).
-fn piece_passes_verify_path(
-    scene: &Scene,
-    framed: &FramedContours,
-    near: Option<NearTests<'_>>,
-    pr: PieceRef<'_>,
-    deltas: &[RiskLevel],
-) -> bool {
-    if !pr.is_finite() || check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe {
-        return false;
-    }
-    // the piece's bounding box (outward-rounded Bernstein hull of each coordinate), for
-    // the box tests of distant obstacles
-    let bbox = near.and_then(|_| workspace::interval_hull(pr));
-    scene.obstacles.iter().zip(deltas).enumerate().all(|(i, (o, d))| {
-        let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational()));
-        if let (Some((Some(n), g1)), Some(b)) = (near.map(|(n, c)| (&n[i], &c[i])), &bbox) {
-            if n.clears(b, Interval::new(pr.t0, pr.t1), g1.get_or_init(|| n.cantelli(omd))) {
-                return true;
-            }
-        }
-        let (cantelli, mean) = framed.restrict(i, o, pr, omd);
-        let exact = std::cell::OnceCell::new();
-        let exact = || exact.get_or_init(|| restrict_exact(&o.contour, pr, d.rational()));
-        bernstein::check(&mean, || exact().mean.clone()).is_safe()
-            && bernstein::check(&cantelli, || exact().cantelli.clone()).is_safe()
     })
 }
 
@@ -616,15 +262,16 @@ pub struct FinalCheck {
 /// checker beyond the contour polynomials and the Bernstein decision. Asks `stop`
 /// before each piece.
 pub fn final_check(
-    scene: &Scene,
+    kernel: &SceneKernel,
     traj: &Trajectory,
     endpoints: (&[f64], &[f64]),
     deltas: &[RiskLevel],
     stop: &dyn Fn() -> bool,
 ) -> Result<FinalCheck, Interrupted> {
+    let scene = kernel.scene();
     let started = std::time::Instant::now();
     let done = |failure| FinalCheck { failure, pieces: traj.pieces.len(), seconds: started.elapsed().as_secs_f64() };
-    let diag = crate::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
+    let diag = crate::motion::dist(&scene.workspace.lower, &scene.workspace.upper);
     if let Err(e) = traj.validate(scene.dim, scene.horizon, diag) {
         return Ok(done(Some(FinalFailure::Invalid(e.to_string()))));
     }
@@ -639,7 +286,7 @@ pub fn final_check(
     if deltas.len() != scene.obstacles.len() {
         return Ok(done(Some(FinalFailure::Invalid("one risk level per obstacle is needed".into()))));
     }
-    let framed = index::framed(scene);
+    let framed = kernel.framed();
     let near = framed.near(scene, stop)?;
     // each obstacle's Cantelli polynomial for the box tests, formed on first use
     let cantelli: Vec<std::cell::OnceCell<_>> = scene.obstacles.iter().map(|_| std::cell::OnceCell::new()).collect();
@@ -654,280 +301,4 @@ pub fn final_check(
         }
     }
     Ok(done(None))
-}
-
-/// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,
-/// exactly) and inside the workspace.
-pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &RiskLevel) -> bool {
-    point_safe_with(scene, x, t, &vec![delta.clone(); scene.obstacles.len()])
-}
-
-/// Where a point stands at one instant (docs/design.md §3.2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PointStatus {
-    /// Inside the workspace and strictly inside every Δᵢ-contour, exactly.
-    Safe,
-    /// Outside the workspace box, or not finite.
-    OutsideWorkspace,
-    /// On or outside the Δᵢ-contour of obstacle `i` (the first such obstacle).
-    InContour(usize),
-}
-
-/// The status of `x` at time `t` with one risk level per obstacle, exactly.
-pub fn point_status(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> PointStatus {
-    if !scene.workspace.contains(x) {
-        return PointStatus::OutsideWorkspace;
-    }
-    let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else {
-        return PointStatus::OutsideWorkspace;
-    };
-    let Some(tq) = BigRational::from_float(t) else { return PointStatus::OutsideWorkspace };
-    xt.push(tq);
-    let bad = scene.obstacles.iter().zip(deltas).position(|(o, d)| {
-        let one_minus = BigRational::from_integer(1.into()) - d.rational();
-        let r = o.contour.risk_at(&xt);
-        let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
-        !(r.mean.is_negative() && g1.is_positive())
-    });
-    bad.map_or(PointStatus::Safe, PointStatus::InContour)
-}
-
-/// [`point_safe`] with one risk level per obstacle.
-pub fn point_safe_with(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> bool {
-    point_status(scene, x, t, deltas) == PointStatus::Safe
-}
-
-/// The continuous-time certifier as a planner's motion checker: a piece is accepted
-/// only when every constraint of every obstacle is proven positive on the piece and
-/// the piece stays in the workspace. Stops at the first failure; the lower-degree
-/// mean constraint is tried first.
-///
-/// Fast path (docs/design.md §5.10): the workspace is proven from the piece's
-/// Bernstein bounding box (exact check otherwise); obstacles whose proven cover the
-/// box misses are skipped ([`SceneIndex`]); the rest are decided on the compiled
-/// restriction, with the exact rational fallback for undecided cases.
-///
-/// Each obstacle may have its own risk level Δᵢ (the joint risk mode: Σ Δᵢ = Δ bounds
-/// the probability of colliding with any obstacle, by Boole's inequality).
-#[derive(Debug)]
-pub struct SceneCertifier {
-    scene: Arc<Scene>,
-    deltas: Vec<RiskLevel>,
-    one_minus: Vec<(f64, bool)>,
-    method: Method,
-    settings: sos::SosSettings,
-    compiled: Arc<Vec<CompiledContour>>,
-    index: OnceLock<Arc<SceneIndex>>,
-    /// Whether the fast path (covers, compiled restriction) is used; without it every
-    /// obstacle is decided on every piece by the verify path ([`final_check`]'s).
-    fast: bool,
-}
-
-impl SceneCertifier {
-    /// A certifier for `scene` at risk `delta` for every obstacle.
-    pub fn new(scene: Arc<Scene>, delta: RiskLevel, method: Method) -> Self {
-        let deltas = vec![delta; scene.obstacles.len()];
-        Self::with_deltas(scene, deltas, method)
-    }
-
-    /// A certifier with one risk level per obstacle (`deltas[i]` for obstacle `i`).
-    pub fn with_deltas(scene: Arc<Scene>, deltas: Vec<RiskLevel>, method: Method) -> Self {
-        assert_eq!(deltas.len(), scene.obstacles.len(), "one risk level per obstacle");
-        let one_minus = deltas
-            .iter()
-            .map(|d| {
-                let q = BigRational::from_integer(1.into()) - d.rational();
-                let f = crate::poly::rational_to_f64(&q);
-                (f, BigRational::from_float(f).is_some_and(|e| e == q))
-            })
-            .collect();
-        let compiled = compiled(&scene);
-        SceneCertifier {
-            scene,
-            deltas,
-            one_minus,
-            method,
-            settings: sos::SosSettings::default(),
-            compiled,
-            index: OnceLock::new(),
-            fast: true,
-        }
-    }
-
-    /// The same certifier without the fast path: every obstacle on every piece by the
-    /// verify path (general interval composition, exact fallback) — what a plan is
-    /// re-planned with after the final check disagreed with the fast path
-    /// (docs/design.md §5.12).
-    pub fn without_fast_path(mut self) -> Self {
-        self.fast = false;
-        self
-    }
-
-    /// A certifier that does not build covers for its own use: it uses the scene's
-    /// cached index when there is one and otherwise checks every obstacle on every
-    /// piece (sound either way). For planners that check a handful of pieces, for
-    /// which building the covers (milliseconds per moving obstacle) would cost more
-    /// than it saves.
-    pub fn without_index_build(self) -> Self {
-        let index = SceneIndex::peek(&self.scene, &self.deltas)
-            .unwrap_or_else(|| Arc::new(SceneIndex::build(&self.scene, &self.deltas, &|| true)));
-        let _ = self.index.set(index);
-        self
-    }
-
-    /// The per-obstacle risk levels.
-    pub fn deltas(&self) -> &[RiskLevel] {
-        &self.deltas
-    }
-
-    /// The index, built (without interruption) if [`MotionChecker::prepare`] did not.
-    pub fn index(&self) -> &Arc<SceneIndex> {
-        self.index.get_or_init(|| SceneIndex::cached(&self.scene, &self.deltas, &|| false))
-    }
-
-    /// Whether obstacle `i` is proven safe on a piece (Exact method, fast path; `subs`:
-    /// the piece's centred coordinates, shared by all obstacles).
-    fn obstacle_safe(&self, i: usize, pr: PieceRef<'_>, subs: Option<&Substitution>) -> bool {
-        let o = &self.scene.obstacles[i];
-        let delta = self.deltas[i].rational();
-        if self.method == Method::Exact {
-            let fast = subs.and_then(|subs| {
-                self.compiled[i].with_constraints(subs, self.one_minus[i], |g2, g1| {
-                    for g in [g2, g1] {
-                        match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
-                            Verdict::Safe { .. } => {}
-                            Verdict::Unsafe(_) => return Some(false),
-                            Verdict::Undecided(_) => return None,
-                        }
-                    }
-                    Some(true)
-                })
-            });
-            match fast {
-                Some(Some(v)) => return v,
-                Some(None) => {
-                    // undecided in floats: the exact rational check decides both constraints
-                    let r = restrict_exact(&o.contour, pr, delta);
-                    return [&r.mean, &r.cantelli]
-                        .iter()
-                        .all(|p| bernstein::check_exact(p, bernstein::DEFAULT_MAX_DEPTH).is_safe());
-                }
-                None => {}
-            }
-        }
-        let mut safe = true;
-        decide_obstacle(o, Some(&self.compiled[i]), pr, delta, self.method, &self.settings, |_, vs| {
-            safe = combine(&vs) == Status::Safe;
-            safe
-        });
-        safe
-    }
-}
-
-/// Whether a coordinate of degree ≤ 1, `c0 + c1·t` on `[t0, t1]`, stays in `[l, u]`,
-/// exactly (its extremes are its end values, evaluated in rationals): the float
-/// enclosure of an edge that ends on the workspace boundary crosses it by rounding.
-fn straight_coordinate_inside(c: &[f64], t0: f64, t1: f64, l: f64, u: f64) -> bool {
-    if c.len() > 2 {
-        return false;
-    }
-    let q = |v: f64| BigRational::from_float(v);
-    let (Some(c0), Some(c1), Some(a), Some(b), Some(l), Some(u)) =
-        (q(c.first().copied().unwrap_or(0.0)), q(c.get(1).copied().unwrap_or(0.0)), q(t0), q(t1), q(l), q(u))
-    else {
-        return false;
-    };
-    [a, b].iter().all(|t| {
-        let x = &c0 + &c1 * t;
-        l <= x && x <= u
-    })
-}
-
-impl MotionChecker for SceneCertifier {
-    fn name(&self) -> &str {
-        self.method.as_str()
-    }
-
-    fn sound(&self) -> bool {
-        true
-    }
-
-    fn prepare(&self, term: &Termination) {
-        if !self.fast {
-            return;
-        }
-        let _ = self.index.get_or_init(|| SceneIndex::cached(&self.scene, &self.deltas, &|| term.expired()));
-    }
-
-    fn check(&self, piece: &Piece) -> Motion {
-        let pr = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
-        if !pr.is_finite() {
-            return Motion::Rejected;
-        }
-        if !self.fast {
-            return if piece_passes_verify_path(&self.scene, &index::framed(&self.scene), None, pr, &self.deltas) {
-                Motion::Accepted
-            } else {
-                Motion::Rejected
-            };
-        }
-        let ws = &self.scene.workspace;
-        let bbox = piece_bbox(pr);
-        let inside = bbox.as_ref().is_some_and(|b| {
-            b.iter().zip(ws.lower.iter().zip(&ws.upper)).enumerate().all(|(d, (&(lo, hi), (&l, &u)))| {
-                (l <= lo && hi <= u) || straight_coordinate_inside(&piece.coeffs[d], piece.t0, piece.t1, l, u)
-            })
-        });
-        if !inside && check_workspace(&ws.lower, &ws.upper, pr).status != Status::Safe {
-            return Motion::Rejected;
-        }
-        let mut cands = Vec::new();
-        self.index().candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
-        let subs = match (cands.is_empty(), self.compiled.first()) {
-            (false, Some(c)) => Substitution::new(pr, c.frame()),
-            _ => None,
-        };
-        for i in cands {
-            if !self.obstacle_safe(i, pr, subs.as_ref()) {
-                return Motion::Rejected;
-            }
-        }
-        Motion::Accepted
-    }
-
-    fn blocking_obstacle(&self, x: &[f64], t: f64) -> Option<String> {
-        match point_status(&self.scene, x, t, &self.deltas) {
-            PointStatus::InContour(i) => Some(self.scene.obstacles[i].id.clone()),
-            _ => None,
-        }
-    }
-
-    fn check_point(&self, x: &[f64], t: f64) -> Motion {
-        if !self.scene.workspace.contains(x) {
-            return Motion::Rejected;
-        }
-        // obstacles whose proven cover misses the point are safe there; the others are
-        // decided exactly
-        let bbox: Vec<(f64, f64)> = x.iter().map(|&v| (v, v)).collect();
-        let mut cands = Vec::new();
-        if self.fast {
-            self.index().candidates(Some(&bbox), t, t, &mut cands);
-        } else {
-            cands.extend(0..self.scene.obstacles.len());
-        }
-        let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else {
-            return Motion::Rejected;
-        };
-        let Some(tq) = BigRational::from_float(t) else { return Motion::Rejected };
-        xt.push(tq);
-        for i in cands {
-            let one_minus = BigRational::from_integer(1.into()) - self.deltas[i].rational();
-            let r = self.scene.obstacles[i].contour.risk_at(&xt);
-            let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
-            if !(r.mean.is_negative() && g1.is_positive()) {
-                return Motion::Rejected;
-            }
-        }
-        Motion::Accepted
-    }
 }

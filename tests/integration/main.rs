@@ -6,6 +6,7 @@
 
 mod common;
 
+mod architecture;
 mod certify_differential;
 mod certify_exact;
 mod certify_scenes;

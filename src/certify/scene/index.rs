@@ -9,13 +9,12 @@
 //! - the others are decided on the compiled restriction ([`crate::certify::fast`]) by
 //!   the Bernstein checker, with the exact rational fallback unchanged.
 
-use crate::certify::fast::{CompiledContour, FPoly, Frame};
+use crate::certify::fast::{FPoly, Frame};
 use crate::certify::region::{unsafe_cover, ConstraintBounds, Cover};
 use crate::certify::PieceRef;
 use crate::contour::RiskLevel;
 use crate::poly::Interval;
 use crate::scene::Scene;
-use std::sync::{Arc, Mutex, OnceLock};
 
 /// Time slabs per horizon for a moving obstacle's covers: a piece is tested against
 /// the covers of the slabs it spans; more slabs give tighter boxes at more set-up cost.
@@ -32,91 +31,14 @@ pub const GRID_CELLS_PER_OBSTACLE: usize = 4;
 /// Upper bound on grid cells.
 pub const GRID_MAX_CELLS: usize = 1 << 16;
 
-/// Indexes kept per scene (one per distinct list of per-obstacle risk levels).
-pub const INDEXES_PER_SCENE: usize = 4;
-
-/// What a scene keeps for its motion checkers: compiled contours (independent of Δ)
-/// and the covers for the last few risk allocations.
-#[derive(Default)]
-pub struct KernelCache {
-    compiled: OnceLock<(Fingerprint, Arc<Vec<CompiledContour>>)>,
-    framed: OnceLock<(Fingerprint, Arc<super::FramedContours>)>,
-    indexes: Mutex<Vec<IndexEntry>>,
-}
-
-/// A cached index: what it was built from, and for which risk levels.
-type IndexEntry = (Fingerprint, Vec<RiskLevel>, Arc<SceneIndex>);
-
-/// What a cache entry was built from: the obstacles' contours (by identity), the
-/// workspace and the horizon. An entry is used only for a scene with the same.
-#[derive(Clone, Debug, PartialEq)]
-struct Fingerprint {
-    contours: Vec<usize>,
-    lower: Vec<f64>,
-    upper: Vec<f64>,
-    horizon: (f64, f64),
-}
-
-impl Fingerprint {
-    fn of(scene: &Scene) -> Self {
-        Fingerprint {
-            contours: scene.obstacles.iter().map(|o| Arc::as_ptr(&o.contour) as usize).collect(),
-            lower: scene.workspace.lower.clone(),
-            upper: scene.workspace.upper.clone(),
-            horizon: scene.horizon,
-        }
-    }
-}
-
-impl std::fmt::Debug for KernelCache {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("KernelCache").field("compiled", &self.compiled.get().map(|c| c.1.len())).finish()
-    }
-}
-
-/// The centre of the compiled variables: the workspace centre and the horizon's middle.
-pub fn scene_center(scene: &Scene) -> Vec<f64> {
-    let ws = &scene.workspace;
-    let mut c: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * l + 0.5 * u).collect();
-    c.push(0.5 * scene.horizon.0 + 0.5 * scene.horizon.1);
-    c
-}
-
 /// The frame of the compiled contours (docs/design.md §5.10): centred at
-/// [`scene_center`], scaled by powers of two about the workspace's half-widths and half
+/// [`Scene::center`], scaled by powers of two about the workspace's half-widths and half
 /// the horizon, so that the compiled numbers do not depend on the scene's units.
 pub fn scene_frame(scene: &Scene) -> Frame {
     let ws = &scene.workspace;
     let mut half: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(l, u)| 0.5 * u - 0.5 * l).collect();
     half.push(0.5 * scene.horizon.1 - 0.5 * scene.horizon.0);
-    Frame::new(&scene_center(scene), &half)
-}
-
-/// What `cell` holds for `scene`, built by `build` on first use; built afresh (not
-/// kept) for a scene whose contours, workspace or horizon differ from the cached
-/// entry's (a cloned scene with changed data).
-fn cached<T>(scene: &Scene, cell: &OnceLock<(Fingerprint, Arc<T>)>, build: impl Fn() -> T) -> Arc<T> {
-    let fp = Fingerprint::of(scene);
-    let (f, c) = cell.get_or_init(|| (fp.clone(), Arc::new(build())));
-    if *f == fp {
-        c.clone()
-    } else {
-        Arc::new(build())
-    }
-}
-
-/// The scene's compiled contours (built once, shared by every checker of the scene).
-pub fn compiled(scene: &Scene) -> Arc<Vec<CompiledContour>> {
-    cached(scene, &scene.kernel.compiled, || {
-        let frame = scene_frame(scene);
-        scene.obstacles.iter().map(|o| CompiledContour::new(&o.contour, &frame)).collect()
-    })
-}
-
-/// The scene's contours in the verify path's own frame (built once, shared by every
-/// final check of the scene; docs/design.md §5.12).
-pub fn framed(scene: &Scene) -> Arc<super::FramedContours> {
-    cached(scene, &scene.kernel.framed, || super::FramedContours::new(scene))
+    Frame::new(&scene.center(), &half)
 }
 
 /// One time slab of an obstacle and its proven cover.
@@ -202,7 +124,7 @@ impl SceneIndex {
     pub fn build(scene: &Scene, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> SceneIndex {
         let start = std::time::Instant::now();
         let ws = &scene.workspace;
-        let center = scene_center(scene);
+        let center = scene.center();
         let (h0, h1) = scene.horizon;
         let mut cells = 0;
         let mut covers = Vec::with_capacity(scene.obstacles.len());
@@ -269,41 +191,9 @@ impl SceneIndex {
         }
     }
 
-    /// The index of `scene` at `deltas` if the scene's cache holds it (never builds).
-    pub fn peek(scene: &Scene, deltas: &[RiskLevel]) -> Option<Arc<SceneIndex>> {
-        let fp = Fingerprint::of(scene);
-        scene
-            .kernel
-            .indexes
-            .lock()
-            .ok()
-            .and_then(|v| v.iter().find(|(f, d, _)| *f == fp && d == deltas).map(|e| e.2.clone()))
-    }
-
-    /// The index of `scene` at `deltas` from the scene's cache, built if absent.
-    pub fn cached(scene: &Scene, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> Arc<SceneIndex> {
-        let fp = Fingerprint::of(scene);
-        let hit = scene
-            .kernel
-            .indexes
-            .lock()
-            .ok()
-            .and_then(|v| v.iter().find(|(f, d, _)| *f == fp && d == deltas).map(|e| e.2.clone()));
-        if let Some(i) = hit {
-            return i;
-        }
-        let built = Arc::new(SceneIndex::build(scene, deltas, stop));
-        let complete = built.covers.iter().all(|c| c.slabs.is_some());
-        if complete {
-            if let Ok(mut v) = scene.kernel.indexes.lock() {
-                v.retain(|(f, d, _)| !(*f == fp && d == deltas));
-                if v.len() >= INDEXES_PER_SCENE {
-                    v.remove(0);
-                }
-                v.push((fp, deltas.to_vec(), built.clone()));
-            }
-        }
-        built
+    /// Whether every obstacle has its covers (an index cut short by its `stop` has not).
+    pub fn complete(&self) -> bool {
+        self.covers.iter().all(|c| c.slabs.is_some())
     }
 
     /// Whether obstacle `i` may be skipped for a piece whose spatial bounding box is

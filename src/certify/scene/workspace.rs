@@ -4,7 +4,7 @@
 //! prove it (convex hull property); for straight pieces they are the end values, so
 //! the check is exact. Otherwise a violation is searched on a grid.
 
-use super::{Status, WitnessReport};
+use super::decide::{Status, WitnessReport};
 use crate::certify::{bernstein, coordinates_exact, PieceRef};
 use crate::poly::{rational_to_f64, Interval, UPoly};
 use num_rational::BigRational;

@@ -1,0 +1,259 @@
+//! The scene certifier: the continuous-time certifier as a planner's motion checker
+//! (docs/design.md §5.9, §5.10).
+
+use super::decide::{combine, decide_obstacle, point_status, Method, PointStatus, Status};
+use super::framed::piece_passes_verify_path;
+use super::index::{piece_bbox, SceneIndex};
+use super::kernel::SceneKernel;
+use super::workspace::check_workspace;
+use crate::certify::fast::{CompiledContour, Substitution};
+use crate::certify::{bernstein, restrict_exact, sos, PieceRef, Verdict};
+use crate::contour::RiskLevel;
+use crate::motion::{Motion, MotionChecker, Termination};
+use crate::scene::{Piece, Scene};
+use num_rational::BigRational;
+use num_traits::Signed;
+use std::sync::{Arc, OnceLock};
+
+/// The continuous-time certifier as a planner's motion checker: a piece is accepted
+/// only when every constraint of every obstacle is proven positive on the piece and
+/// the piece stays in the workspace. Stops at the first failure; the lower-degree
+/// mean constraint is tried first.
+///
+/// Fast path (docs/design.md §5.10): the workspace is proven from the piece's
+/// Bernstein bounding box (exact check otherwise); obstacles whose proven cover the
+/// box misses are skipped ([`SceneIndex`]); the rest are decided on the compiled
+/// restriction, with the exact rational fallback for undecided cases.
+///
+/// Each obstacle may have its own risk level Δᵢ (the joint risk mode: Σ Δᵢ = Δ bounds
+/// the probability of colliding with any obstacle, by Boole's inequality).
+#[derive(Debug)]
+pub struct SceneCertifier {
+    kernel: SceneKernel,
+    scene: Arc<Scene>,
+    deltas: Vec<RiskLevel>,
+    one_minus: Vec<(f64, bool)>,
+    method: Method,
+    settings: sos::SosSettings,
+    compiled: Arc<Vec<CompiledContour>>,
+    index: OnceLock<Arc<SceneIndex>>,
+    /// Whether the fast path (covers, compiled restriction) is used; without it every
+    /// obstacle is decided on every piece by the verify path (the final check's).
+    fast: bool,
+}
+
+impl SceneCertifier {
+    /// A certifier for a scene (or its [`SceneKernel`], to share what it caches) at risk
+    /// `delta` for every obstacle.
+    pub fn new(scene: impl Into<SceneKernel>, delta: RiskLevel, method: Method) -> Self {
+        let kernel = scene.into();
+        let deltas = vec![delta; kernel.scene().obstacles.len()];
+        Self::with_deltas(kernel, deltas, method)
+    }
+
+    /// A certifier with one risk level per obstacle (`deltas[i]` for obstacle `i`).
+    pub fn with_deltas(scene: impl Into<SceneKernel>, deltas: Vec<RiskLevel>, method: Method) -> Self {
+        let kernel = scene.into();
+        let scene = kernel.scene().clone();
+        assert_eq!(deltas.len(), scene.obstacles.len(), "one risk level per obstacle");
+        let one_minus = deltas
+            .iter()
+            .map(|d| {
+                let q = BigRational::from_integer(1.into()) - d.rational();
+                let f = crate::poly::rational_to_f64(&q);
+                (f, BigRational::from_float(f).is_some_and(|e| e == q))
+            })
+            .collect();
+        let compiled = kernel.compiled();
+        SceneCertifier {
+            kernel,
+            scene,
+            deltas,
+            one_minus,
+            method,
+            settings: sos::SosSettings::default(),
+            compiled,
+            index: OnceLock::new(),
+            fast: true,
+        }
+    }
+
+    /// The same certifier without the fast path: every obstacle on every piece by the
+    /// verify path (general interval composition, exact fallback) — what a plan is
+    /// re-planned with after the final check disagreed with the fast path
+    /// (docs/design.md §5.12).
+    pub fn without_fast_path(mut self) -> Self {
+        self.fast = false;
+        self
+    }
+
+    /// A certifier that does not build covers for its own use: it uses the scene's
+    /// cached index when there is one and otherwise checks every obstacle on every
+    /// piece (sound either way). For planners that check a handful of pieces, for
+    /// which building the covers (milliseconds per moving obstacle) would cost more
+    /// than it saves.
+    pub fn without_index_build(self) -> Self {
+        let index = self
+            .kernel
+            .peek_index(&self.deltas)
+            .unwrap_or_else(|| Arc::new(SceneIndex::build(&self.scene, &self.deltas, &|| true)));
+        let _ = self.index.set(index);
+        self
+    }
+
+    /// The per-obstacle risk levels.
+    pub fn deltas(&self) -> &[RiskLevel] {
+        &self.deltas
+    }
+
+    /// The index, built (without interruption) if [`MotionChecker::prepare`] did not.
+    pub fn index(&self) -> &Arc<SceneIndex> {
+        self.index.get_or_init(|| self.kernel.index(&self.deltas, &|| false))
+    }
+
+    /// Whether obstacle `i` is proven safe on a piece (Exact method, fast path; `subs`:
+    /// the piece's centred coordinates, shared by all obstacles).
+    fn obstacle_safe(&self, i: usize, pr: PieceRef<'_>, subs: Option<&Substitution>) -> bool {
+        let o = &self.scene.obstacles[i];
+        let delta = self.deltas[i].rational();
+        if self.method == Method::Exact {
+            let fast = subs.and_then(|subs| {
+                self.compiled[i].with_constraints(subs, self.one_minus[i], |g2, g1| {
+                    for g in [g2, g1] {
+                        match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
+                            Verdict::Safe { .. } => {}
+                            Verdict::Unsafe(_) => return Some(false),
+                            Verdict::Undecided(_) => return None,
+                        }
+                    }
+                    Some(true)
+                })
+            });
+            match fast {
+                Some(Some(v)) => return v,
+                Some(None) => {
+                    // undecided in floats: the exact rational check decides both constraints
+                    let r = restrict_exact(&o.contour, pr, delta);
+                    return [&r.mean, &r.cantelli]
+                        .iter()
+                        .all(|p| bernstein::check_exact(p, bernstein::DEFAULT_MAX_DEPTH).is_safe());
+                }
+                None => {}
+            }
+        }
+        let mut safe = true;
+        decide_obstacle(o, Some(&self.compiled[i]), pr, delta, self.method, &self.settings, |_, vs| {
+            safe = combine(&vs) == Status::Safe;
+            safe
+        });
+        safe
+    }
+}
+
+/// Whether a coordinate of degree ≤ 1, `c0 + c1·t` on `[t0, t1]`, stays in `[l, u]`,
+/// exactly (its extremes are its end values, evaluated in rationals): the float
+/// enclosure of an edge that ends on the workspace boundary crosses it by rounding.
+fn straight_coordinate_inside(c: &[f64], t0: f64, t1: f64, l: f64, u: f64) -> bool {
+    if c.len() > 2 {
+        return false;
+    }
+    let q = |v: f64| BigRational::from_float(v);
+    let (Some(c0), Some(c1), Some(a), Some(b), Some(l), Some(u)) =
+        (q(c.first().copied().unwrap_or(0.0)), q(c.get(1).copied().unwrap_or(0.0)), q(t0), q(t1), q(l), q(u))
+    else {
+        return false;
+    };
+    [a, b].iter().all(|t| {
+        let x = &c0 + &c1 * t;
+        l <= x && x <= u
+    })
+}
+
+impl MotionChecker for SceneCertifier {
+    fn name(&self) -> &str {
+        self.method.as_str()
+    }
+
+    fn sound(&self) -> bool {
+        true
+    }
+
+    fn prepare(&self, term: &Termination) {
+        if !self.fast {
+            return;
+        }
+        let _ = self.index.get_or_init(|| self.kernel.index(&self.deltas, &|| term.expired()));
+    }
+
+    fn check(&self, piece: &Piece) -> Motion {
+        let pr = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
+        if !pr.is_finite() {
+            return Motion::Rejected;
+        }
+        if !self.fast {
+            return if piece_passes_verify_path(&self.scene, &self.kernel.framed(), None, pr, &self.deltas) {
+                Motion::Accepted
+            } else {
+                Motion::Rejected
+            };
+        }
+        let ws = &self.scene.workspace;
+        let bbox = piece_bbox(pr);
+        let inside = bbox.as_ref().is_some_and(|b| {
+            b.iter().zip(ws.lower.iter().zip(&ws.upper)).enumerate().all(|(d, (&(lo, hi), (&l, &u)))| {
+                (l <= lo && hi <= u) || straight_coordinate_inside(&piece.coeffs[d], piece.t0, piece.t1, l, u)
+            })
+        });
+        if !inside && check_workspace(&ws.lower, &ws.upper, pr).status != Status::Safe {
+            return Motion::Rejected;
+        }
+        let mut cands = Vec::new();
+        self.index().candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
+        let subs = match (cands.is_empty(), self.compiled.first()) {
+            (false, Some(c)) => Substitution::new(pr, c.frame()),
+            _ => None,
+        };
+        for i in cands {
+            if !self.obstacle_safe(i, pr, subs.as_ref()) {
+                return Motion::Rejected;
+            }
+        }
+        Motion::Accepted
+    }
+
+    fn blocking_obstacle(&self, x: &[f64], t: f64) -> Option<String> {
+        match point_status(&self.scene, x, t, &self.deltas) {
+            PointStatus::InContour(i) => Some(self.scene.obstacles[i].id.clone()),
+            _ => None,
+        }
+    }
+
+    fn check_point(&self, x: &[f64], t: f64) -> Motion {
+        if !self.scene.workspace.contains(x) {
+            return Motion::Rejected;
+        }
+        // obstacles whose proven cover misses the point are safe there; the others are
+        // decided exactly
+        let bbox: Vec<(f64, f64)> = x.iter().map(|&v| (v, v)).collect();
+        let mut cands = Vec::new();
+        if self.fast {
+            self.index().candidates(Some(&bbox), t, t, &mut cands);
+        } else {
+            cands.extend(0..self.scene.obstacles.len());
+        }
+        let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else {
+            return Motion::Rejected;
+        };
+        let Some(tq) = BigRational::from_float(t) else { return Motion::Rejected };
+        xt.push(tq);
+        for i in cands {
+            let one_minus = BigRational::from_integer(1.into()) - self.deltas[i].rational();
+            let r = self.scene.obstacles[i].contour.risk_at(&xt);
+            let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
+            if !(r.mean.is_negative() && g1.is_positive()) {
+                return Motion::Rejected;
+            }
+        }
+        Motion::Accepted
+    }
+}

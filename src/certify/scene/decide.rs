@@ -1,0 +1,183 @@
+//! Deciding one obstacle's constraints over one piece (docs/design.md §5.2, §5.9): the
+//! methods, the three-valued status, and the exact status of a point.
+
+use crate::certify::fast::CompiledContour;
+use crate::certify::{bernstein, restrict_exact, restrict_interval, sos, PieceRef, Verdict};
+use crate::contour::RiskLevel;
+use crate::poly::{Interval, UPoly};
+use crate::scene::{Obstacle, Scene};
+use num_rational::BigRational;
+use num_traits::Signed;
+use serde::{Deserialize, Serialize};
+
+/// Which method decides positivity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// The SOS certificate of eq. (15) on Clarabel, re-checked rigorously.
+    Sos,
+    /// Bernstein subdivision in interval arithmetic with an exact fallback.
+    Exact,
+    /// Both; safe only when both prove it.
+    Both,
+}
+
+impl std::str::FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "sos" => Ok(Method::Sos),
+            "exact" => Ok(Method::Exact),
+            "both" => Ok(Method::Both),
+            _ => Err(format!("unknown method '{s}' (expected sos, exact or both)")),
+        }
+    }
+}
+
+impl Method {
+    /// The name used in reports.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Method::Sos => "sos",
+            Method::Exact => "exact",
+            Method::Both => "both",
+        }
+    }
+}
+
+/// `safe`, `unsafe` or `undecided`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    /// Proven safe.
+    Safe,
+    /// Proven unsafe (with a witness).
+    Unsafe,
+    /// Not proven either way: never counts as safe.
+    Undecided,
+}
+
+/// A time at which a constraint is ≤ 0, in absolute time.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WitnessReport {
+    /// Absolute time.
+    pub t: f64,
+    /// Constraint value there (≤ 0, proven).
+    pub value: f64,
+}
+
+/// Decides one restricted constraint with `method`.
+pub fn decide(
+    method: Method,
+    p: &UPoly<Interval>,
+    exact: &dyn Fn() -> UPoly<BigRational>,
+    sos_settings: &sos::SosSettings,
+) -> Vec<(&'static str, Verdict)> {
+    match method {
+        Method::Exact => vec![("exact", bernstein::check(p, exact))],
+        Method::Sos => vec![("sos", sos::certify(p, sos_settings).verdict)],
+        Method::Both => vec![("exact", bernstein::check(p, exact)), ("sos", sos::certify(p, sos_settings).verdict)],
+    }
+}
+
+pub(crate) fn combine(vs: &[(&'static str, Verdict)]) -> Status {
+    if vs.iter().any(|(_, v)| v.is_unsafe()) {
+        Status::Unsafe
+    } else if vs.iter().all(|(_, v)| v.is_safe()) {
+        Status::Safe
+    } else {
+        Status::Undecided
+    }
+}
+
+pub(crate) fn worst(a: Status, b: Status) -> Status {
+    match (a, b) {
+        (Status::Unsafe, _) | (_, Status::Unsafe) => Status::Unsafe,
+        (Status::Undecided, _) | (_, Status::Undecided) => Status::Undecided,
+        _ => Status::Safe,
+    }
+}
+
+/// Decides an obstacle's two constraints over a piece in order (`mean`, the lower
+/// degree, first; then `cantelli`) and hands each decision to `visit`, which returns
+/// whether to go on. The interval restriction is built once — from the compiled,
+/// centred contour when given and within its capacity, else by general composition —
+/// and the exact one only if a decision needs the exact fallback, then once for both.
+pub fn decide_obstacle(
+    o: &Obstacle,
+    compiled: Option<&CompiledContour>,
+    piece: PieceRef<'_>,
+    delta: &BigRational,
+    method: Method,
+    settings: &sos::SosSettings,
+    mut visit: impl FnMut(&'static str, Vec<(&'static str, Verdict)>) -> bool,
+) {
+    let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - delta));
+    let fast = compiled.and_then(|c| c.restrict(piece)).and_then(|r| r.constraints(omd));
+    let (cantelli, mean) = match fast {
+        Some((g1, g2)) => (UPoly::new(g1.coeffs().to_vec()), UPoly::new(g2.coeffs().to_vec())),
+        None => {
+            let iv = restrict_interval(&o.contour, piece, delta);
+            (iv.cantelli, iv.mean)
+        }
+    };
+    let exact = std::cell::OnceCell::new();
+    for (name, poly) in [("mean", &mean), ("cantelli", &cantelli)] {
+        let ex = || {
+            let r = exact.get_or_init(|| restrict_exact(&o.contour, piece, delta));
+            if name == "mean" {
+                r.mean.clone()
+            } else {
+                r.cantelli.clone()
+            }
+        };
+        if !visit(name, decide(method, poly, &ex, settings)) {
+            return;
+        }
+    }
+}
+
+/// `verify` stopped by its caller (a deadline or a cancellation): no verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Interrupted;
+
+/// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,
+/// exactly) and inside the workspace.
+pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &RiskLevel) -> bool {
+    point_safe_with(scene, x, t, &vec![delta.clone(); scene.obstacles.len()])
+}
+
+/// Where a point stands at one instant (docs/design.md §3.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PointStatus {
+    /// Inside the workspace and strictly inside every Δᵢ-contour, exactly.
+    Safe,
+    /// Outside the workspace box, or not finite.
+    OutsideWorkspace,
+    /// On or outside the Δᵢ-contour of obstacle `i` (the first such obstacle).
+    InContour(usize),
+}
+
+/// The status of `x` at time `t` with one risk level per obstacle, exactly.
+pub fn point_status(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> PointStatus {
+    if !scene.workspace.contains(x) {
+        return PointStatus::OutsideWorkspace;
+    }
+    let Some(mut xt) = x.iter().map(|&v| BigRational::from_float(v)).collect::<Option<Vec<_>>>() else {
+        return PointStatus::OutsideWorkspace;
+    };
+    let Some(tq) = BigRational::from_float(t) else { return PointStatus::OutsideWorkspace };
+    xt.push(tq);
+    let bad = scene.obstacles.iter().zip(deltas).position(|(o, d)| {
+        let one_minus = BigRational::from_integer(1.into()) - d.rational();
+        let r = o.contour.risk_at(&xt);
+        let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
+        !(r.mean.is_negative() && g1.is_positive())
+    });
+    bad.map_or(PointStatus::Safe, PointStatus::InContour)
+}
+
+/// [`point_safe`] with one risk level per obstacle.
+pub fn point_safe_with(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> bool {
+    point_status(scene, x, t, deltas) == PointStatus::Safe
+}

@@ -1,0 +1,199 @@
+//! The architecture test (docs/architecture.md): every `crate::…` path in `src/` is
+//! read against the declared layer order, so a new upward import, an import within one
+//! layer, or a loop between the files of a module fails here. It reads the source text
+//! (comments skipped), not the compiler's view: it sees paths written out, not names
+//! that reach a file through a re-export of its parent module.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// The layers, bottom to top: a module may use only modules of lower layers.
+/// `cli` is the binary's (its paths are written `riskplan::…`).
+const LAYERS: &[&[&str]] = &[
+    &["poly"],
+    &["moments", "sdp"],
+    &["contour", "relax"],
+    &["mc"],
+    &["scene"],
+    &["motion"],
+    &["certify"],
+    &["plan", "verify"],
+    &["app"],
+    &["service", "viz"],
+    &["cli"],
+];
+
+fn layer_of(module: &str) -> Option<usize> {
+    LAYERS.iter().position(|l| l.contains(&module))
+}
+
+/// `src/a/b/c.rs` → `a::b::c`; `src/a/b/mod.rs` → `a::b`; `src/a.rs` → `a`.
+fn module_path(src: &Path, file: &Path) -> String {
+    let rel = file.strip_prefix(src).unwrap().with_extension("");
+    let mut parts: Vec<String> = rel.iter().map(|p| p.to_string_lossy().into_owned()).collect();
+    if parts.last().is_some_and(|p| p == "mod") {
+        parts.pop();
+    }
+    parts.join("::")
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            rust_files(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// The code of a file without its comments (line comments and doc comments).
+fn code(text: &str) -> String {
+    text.lines().map(|l| l.split("//").next().unwrap_or("")).collect::<Vec<_>>().join("\n")
+}
+
+/// Every `prefix` path in `code` as its `::`-separated segments (`crate::a::{b, c}` → `[a]`).
+fn paths(code: &str, prefix: &str) -> Vec<Vec<String>> {
+    code.match_indices(prefix)
+        .filter(|(i, _)| !code[..*i].ends_with(|c: char| c.is_alphanumeric() || c == '_' || c == ':'))
+        .map(|(i, _)| {
+            let rest = &code[i + prefix.len()..];
+            let end = rest.find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':')).unwrap_or(rest.len());
+            rest[..end].split("::").filter(|s| !s.is_empty()).map(str::to_string).collect()
+        })
+        .collect()
+}
+
+/// Edges between the modules of the tree: (from, to) module paths, resolved to the
+/// longest known module. Edges between a module and its own ancestors are not kept
+/// (a folder owns its files; files use what their parent re-exports).
+fn edges(src: &Path) -> BTreeSet<(String, String)> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let modules: BTreeSet<String> = files.iter().map(|f| module_path(src, f)).collect();
+    let resolve = |segs: &[String]| -> Option<String> {
+        (1..=segs.len()).rev().map(|n| segs[..n].join("::")).find(|m| modules.contains(m))
+    };
+    let mut out = BTreeSet::new();
+    for f in &files {
+        let from = module_path(src, f);
+        if from == "lib" || from == "main" {
+            continue;
+        }
+        let text = code(&std::fs::read_to_string(f).unwrap());
+        let me: Vec<String> = from.split("::").map(str::to_string).collect();
+        let mut targets = Vec::new();
+        let prefix_root = if from.starts_with("cli") { "riskplan::" } else { "crate::" };
+        for p in paths(&text, prefix_root) {
+            targets.extend(resolve(&p));
+        }
+        for p in paths(&text, "super::") {
+            // `super` is the module's parent, whether the module is a file or a folder
+            let mut up = me[..me.len() - 1].to_vec();
+            let mut p = p;
+            while p.first().is_some_and(|s| s == "super") {
+                p.remove(0);
+                up.pop();
+            }
+            up.extend(p);
+            targets.extend(resolve(&up));
+        }
+        for to in targets {
+            let related = from == to || from.starts_with(&format!("{to}::")) || to.starts_with(&format!("{from}::"));
+            if !related {
+                out.insert((from.clone(), to));
+            }
+        }
+    }
+    out
+}
+
+fn top(m: &str) -> &str {
+    m.split("::").next().unwrap_or(m)
+}
+
+/// The upward imports and imports within one layer (`from → to` between top-level
+/// modules), and the loops among the files of the tree.
+fn violations(src: &Path) -> Vec<String> {
+    let edges = edges(src);
+    let mut bad = Vec::new();
+    for (from, to) in &edges {
+        let (a, b) = (top(from), top(to));
+        if a == b {
+            continue;
+        }
+        match (layer_of(a), layer_of(b)) {
+            (Some(la), Some(lb)) if lb < la => {}
+            (Some(_), Some(_)) => bad.push(format!("{from} uses {to}: `{b}` is not below `{a}`")),
+            _ => bad.push(format!("{from} uses {to}: a module missing from LAYERS")),
+        }
+    }
+    // loops: depth-first search over the module graph
+    let mut graph: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for (from, to) in &edges {
+        graph.entry(from).or_default().push(to);
+    }
+    fn visit<'a>(
+        n: &'a str,
+        g: &BTreeMap<&'a str, Vec<&'a str>>,
+        state: &mut BTreeMap<&'a str, u8>,
+        stack: &mut Vec<&'a str>,
+        bad: &mut Vec<String>,
+    ) {
+        state.insert(n, 1);
+        stack.push(n);
+        for &m in g.get(n).into_iter().flatten() {
+            match state.get(m) {
+                Some(1) => {
+                    let at = stack.iter().position(|&s| s == m).unwrap_or(0);
+                    bad.push(format!("loop: {} -> {m}", stack[at..].join(" -> ")));
+                }
+                Some(_) => {}
+                None => visit(m, g, state, stack, bad),
+            }
+        }
+        stack.pop();
+        state.insert(n, 2);
+    }
+    let mut state = BTreeMap::new();
+    let nodes: Vec<&str> = graph.keys().copied().collect();
+    for n in nodes {
+        if !state.contains_key(n) {
+            visit(n, &graph, &mut state, &mut Vec::new(), &mut bad);
+        }
+    }
+    bad
+}
+
+#[test]
+fn no_upward_import_and_no_loop() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let bad = violations(&src);
+    assert!(bad.is_empty(), "architecture violations:\n{}", bad.join("\n"));
+}
+
+/// The test itself can fail: a copy of the tree with one upward import injected (the
+/// polynomials using the planners) and one loop between two files is refused.
+#[test]
+fn an_injected_upward_import_fails() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let dir = tempfile::tempdir().unwrap();
+    let copy = dir.path().join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    for f in &files {
+        let to = copy.join(f.strip_prefix(&src).unwrap());
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(f, &to).unwrap();
+    }
+    let ring = copy.join("poly/ring.rs");
+    let text = std::fs::read_to_string(&ring).unwrap();
+    std::fs::write(&ring, format!("{text}\nuse crate::plan::Problem;\nuse super::interval::Interval;\n")).unwrap();
+    let bad = violations(&copy);
+    assert!(bad.iter().any(|b| b.starts_with("poly::ring uses plan")), "{bad:?}");
+    assert!(
+        bad.iter().any(|b| b.starts_with("loop:") && b.contains("poly::ring") && b.contains("poly::interval")),
+        "{bad:?}"
+    );
+}
