@@ -3,7 +3,7 @@
 use super::util::{print_out, CliError};
 use clap::{Args, Subcommand};
 use riskplan::service::proto::*;
-use riskplan::service::{Client, ClientError};
+use riskplan::service::{Client, ClientError, Route};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -198,7 +198,8 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
     match cmd {
         ClientCommand::Put { scene, file } => {
             client.put_scene(&scene, &read_json(&file)?).await.map_err(err)?;
-            eprintln!("put riskplan/scenes/{scene} (not acknowledged; use `client apply` to wait for persistence)");
+            let key = Route::Scene { name: scene };
+            eprintln!("put {key} (not acknowledged; use `client apply` to wait for persistence)");
             Ok(0)
         }
         ClientCommand::Apply { scene, file, changes } => {
@@ -309,23 +310,19 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
 /// Per kind of query: latencies (s), outcomes (ok or error code), replies per query.
 type LoadStats = (Vec<f64>, std::collections::BTreeMap<String, u64>, std::collections::BTreeMap<usize, u64>);
 
-/// The queries of one load client: (kind, key, payload), cycled through.
-fn load_queries(
-    client: &Client,
-    scene: &str,
-    id: usize,
-    bare: bool,
-    mix: bool,
-) -> Vec<(&'static str, String, Vec<u8>)> {
+/// The queries of one load client: (kind, route, payload), cycled through.
+fn load_queries(client: &Client, scene: &str, id: usize, bare: bool, mix: bool) -> Vec<(&'static str, Route, Vec<u8>)> {
     let verify = VerifyRequest {
         segment: Some(Segment { from: vec![-1.0, -0.9], to: vec![1.0, -0.5], t0: None, t1: None }),
         ..Default::default()
     };
-    let key = |k: &str| format!("riskplan/scenes/{scene}/{k}");
+    let scene = || scene.to_string();
+    // each query is counted under its route's kind: echo, plan, verify, risk, apply
+    let query = |route: Route, payload: Vec<u8>| (route.kind().label(), route, payload);
     if bare {
-        return vec![("echo", "riskplan/echo".into(), client.encode(&"ping"))];
+        return vec![query(Route::Echo, client.encode(&"ping"))];
     }
-    let v = ("verify", key("verify"), client.encode(&verify));
+    let v = query(Route::Verify { scene: scene() }, client.encode(&verify));
     if !mix {
         return vec![v];
     }
@@ -343,9 +340,9 @@ fn load_queries(
         }]),
         ..Default::default()
     };
-    let p = ("plan", key("plan"), client.encode(&plan));
-    let r = ("risk", key("risk"), client.encode(&risk));
-    let a = ("apply", key("apply"), client.encode(&apply));
+    let p = query(Route::Plan { scene: scene() }, client.encode(&plan));
+    let r = query(Route::Risk { scene: scene() }, client.encode(&risk));
+    let a = query(Route::Apply { scene: scene() }, client.encode(&apply));
     vec![p, v.clone(), r.clone(), v.clone(), r.clone(), v.clone(), a, v.clone(), r, v]
 }
 
@@ -369,10 +366,10 @@ async fn load(
             let mut stats: BTreeMap<&'static str, LoadStats> = BTreeMap::new();
             let mut k = id; // clients start at different points of the cycle
             while Instant::now() < deadline {
-                let (kind, key, payload) = &queries[k % queries.len()];
+                let (kind, route, payload) = &queries[k % queries.len()];
                 k += 1;
                 let t = Instant::now();
-                let r = c.raw_query(key, payload.clone()).await;
+                let r = c.raw_query(route, payload.clone()).await;
                 let e = stats.entry(kind).or_default();
                 e.0.push(t.elapsed().as_secs_f64());
                 let (n, code) = match r {

@@ -1,6 +1,7 @@
 //! A Rust client of the service (bincode by default, JSON on request).
 
 use super::proto::*;
+use super::routes::Route;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use std::time::Duration;
@@ -32,18 +33,6 @@ pub enum ClientError {
 /// Pause before a read that got no reply at all is sent again.
 const RETRY_PAUSE: Duration = Duration::from_millis(50);
 
-/// The read queries of proto/README.md ("Roles"), which are repeated when no server
-/// replied: status, echo, a scene, and a scene's plan, verify and risk.
-fn is_read(key: &str) -> bool {
-    let parts: Vec<&str> = key.split('/').collect();
-    matches!(
-        parts.as_slice(),
-        ["riskplan", "status" | "echo"]
-            | ["riskplan", "scenes", _]
-            | ["riskplan", "scenes", _, "plan" | "verify" | "risk"]
-    )
-}
-
 /// A connection to a riskplan server (cheap to clone: the Zenoh session is shared).
 #[derive(Clone)]
 pub struct Client {
@@ -70,9 +59,11 @@ impl Client {
         Ok(Client { session, codec, timeout })
     }
 
+    /// One query on `route`; a read ([`Route::is_read`]) that got no reply at all is
+    /// sent again while the timeout allows.
     async fn query<Req: Serialize, Rep: DeserializeOwned>(
         &self,
-        key: &str,
+        route: &Route,
         req: Option<&Req>,
         timeout: Duration,
     ) -> Result<Rep, ClientError> {
@@ -82,7 +73,7 @@ impl Client {
         };
         let mut get = self
             .session
-            .get(key)
+            .get(route.key())
             .consolidation(ConsolidationMode::None)
             .target(QueryTarget::BestMatching)
             .timeout(timeout);
@@ -96,9 +87,9 @@ impl Client {
             // Reads are safe to repeat and another server of a cluster takes the next
             // query (deploy/cluster); writes (apply) are never repeated.
             let left = timeout.saturating_sub(started.elapsed() + RETRY_PAUSE);
-            if is_read(key) && !left.is_zero() {
+            if route.is_read() && !left.is_zero() {
                 tokio::time::sleep(RETRY_PAUSE).await;
-                return Box::pin(self.query(key, req, left)).await;
+                return Box::pin(self.query(route, req, left)).await;
             }
             return Err(ClientError::NoReply);
         };
@@ -127,7 +118,7 @@ impl Client {
     /// Puts a whole scene (fire and forget).
     pub async fn put_scene(&self, name: &str, scene: &serde_json::Value) -> Result<(), ClientError> {
         self.session
-            .put(format!("riskplan/scenes/{name}"), scene.to_string())
+            .put(Route::Scene { name: name.to_string() }.key(), scene.to_string())
             .encoding(Encoding::APPLICATION_JSON)
             .await
             .map_err(|e| ClientError::Zenoh(e.to_string()))
@@ -136,7 +127,7 @@ impl Client {
     /// Puts one obstacle (fire and forget).
     pub async fn update_obstacle(&self, name: &str, id: &str, put: &ObstaclePut) -> Result<(), ClientError> {
         self.session
-            .put(format!("riskplan/scenes/{name}/obstacles/{id}"), Codec::Json.encode(put))
+            .put(Route::Obstacle { scene: name.to_string(), id: id.to_string() }.key(), Codec::Json.encode(put))
             .encoding(Encoding::APPLICATION_JSON)
             .await
             .map_err(|e| ClientError::Zenoh(e.to_string()))
@@ -145,7 +136,7 @@ impl Client {
     /// Deletes one obstacle (fire and forget).
     pub async fn remove_obstacle(&self, name: &str, id: &str) -> Result<(), ClientError> {
         self.session
-            .delete(format!("riskplan/scenes/{name}/obstacles/{id}"))
+            .delete(Route::Obstacle { scene: name.to_string(), id: id.to_string() }.key())
             .await
             .map_err(|e| ClientError::Zenoh(e.to_string()))
     }
@@ -154,7 +145,7 @@ impl Client {
     pub async fn apply(&self, name: &str, req: &ApplyRequest) -> Result<ApplyReply, ClientError> {
         let mut req = req.clone();
         req.deadline_ms = req.deadline_ms.or(Some(self.deadline_ms()));
-        self.query(&format!("riskplan/scenes/{name}/apply"), Some(&req), self.timeout).await
+        self.query(&Route::Apply { scene: name.to_string() }, Some(&req), self.timeout).await
     }
 
     /// The deadline sent with apply, verify and risk requests that name none: the
@@ -167,44 +158,44 @@ impl Client {
     /// Plans (the query's timeout covers the time limit).
     pub async fn plan(&self, name: &str, req: &PlanRequest) -> Result<PlanReply, ClientError> {
         let t = self.timeout + Duration::from_secs_f64(req.time_limit.unwrap_or(10.0).clamp(0.0, 3600.0));
-        self.query(&format!("riskplan/scenes/{name}/plan"), Some(req), t).await
+        self.query(&Route::Plan { scene: name.to_string() }, Some(req), t).await
     }
 
     /// Verifies a trajectory or a segment.
     pub async fn verify(&self, name: &str, req: &VerifyRequest) -> Result<VerifyReply, ClientError> {
         let mut req = req.clone();
         req.deadline_ms = req.deadline_ms.or(Some(self.deadline_ms()));
-        self.query(&format!("riskplan/scenes/{name}/verify"), Some(&req), self.timeout).await
+        self.query(&Route::Verify { scene: name.to_string() }, Some(&req), self.timeout).await
     }
 
     /// Risk bounds.
     pub async fn risk(&self, name: &str, req: &RiskRequest) -> Result<RiskReply, ClientError> {
         let mut req = req.clone();
         req.deadline_ms = req.deadline_ms.or(Some(self.deadline_ms()));
-        self.query(&format!("riskplan/scenes/{name}/risk"), Some(&req), self.timeout).await
+        self.query(&Route::Risk { scene: name.to_string() }, Some(&req), self.timeout).await
     }
 
     /// The scene and its revision.
     pub async fn get_scene(&self, name: &str) -> Result<SceneReply, ClientError> {
-        self.query::<(), _>(&format!("riskplan/scenes/{name}"), None, self.timeout).await
+        self.query::<(), _>(&Route::Scene { name: name.to_string() }, None, self.timeout).await
     }
 
     /// Server status.
     pub async fn status(&self) -> Result<StatusReply, ClientError> {
-        self.query::<(), _>("riskplan/status", None, self.timeout).await
+        self.query::<(), _>(&Route::Status, None, self.timeout).await
     }
 
-    /// One raw query for load tests: sends `payload` (in this client's encoding) and
-    /// returns (number of replies, the first error code if any). Counts every reply
-    /// until the query completes, so "exactly one reply" can be checked.
-    pub async fn raw_query(&self, key: &str, payload: Vec<u8>) -> Result<(usize, Option<String>), ClientError> {
+    /// One raw query on `route` for load tests: sends `payload` (in this client's
+    /// encoding) and returns (number of replies, the first error code if any). Counts
+    /// every reply until the query completes, so "exactly one reply" can be checked.
+    pub async fn raw_query(&self, route: &Route, payload: Vec<u8>) -> Result<(usize, Option<String>), ClientError> {
         let enc = match self.codec {
             Codec::Json => Encoding::APPLICATION_JSON,
             Codec::Bincode => Encoding::from(BINCODE),
         };
         let replies = self
             .session
-            .get(key)
+            .get(route.key())
             .payload(payload)
             .encoding(enc)
             .consolidation(ConsolidationMode::None)

@@ -10,14 +10,28 @@
 pub mod client;
 pub mod error;
 pub mod handlers;
+#[cfg(feature = "service")]
+pub(crate) mod jobs;
 pub mod proto;
+#[cfg(feature = "service")]
+pub(crate) mod puts;
+#[cfg(feature = "service")]
+pub(crate) mod queries;
 pub mod registry;
 #[cfg(feature = "service")]
+pub(crate) mod replication;
+#[cfg(feature = "service")]
+pub mod routes;
+#[cfg(feature = "service")]
 pub mod server;
+#[cfg(feature = "service")]
+pub(crate) mod startup;
 pub mod store;
 
 #[cfg(feature = "service")]
 pub use client::{Client, ClientError};
 pub use error::ServiceError;
+#[cfg(feature = "service")]
+pub use routes::{Route, RouteError, RouteKind};
 #[cfg(feature = "service")]
 pub use server::{serve, ServerConfig};

@@ -1,0 +1,137 @@
+//! The bounded job pool of the server: computation runs on blocking threads, at most
+//! `workers` at once and `workers + queue` admitted (`busy` beyond), a job that waits
+//! past its deadline never starts, and a panic becomes an `internal` error. Running
+//! plans hold cancellation flags that shutdown sets.
+
+use super::error::ServiceError;
+use super::proto::QueueStatus;
+use std::collections::BTreeMap;
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+use tokio::sync::Semaphore;
+
+/// The bounded job pool: `workers` permits; at most `workers + queue` jobs admitted.
+#[derive(Debug)]
+pub(crate) struct Jobs {
+    sem: Arc<Semaphore>,
+    workers: usize,
+    capacity: usize,
+    admitted: AtomicUsize,
+    running: AtomicUsize,
+}
+
+impl Jobs {
+    pub(crate) fn new(workers: usize, capacity: usize) -> Jobs {
+        Jobs {
+            sem: Arc::new(Semaphore::new(workers)),
+            workers,
+            capacity,
+            admitted: AtomicUsize::new(0),
+            running: AtomicUsize::new(0),
+        }
+    }
+
+    /// Runs `f` on a blocking thread, or answers `busy` at once when full. A job
+    /// still waiting for a worker at `deadline` is dropped with `deadline_exceeded`
+    /// (its work never starts). A panic in `f` becomes an `internal` error.
+    pub(crate) async fn run<T: Send + 'static>(
+        &self,
+        deadline: Instant,
+        f: impl FnOnce() -> Result<T, ServiceError> + Send + 'static,
+    ) -> Result<T, ServiceError> {
+        let limit = self.workers + self.capacity;
+        let before = self.admitted.fetch_add(1, Ordering::SeqCst);
+        if before >= limit {
+            self.admitted.fetch_sub(1, Ordering::SeqCst);
+            return Err(ServiceError::Busy(limit));
+        }
+        let permit = match tokio::time::timeout_at(deadline.into(), self.sem.clone().acquire_owned()).await {
+            Ok(p) if Instant::now() < deadline => p,
+            _ => {
+                self.admitted.fetch_sub(1, Ordering::SeqCst);
+                return Err(ServiceError::DeadlineExceeded("the request waited for a worker past its deadline".into()));
+            }
+        };
+        self.running.fetch_add(1, Ordering::SeqCst);
+        let r = tokio::task::spawn_blocking(move || std::panic::catch_unwind(AssertUnwindSafe(f))).await;
+        self.running.fetch_sub(1, Ordering::SeqCst);
+        self.admitted.fetch_sub(1, Ordering::SeqCst);
+        drop(permit);
+        match r {
+            Ok(Ok(v)) => v,
+            Ok(Err(p)) => Err(ServiceError::Internal(format!("a job panicked: {}", panic_text(&p)))),
+            Err(e) => Err(ServiceError::Internal(format!("a job failed: {e}"))),
+        }
+    }
+
+    pub(crate) fn status(&self) -> QueueStatus {
+        let admitted = self.admitted.load(Ordering::SeqCst) as u64;
+        let running = self.running.load(Ordering::SeqCst) as u64;
+        QueueStatus {
+            depth: admitted.saturating_sub(running),
+            running,
+            workers: self.workers as u64,
+            capacity: self.capacity as u64,
+        }
+    }
+}
+
+/// The cancellation flags of running jobs. Shutdown sets them all, so long plans
+/// stop within one planner iteration instead of holding the process.
+#[derive(Debug, Default)]
+pub(crate) struct Cancels {
+    flags: Mutex<BTreeMap<u64, Arc<AtomicBool>>>,
+    next: AtomicU64,
+    shutting_down: AtomicBool,
+}
+
+/// A registered cancellation flag; dropping it unregisters the flag.
+pub(crate) struct CancelGuard<'a> {
+    owner: &'a Cancels,
+    id: u64,
+    /// The flag to hand to the job.
+    pub(crate) flag: Arc<AtomicBool>,
+}
+
+impl Drop for CancelGuard<'_> {
+    fn drop(&mut self) {
+        if let Ok(mut m) = self.owner.flags.lock() {
+            m.remove(&self.id);
+        }
+    }
+}
+
+impl Cancels {
+    /// A new flag, already set when shutdown has begun.
+    pub(crate) fn register(&self) -> CancelGuard<'_> {
+        let id = self.next.fetch_add(1, Ordering::Relaxed);
+        let flag = Arc::new(AtomicBool::new(self.shutting_down.load(Ordering::SeqCst)));
+        if let Ok(mut m) = self.flags.lock() {
+            m.insert(id, flag.clone());
+        }
+        // A shutdown between the load above and the insert must not be missed.
+        if self.shutting_down.load(Ordering::SeqCst) {
+            flag.store(true, Ordering::SeqCst);
+        }
+        CancelGuard { owner: self, id, flag }
+    }
+
+    /// Sets every flag, now and for jobs registered later.
+    pub(crate) fn cancel_all(&self) -> usize {
+        self.shutting_down.store(true, Ordering::SeqCst);
+        let m = self.flags.lock().map(|m| m.values().cloned().collect::<Vec<_>>()).unwrap_or_default();
+        for f in &m {
+            f.store(true, Ordering::SeqCst);
+        }
+        m.len()
+    }
+}
+
+fn panic_text(p: &Box<dyn std::any::Any + Send>) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}

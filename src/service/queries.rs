@@ -1,0 +1,158 @@
+//! Queries (get): each parsed once into a [`Route`], answered in its own task with
+//! exactly one reply (a success or a typed error), logged and counted under its kind.
+//! Computation goes to the job pool, never the async runtime.
+
+use super::error::ServiceError;
+use super::handlers;
+use super::proto::*;
+use super::replication;
+use super::routes::{query_log_fields, Route, RouteError};
+use super::server::State;
+use super::store::embedded;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tracing::{info, warn, Instrument};
+use zenoh::bytes::Encoding;
+use zenoh::query::Query;
+
+fn encoding_of(c: Codec) -> Encoding {
+    match c {
+        Codec::Json => Encoding::APPLICATION_JSON,
+        Codec::Bincode => Encoding::from(BINCODE),
+    }
+}
+
+/// Answers one query on `route` (the query's key, parsed).
+pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<Route, RouteError>) {
+    let t0 = Instant::now();
+    let (kind, scene) = query_log_fields(&route);
+    let span = tracing::info_span!("request", kind = %kind, scene = %scene, planner = tracing::field::Empty, revision = tracing::field::Empty, duration_ms = tracing::field::Empty);
+    async move {
+        let enc = query.encoding().map(|e| e.to_string()).unwrap_or_default();
+        let bytes = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
+        let (codec, result) = match Codec::from_encoding(&enc) {
+            None => (Codec::Json, Err(ServiceError::UnsupportedEncoding(enc.clone()))),
+            Some(c) if bytes.len() > MAX_PAYLOAD_BYTES => {
+                (c, Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES)))
+            }
+            Some(c) => (
+                c,
+                dispatch(&state, route.as_ref().ok(), c, bytes, t0).await.and_then(|(payload, rev)| {
+                    if payload.len() > MAX_REPLY_BYTES {
+                        Err(ServiceError::LimitExceeded {
+                            message: format!(
+                            "the reply would be {} bytes, over the limit of {MAX_REPLY_BYTES}: ask for fewer points, \
+                             a smaller grid, or a verify summary (\"summary\": true)",
+                            payload.len()
+                        ),
+                            field: None,
+                        })
+                    } else {
+                        Ok((payload, rev))
+                    }
+                }),
+            ),
+        };
+        let ok = result.is_ok();
+        state.count(kind, ok);
+        let span = tracing::Span::current();
+        span.record("duration_ms", t0.elapsed().as_secs_f64() * 1e3);
+        let sent = match result {
+            Ok((payload, rev)) => {
+                if let Some(r) = rev {
+                    span.record("revision", r);
+                }
+                query.reply(query.key_expr().clone(), payload).encoding(encoding_of(codec)).await
+            }
+            Err(e) => {
+                info!(code = e.code(), "error reply: {e}");
+                query.reply_err(codec.encode(&e.reply())).encoding(encoding_of(codec)).await
+            }
+        };
+        if let Err(e) = sent {
+            warn!("cannot send the reply: {e}");
+        }
+        info!(ok, "done");
+    }
+    .instrument(span)
+    .await
+}
+
+fn malformed((message, field): (String, Option<String>)) -> ServiceError {
+    ServiceError::Malformed { message, field }
+}
+
+async fn dispatch(
+    state: &Arc<State>,
+    route: Option<&Route>,
+    codec: Codec,
+    bytes: Vec<u8>,
+    arrival: Instant,
+) -> Result<(Vec<u8>, Option<u64>), ServiceError> {
+    // apply, verify and risk: the request's deadline, capped (and defaulted) by the server's
+    let deadline = |ms: Option<u64>| {
+        let d = ms.map_or(state.max_job_seconds, |ms| Duration::from_millis(ms).min(state.max_job_seconds));
+        arrival + d
+    };
+    match route {
+        Some(Route::Status) => return Ok((codec.encode(&state.status()), None)),
+        // The bare round trip of the load benchmark: the payload back, no work, no pool.
+        Some(Route::Echo) => return Ok((bytes, None)),
+        // a replica's catch-up queries (only a primary declares these keys)
+        Some(Route::ReplicationIndex) => return Ok((replication::index_reply(state), None)),
+        Some(Route::ReplicationScene { name }) => return replication::scene_reply(state, name),
+        _ if !state.ready.load(Ordering::SeqCst) => {
+            return Err(ServiceError::Unavailable("the server is loading its stored scenes: try again shortly".into()))
+        }
+        _ => {}
+    }
+    match route {
+        Some(Route::Scene { name: scene }) => {
+            let e = state.registry.get(scene)?;
+            Ok((codec.encode(&SceneReply { name: scene.to_string(), revision: e.revision, scene: embedded(&e.json) }), Some(e.revision)))
+        }
+        Some(Route::Apply { scene }) => {
+            let req: ApplyRequest = codec.decode(&bytes).map_err(malformed)?;
+            let st = state.clone();
+            let name = scene.to_string();
+            let rev = state
+                .jobs
+                .run(deadline(req.deadline_ms), move || handlers::apply(&st.registry, &name, req))
+                .await?;
+            Ok((codec.encode(&ApplyReply { scene: scene.to_string(), revision: rev }), Some(rev)))
+        }
+        Some(Route::Plan { scene }) => {
+            let req: PlanRequest = codec.decode(&bytes).map_err(malformed)?;
+            let entry = state.registry.get(scene)?;
+            tracing::Span::current().record("planner", req.planner.as_deref().unwrap_or("rrt-sos"));
+            let cap = state.max_plan_seconds;
+            let guard = state.cancels.register();
+            let cancel = guard.flag.clone();
+            let rev = entry.revision;
+            // the queue wait counts against the plan's time limit (handlers::plan); a plan
+            // can never wait longer than the cap
+            let reply = state.jobs.run(arrival + cap, move || handlers::plan(&entry, &req, cap, arrival, cancel)).await;
+            drop(guard);
+            let reply = reply?;
+            Ok((codec.encode(&reply), Some(rev)))
+        }
+        Some(Route::Verify { scene }) => {
+            let req: VerifyRequest = codec.decode(&bytes).map_err(malformed)?;
+            let entry = state.registry.get(scene)?;
+            let rev = entry.revision;
+            let until = deadline(req.deadline_ms);
+            let reply = state.jobs.run(until, move || handlers::verify_request(&entry, &req, until)).await?;
+            Ok((codec.encode(&reply), Some(rev)))
+        }
+        Some(Route::Risk { scene }) => {
+            let req: RiskRequest = codec.decode(&bytes).map_err(malformed)?;
+            let entry = state.registry.get(scene)?;
+            let rev = entry.revision;
+            let until = deadline(req.deadline_ms);
+            let reply = state.jobs.run(until, move || handlers::risk(&entry, &req, until)).await?;
+            Ok((codec.encode(&reply), Some(rev)))
+        }
+        _ => Err(ServiceError::InvalidRequest { message: "unknown key: use riskplan/status, riskplan/scenes/<scene> or riskplan/scenes/<scene>/{apply,plan,verify,risk}".into(), field: None }),
+    }
+}
