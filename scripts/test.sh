@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The full tier (what CI runs): formatting, clippy once, a build of the math core
-# alone (no zenoh, tokio, clap or plotters), every Rust test once at full sizes, then
-# the Python client's tests against the real server binary built by that same test
+# The full tier (what CI runs): formatting, clippy once over the workspace (riskplan,
+# crates/riskplan-oracle, crates/riskplan-testkit), a build of the math core alone (no
+# zenoh, tokio, clap or plotters), every Rust test of the workspace once at full sizes,
+# then the Python client's tests against the real server binary built by that same test
 # run. Run from anywhere; needs scripts/setup-debian.sh once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -10,14 +11,14 @@ export RISKPLAN_TEST_TIER=full
 TARGET=${CARGO_TARGET_DIR:-target}
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
-echo "== cargo clippy (all targets, all features)"
-cargo clippy --all-targets --all-features -- -D warnings
+echo "== cargo clippy (the workspace, all targets, all features)"
+cargo clippy --workspace --all-targets --all-features -- -D warnings
 echo "== the math core builds alone (no service, no CLI)"
 cargo check --no-default-features --lib
 echo "== the service's messages and handlers without the transport (what fuzz/ builds)"
 cargo check --no-default-features --features proto,test-support --lib
-echo "== every Rust test: unit, property, integration (full sizes), doc tests"
-cargo test --all-features
+echo "== every Rust test of the workspace: unit, property, integration (full sizes), doc tests"
+cargo test --workspace --all-features
 echo "== Python client tests (against the server binary of the test build)"
 VENV=${RISKPLAN_VENV:-${TMPDIR:-/tmp}/riskplan-venv}
 [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"

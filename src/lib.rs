@@ -27,16 +27,12 @@
 pub mod app;
 pub mod certify;
 pub mod contour;
-#[cfg(feature = "test-support")]
-pub mod fuzzing;
 pub mod mc;
 pub mod moments;
 pub mod motion;
 pub mod plan;
 pub mod poly;
 pub mod relax;
-#[cfg(feature = "cli")]
-pub mod robust;
 pub mod scene;
 pub mod sdp;
 #[cfg(feature = "proto")]

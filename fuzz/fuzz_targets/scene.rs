@@ -1,5 +1,5 @@
 #![no_main]
-//! cargo-fuzz target: riskplan::fuzzing::scene_json (see that function for what it checks).
+//! cargo-fuzz target: riskplan_testkit::fuzzing::scene_json (see that function for what it checks).
 use libfuzzer_sys::fuzz_target;
 
-fuzz_target!(|data: &[u8]| riskplan::fuzzing::scene_json(data));
+fuzz_target!(|data: &[u8]| riskplan_testkit::fuzzing::scene_json(data));

@@ -17,8 +17,6 @@ pub mod scene;
 pub mod sos;
 #[cfg(any(test, feature = "test-support"))]
 pub mod sturm;
-#[cfg(any(test, feature = "test-support"))]
-pub mod testgen;
 mod verdict;
 
 pub use bernstein::{check, check_exact, check_interval, DEFAULT_MAX_DEPTH};

@@ -1,13 +1,12 @@
-//! `riskplan bench`: planners as experiments (after OMPL's Benchmark). Two suites:
+//! `riskplan bench`: planners as experiments (after OMPL's Benchmark). The suite
 //! `paper` — every planning scene × planner × seed, with the paper's times beside ours
-//! and a Monte Carlo audit of each returned plan; `robustness` — generated scenes
-//! judged by an independent oracle, planned with the default options, audited and
-//! certified (`riskplan::robust`). Each prints a Markdown table and writes JSON lines.
+//! and a Monte Carlo audit of each returned plan — prints a Markdown table and writes
+//! JSON lines. (The robustness suite is the `robustness` binary of `riskplan-testkit`,
+//! not part of this tool.)
 
 use super::util::{load_scene, print_out, time_limit_arg, CliError};
 use clap::{Args, ValueEnum};
 use riskplan::app::{PlanRequest, PlannerKind};
-use riskplan::robust::{generate, run_scene, summary_table, OracleOptions, RunOptions};
 use riskplan::verify::{audit_trajectory, AuditOptions};
 use serde_json::json;
 use std::io::Write;
@@ -19,15 +18,11 @@ use std::sync::Arc;
 pub enum Suite {
     /// The paper's reference planning scenes (scenes/), every planner, several seeds.
     Paper,
-    /// Generated scenes (2-D/3-D, static/moving, every distribution, intentionally
-    /// infeasible ones) judged by an independent oracle, planned with default options.
-    Robustness,
 }
 
-/// Benchmark the planners: on the paper's reference scenes, or on a generated
-/// robustness suite.
+/// Benchmark the planners on the paper's reference scenes.
 ///
-/// --suite paper (default): for each scene of --scenes with a start and goal: rrt-sos
+/// --suite paper (default, the only suite): for each scene of --scenes with a start and goal: rrt-sos
 /// (the default), rrt-sos-paper (on static scenes also with its improve step) and the Monte
 /// Carlo baseline mc-rrt, and where the scene records the paper's optimisation planners
 /// (planner.time_varying_sos, planner.standard_sos) tv-sos, moment and moment-poly, over
@@ -36,48 +31,33 @@ pub enum Suite {
 /// collision with any obstacle at --audit-times times per piece (--audit-samples
 /// scenarios), and the count of plans whose Clopper–Pearson lower bound (99%) exceeds Δ.
 ///
-/// --suite robustness: --count scenes generated from --suite-seed (2-D and 3-D, widths
-/// 1–100 anywhere within ±1000, static and moving obstacles, disks, ellipses and
-/// nonconvex quartics, every distribution family, about 18 % intentionally infeasible).
-/// Each is judged feasible / infeasible / ambiguous by an oracle independent of the
-/// crate's moment and certification code (a clearance grid search at Δ/2, a relaxed
-/// connectivity check at 1.5·Δ), then planned by rrt-sos with default options, its plan
-/// audited by Monte Carlo (the generator's true distributions for `moments`
-/// parameters) and its pieces certified by the exact and the SOS method. Prints a
-/// summary by scene class; one JSON line per scene (with the scene) goes to --out. The
-/// scenes' speed limits (planner.max_speed) are used by the oracle but not yet passed to
-/// the planner.
+/// The robustness suite (generated scenes judged by an independent oracle) is not part
+/// of this tool: `cargo run --release -p riskplan-testkit --bin robustness`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
     /// Which suite to run.
     #[arg(long, value_enum, default_value_t = Suite::Paper)]
     suite: Suite,
-    /// Directory of scene files (paper suite; default: the paper's experiments in the repository's scenes/).
+    /// Directory of scene files (default: the paper's experiments in the repository's scenes/).
     #[arg(long, default_value = "scenes")]
     scenes: PathBuf,
-    /// Seeds per planner and scene (paper suite).
+    /// Seeds per planner and scene.
     #[arg(long, default_value_t = 5)]
     seeds: u64,
-    /// Only these planners (paper suite; comma-separated names: rrt-sos, rrt-sos-paper,
+    /// Only these planners (comma-separated names: rrt-sos, rrt-sos-paper,
     /// mc-rrt, tv-sos, moment, moment-poly) [default: all].
     #[arg(long, value_delimiter = ',', value_parser = super::util::planner_parser())]
     planners: Vec<PlannerKind>,
-    /// Generated scenes (robustness suite).
-    #[arg(long, default_value_t = 120)]
-    count: usize,
-    /// Seed of the generated scenes (robustness suite); scene i of a seed is always the same.
-    #[arg(long, default_value_t = 1)]
-    suite_seed: u64,
-    /// Time limit per run, seconds [default: 60 for the paper suite, 10 per scene for robustness].
+    /// Time limit per run, seconds [default: 60].
     #[arg(long)]
     time_limit: Option<f64>,
-    /// Monte Carlo scenarios per audited point [default: 20000 paper, 4000 robustness].
+    /// Monte Carlo scenarios per audited point [default: 20000].
     #[arg(long)]
     audit_samples: Option<u64>,
-    /// Audited times per piece [default: 50 paper, 20 robustness].
+    /// Audited times per piece [default: 50].
     #[arg(long)]
     audit_times: Option<usize>,
-    /// JSON lines of every run [default: bench-planners.jsonl, or bench-robustness.jsonl].
+    /// JSON lines of every run [default: bench-planners.jsonl].
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -105,7 +85,6 @@ fn host() -> String {
 pub fn run(a: BenchArgs) -> Result<i32, CliError> {
     match a.suite {
         Suite::Paper => run_paper(a),
-        Suite::Robustness => run_robustness(a),
     }
 }
 
@@ -116,58 +95,6 @@ fn git_rev() -> String {
         .ok()
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
         .unwrap_or_default()
-}
-
-fn run_robustness(a: BenchArgs) -> Result<i32, CliError> {
-    let seconds = a.time_limit.unwrap_or(10.0);
-    let opts = RunOptions {
-        time_limit: time_limit_arg(seconds)?,
-        audit_samples: a.audit_samples.unwrap_or(4000),
-        audit_times: a.audit_times.unwrap_or(20),
-        audit_seed: 7,
-        oracle: OracleOptions::default(),
-    };
-    let out = a.out.unwrap_or_else(|| PathBuf::from("bench-robustness.jsonl"));
-    let mut log = std::fs::File::create(&out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
-    let (host, rev) = (host(), git_rev());
-    let t_gen = std::time::Instant::now();
-    let scenes: Vec<_> = (0..a.count).map(|i| generate(a.suite_seed, i)).collect();
-    let gen_s = t_gen.elapsed().as_secs_f64();
-    let mut records = Vec::with_capacity(scenes.len());
-    for g in &scenes {
-        let rec = run_scene(g, &opts);
-        let plan = rec.plan.as_ref();
-        eprintln!(
-            "[{}/{}] {} {}-D {} {}: oracle {} ({:.2} s); plan {} ({:.2} s){}",
-            g.index + 1,
-            a.count,
-            g.name,
-            g.dim,
-            if rec.moving { "moving" } else { "static" },
-            rec.shape_mix,
-            rec.label(),
-            rec.oracle.as_ref().map(|o| o.time_s).unwrap_or(0.0),
-            if plan.is_some_and(|p| p.planned) { "found" } else { "none" },
-            plan.map(|p| p.time_s).unwrap_or(0.0),
-            rec.audit.as_ref().filter(|a| a.over_delta).map(|_| " OVER Δ").unwrap_or(""),
-        );
-        let mut v = serde_json::to_value(&rec).map_err(|e| CliError(e.to_string()))?;
-        v["host"] = json!(host);
-        v["git"] = json!(rev);
-        v["time_limit_s"] = json!(seconds);
-        writeln!(log, "{v}").map_err(|e| CliError(e.to_string()))?;
-        records.push(rec);
-    }
-    let oracle_s: f64 = records.iter().filter_map(|r| r.oracle.as_ref()).map(|o| o.time_s).sum();
-    let header = format!(
-        "Host: {host}; git {rev}; robustness suite seed {}, {} scenes; time limit {seconds} s; audit {} scenarios × {} times per piece; generation {gen_s:.2} s, oracle {oracle_s:.2} s in total.\n",
-        a.suite_seed,
-        a.count,
-        opts.audit_samples,
-        opts.audit_times
-    );
-    print_out(&(header + &summary_table(&records)))?;
-    Ok(0)
 }
 
 fn run_paper(a: BenchArgs) -> Result<i32, CliError> {

@@ -2,7 +2,7 @@
 //! certificate (eq. 15 on Clarabel, re-checked) against the exact checker
 //! (Bernstein, interval with exact fallback) over 100 000 random polynomials of
 //! degree 1–10 on random intervals (double roots, barely positive and barely
-//! negative cases from `certify::testgen`). The two never disagree on a case both
+//! negative cases from `riskplan_testkit::testgen`). The two never disagree on a case both
 //! decide, and neither ever says "safe" for a polynomial that is ≤ 0 somewhere on
 //! [0, 1] (decided independently by Sturm root isolation). Counts are printed
 //! (`--nocapture`). `RISKPLAN_DIFF_CASES` overrides the number of cases.
@@ -10,8 +10,8 @@
 use crate::common;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
-use riskplan::certify::testgen::{Generator, IntPoly};
 use riskplan::certify::{check, sos, sturm, Verdict};
+use riskplan_testkit::testgen::{Generator, IntPoly};
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 

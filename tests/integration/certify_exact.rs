@@ -1,6 +1,6 @@
 //! Differential test of the exact positivity checkers (docs/design.md §5.8): Bernstein
 //! subdivision in interval and in exact arithmetic, and the Sturm oracle, on random
-//! polynomials from `certify::testgen`, plus fixtures.
+//! polynomials from `riskplan_testkit::testgen`, plus fixtures.
 //!
 //! Run with `--nocapture` to see the counts. `RISKPLAN_DIFF_CASES` overrides the number
 //! of random cases (default 100 000).
@@ -8,9 +8,9 @@
 use crate::common;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
-use riskplan::certify::testgen::{Generator, IntPoly, Truth};
 use riskplan::certify::{bernstein, check, check_exact, check_interval, sturm, Verdict, DEFAULT_MAX_DEPTH};
 use riskplan::poly::{parse_decimal, Interval, UPoly};
+use riskplan_testkit::testgen::{Generator, IntPoly, Truth};
 use std::collections::BTreeMap;
 use std::time::Instant;
 

@@ -1,4 +1,4 @@
-//! The fuzz targets of `riskplan::fuzzing` on stable, in every test run: each file of
+//! The fuzz targets of `riskplan_testkit::fuzzing` on stable, in every test run: each file of
 //! `fuzz/corpus/<target>/` (what cargo-fuzz found, minimised, plus the seeds), the
 //! seeds built here from the repository's scenes and protocol examples (requests in
 //! both JSON and bincode), and a seeded mutation run from them. A panic names the
@@ -66,8 +66,8 @@ fn scene_seeds() -> Vec<Vec<u8>> {
 
 #[cfg(feature = "proto")]
 fn request_seeds() -> Vec<Vec<u8>> {
-    use riskplan::fuzzing::REQUEST_KINDS;
     use riskplan::service::proto::*;
+    use riskplan_testkit::fuzzing::REQUEST_KINDS;
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("proto").join("examples");
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
     files.sort();
@@ -201,16 +201,16 @@ fn write_seeds(dir: &Path, seeds: &[Vec<u8>]) {
 
 #[test]
 fn fuzz_poly_parser() {
-    replay("poly", riskplan::fuzzing::poly_text, poly_seeds(), common::size("FUZZ_MUTATIONS", 3000, 30_000));
+    replay("poly", riskplan_testkit::fuzzing::poly_text, poly_seeds(), common::size("FUZZ_MUTATIONS", 3000, 30_000));
 }
 
 #[test]
 fn fuzz_scene_loader() {
-    replay("scene", riskplan::fuzzing::scene_json, scene_seeds(), common::size("FUZZ_MUTATIONS", 300, 3000));
+    replay("scene", riskplan_testkit::fuzzing::scene_json, scene_seeds(), common::size("FUZZ_MUTATIONS", 300, 3000));
 }
 
 #[cfg(feature = "proto")]
 #[test]
 fn fuzz_requests() {
-    replay("request", riskplan::fuzzing::request, request_seeds(), common::size("FUZZ_MUTATIONS", 300, 3000));
+    replay("request", riskplan_testkit::fuzzing::request, request_seeds(), common::size("FUZZ_MUTATIONS", 300, 3000));
 }

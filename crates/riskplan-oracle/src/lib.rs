@@ -1,26 +1,32 @@
-//! The robustness suite behind `riskplan bench --suite robustness`: a seeded scene
-//! generator ([`generate`]), an independent feasibility oracle ([`oracle`], with its
-//! own quadrature in [`quadrature`]), and the runner that plans, audits and certifies
-//! each scene and summarises the results ([`runner`]).
+//! # riskplan-oracle
+//!
+//! The robustness suite of riskplan without riskplan: a seeded scene generator
+//! ([`generate`]), an independent feasibility oracle ([`oracle`], with its own
+//! quadrature in [`quadrature`]). The runner that plans, audits and certifies each scene
+//! and summarises the results is `riskplan_testkit::runner`, and the bench is the
+//! testkit's `robustness` binary
+//! (`cargo run --release -p riskplan-testkit --bin robustness`).
 //!
 //! The generator covers 2-D and 3-D scenes, workspaces 1–100 units wide anywhere within
 //! ±1000, horizons with t₀ ≠ 0, Δ in [0.01, 0.2], disks/balls, ellipses/ellipsoids and
 //! nonconvex quartics, static, linearly and quadratically moving obstacles, every
 //! distribution family of the scene format, and intentionally infeasible scenes of
-//! three kinds. The oracle judges each scene with none of the crate's moment,
+//! three kinds. The oracle judges each scene with none of riskplan's moment,
 //! polynomial, contour, certification or verification code, so that a disagreement
-//! between it and the planners points at one of them.
+//! between it and the planners points at one of them. This crate does not depend on
+//! `riskplan` at all, so the compiler checks that independence.
 //!
-//! Pure computation: no file I/O, no async.
+//! Pure computation: no file I/O, no async. Malformed input (a hand-made
+//! [`GeneratedScene`] or [`generate::Dist`]) gives an error ([`OracleError`],
+//! [`quadrature::QuadratureError`]) or a NaN, never a panic.
+#![warn(missing_docs)]
 
 pub mod generate;
 pub mod oracle;
 pub mod quadrature;
-pub mod runner;
 
 pub use generate::{generate, GeneratedScene};
-pub use oracle::{judge, Judgement, OracleOptions, OracleReport};
-pub use runner::{run_scene, summary_table, RunOptions, SceneRecord};
+pub use oracle::{judge, Judgement, OracleError, OracleOptions, OracleReport};
 
 #[cfg(test)]
 mod tests {
@@ -30,8 +36,9 @@ mod tests {
 
     /// The oracle over a whole suite: every intentionally infeasible scene is judged
     /// infeasible for its intended reason, no intentionally infeasible scene is judged
-    /// feasible, most intended-feasible scenes are judged feasible, and the whole suite
-    /// takes well under a minute.
+    /// feasible, and most intended-feasible scenes are judged feasible. (The oracle's
+    /// time over the suite is printed here and by the robustness bench, not asserted:
+    /// a wall-clock limit depends on the machine and its load.)
     #[test]
     fn oracle_judges_the_suite() {
         let t = std::time::Instant::now();
@@ -71,6 +78,5 @@ mod tests {
         let total = t.elapsed().as_secs_f64();
         eprintln!("oracle over 120 scenes: {total:.2} s (slowest scene {} {:.2} s); {counts:?}", slowest.1, slowest.0);
         assert!(feasible_ok * 10 >= intended_feasible * 8, "{feasible_ok}/{intended_feasible} {counts:?}");
-        assert!(total < 60.0);
     }
 }

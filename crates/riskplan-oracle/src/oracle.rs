@@ -1,5 +1,5 @@
 //! The independent feasibility oracle: judges a [`GeneratedScene`] feasible (with a
-//! path), infeasible (with a typed reason) or ambiguous, using none of the crate's
+//! path), infeasible (with a typed reason) or ambiguous, using none of riskplan's
 //! moment, polynomial, contour, certification or verification code.
 //!
 //! **Point safety.** At a point (x, t), E[P] and E[P²] of each obstacle are computed by
@@ -42,7 +42,7 @@
 //! These are approximations with margins (Δ/2 against 1.5·Δ), not proofs: the oracle
 //! is evidence against which the planners and certifiers are compared.
 
-use super::generate::{GeneratedScene, ObstacleSpec};
+use super::generate::{GeneratedScene, ObstacleSpec, Shape, Unc};
 use super::quadrature::{rule, QuadratureError};
 use serde::Serialize;
 use std::cmp::Reverse;
@@ -278,6 +278,7 @@ impl<'a> Model<'a> {
         if g.horizon.0.partial_cmp(&g.horizon.1) != Some(std::cmp::Ordering::Less) {
             return Err(OracleError::BadScene("empty horizon".into()));
         }
+        validate(g).map_err(OracleError::BadScene)?;
         let obs = g.obstacles.iter().map(ObstacleMoments::new).collect::<Result<Vec<_>, _>>()?;
         let levels = [g.delta, g.delta * TIGHT_FACTOR, (g.delta * RELAX_FACTOR).min(RELAX_CAP).max(g.delta)];
         Ok(Model { g, obs, levels, evaluations: 0 })
@@ -333,6 +334,47 @@ impl<'a> Model<'a> {
             self.mask(&x, ta + s * (tb - ta)) & SAFE_DELTA != 0
         })
     }
+}
+
+/// What the grids and the point evaluation rely on besides Δ, the coordinate lengths
+/// and the horizon (checked first, in [`Model::new`]): a hand-made scene that breaks it is
+/// refused with a message, never judged with a panic or an unbounded grid.
+fn validate(g: &GeneratedScene) -> Result<(), String> {
+    // the grid's memo key holds three space coordinates and time (4 × KEY_BITS bits)
+    if !(2..=3).contains(&g.dim) {
+        return Err(format!("dimension {} (the oracle judges 2-D and 3-D scenes)", g.dim));
+    }
+    let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    if !finite(&g.start) || !finite(&g.goal) || !(g.horizon.1 - g.horizon.0).is_finite() {
+        return Err("start, goal and horizon must be finite".into());
+    }
+    if !g.lower.iter().zip(&g.upper).all(|(l, u)| l < u && (u - l).is_finite()) {
+        return Err("every workspace side must be finite and longer than zero".into());
+    }
+    if g.max_speed.is_some_and(|v| !(v > 0.0 && v.is_finite())) {
+        return Err("max_speed must be finite and > 0".into());
+    }
+    for o in &g.obstacles {
+        let m = &o.motion;
+        if [&m.c0, &m.v, &m.a].iter().any(|v| v.len() != g.dim || !finite(v)) {
+            return Err(format!("obstacle {}: motion of the wrong dimension or not finite", o.id));
+        }
+        let (per_axis, uncs): (Vec<usize>, Vec<&Unc>) = match &o.shape {
+            Shape::Ball { radius, offset } => (vec![offset.len()], [radius].into_iter().chain(offset).collect()),
+            Shape::Ellipsoid { size, inv_sq, offset, .. } => {
+                (vec![inv_sq.len(), offset.len()], [size].into_iter().chain(offset).collect())
+            }
+            Shape::Peanut { shift, lobe, r1sq, k, .. } => (vec![lobe.len()], vec![shift, r1sq, k]),
+            Shape::Superellipse { r4 } => (vec![], vec![r4]),
+        };
+        if per_axis.iter().any(|&n| n != g.dim) {
+            return Err(format!("obstacle {}: shape of the wrong dimension", o.id));
+        }
+        if uncs.iter().any(|u| u.param.is_some_and(|i| i >= o.params.len())) {
+            return Err(format!("obstacle {}: a quantity refers to a parameter it does not have", o.id));
+        }
+    }
+    Ok(())
 }
 
 fn dist(a: &[f64], b: &[f64]) -> f64 {
@@ -747,7 +789,7 @@ fn judge_moving(
     match result {
         Search::Found(path) => Judgement::Feasible { path },
         other => {
-            let r_rel = ((reach / hmin).ceil() as i64 + 1).min(grid.n.iter().cloned().max().unwrap_or(1));
+            let r_rel = ((reach / hmin).ceil() as i64).saturating_add(1).min(grid.n.iter().cloned().max().unwrap_or(1));
             if moving_disconnected(g, m, &mut grid, r_rel, k_last) {
                 Judgement::Infeasible { reason: InfeasibleReason::Disconnected }
             } else {
@@ -919,7 +961,7 @@ fn dilate(grid: &Grid, set: &[bool], r: i64) -> Vec<bool> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robust::generate::{Dist, Intent, Motion, MotionKind, ParamSpec, Shape, Unc};
+    use crate::generate::{Dist, Intent, Motion, MotionKind, ParamSpec};
     use rand::SeedableRng;
     use rand_chacha::ChaCha12Rng;
 
@@ -1076,5 +1118,48 @@ mod tests {
         g3.max_speed = Some(0.5);
         let r = judge(&g3, &OracleOptions::default()).unwrap();
         assert!(matches!(r.judgement, Judgement::Infeasible { reason: InfeasibleReason::OutOfReach { .. } }));
+    }
+
+    /// Hand-made scenes the oracle cannot judge are refused with a message (no panic,
+    /// no unbounded grid), and a quantity's missing parameter evaluates to NaN.
+    #[test]
+    fn malformed_scenes_are_refused() {
+        let p = || vec![ParamSpec { name: "r".into(), dist: Dist::Uniform { low: 0.1, high: 0.2 } }];
+        let good = ball("d", vec![100.5, -49.5], Unc { base: 0.0, scale: 1.0, param: Some(0) }, p());
+        let mut cases: Vec<GeneratedScene> = vec![];
+        let mut g = scene(vec![good.clone()], 0.05);
+        g.dim = 4;
+        g.lower.extend([0.0, 0.0]);
+        g.upper.extend([1.0, 1.0]);
+        g.start.extend([0.5, 0.5]);
+        g.goal.extend([0.5, 0.5]);
+        cases.push(g);
+        let mut g = scene(vec![good.clone()], 0.05);
+        g.upper[0] = f64::INFINITY;
+        cases.push(g);
+        let mut g = scene(vec![good.clone()], 0.05);
+        g.max_speed = Some(-1.0);
+        cases.push(g);
+        let mut o = good.clone();
+        o.motion.v = vec![0.0];
+        cases.push(scene(vec![o], 0.05));
+        let mut o = good.clone();
+        o.params.clear();
+        cases.push(scene(vec![o], 0.05));
+        let mut o = good.clone();
+        o.shape = Shape::Ellipsoid { size: Unc::fixed(1.0), inv_sq: vec![1.0], rot: (1.0, 0.0), offset: vec![] };
+        cases.push(scene(vec![o], 0.05));
+        for g in cases {
+            assert!(matches!(judge(&g, &OracleOptions::default()), Err(OracleError::BadScene(_))), "{g:?}");
+        }
+        assert!(good.eval(&[100.5, -49.5], 3.5, &[]).is_nan());
+        // zero denominators are not the moments of a distribution
+        let o = ball(
+            "m",
+            vec![100.5, -49.5],
+            Unc { base: 0.1, scale: 0.01, param: Some(0) },
+            vec![ParamSpec { name: "m".into(), dist: Dist::moments_of_uniform(3, 3, 20) }],
+        );
+        assert!(matches!(ObstacleMoments::new(&o), Err(OracleError::Quadrature { .. })));
     }
 }

@@ -1,17 +1,18 @@
 //! The robustness suite's runner: per scene the oracle's judgement, a plan with the
 //! default options, a Monte Carlo audit of the plan, and the exact-versus-SOS
-//! certification counts; then a Markdown summary. Pure computation: the CLI
-//! (`riskplan bench --suite robustness`) writes the records and prints the table.
+//! certification counts; then a Markdown summary. Pure computation: the `robustness`
+//! binary of this crate writes the records and prints the table. The scenes and the
+//! oracle come from `riskplan-oracle`, which shares no code with riskplan.
 
-use super::generate::{GeneratedScene, ObstacleSpec};
-use super::oracle::{judge, InfeasibleReason, Judgement, ObstacleMoments, OracleOptions, OracleReport};
-use crate::app::{no_plan_reason, PlanRequest};
-use crate::mc::clopper_pearson;
-use crate::plan::{PlanError, PlanStatus};
-use crate::scene::{Scene, Trajectory};
-use crate::verify::{audit_trajectory, verify, AuditOptions, Method, Status};
 use rand::SeedableRng;
 use rand_chacha::ChaCha12Rng;
+use riskplan::app::{no_plan_reason, PlanRequest};
+use riskplan::mc::clopper_pearson;
+use riskplan::plan::{PlanError, PlanStatus};
+use riskplan::scene::{Scene, Trajectory};
+use riskplan::verify::{audit_trajectory, verify, AuditOptions, Method, Status};
+use riskplan_oracle::generate::{GeneratedScene, Intent, ObstacleSpec};
+use riskplan_oracle::oracle::{judge, InfeasibleReason, Judgement, ObstacleMoments, OracleOptions, OracleReport};
 use serde::Serialize;
 use serde_json::Value;
 use std::sync::Arc;
@@ -155,7 +156,7 @@ pub struct SceneRecord {
     /// Has a `moments` parameter.
     pub moments_param: bool,
     /// The generator's intent.
-    pub intent: super::generate::Intent,
+    pub intent: Intent,
     /// The scene failed to load (a generator or parser bug).
     pub load_error: Option<String>,
     /// The oracle (None if it failed: see `oracle_error`).

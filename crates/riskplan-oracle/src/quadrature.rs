@@ -1,5 +1,5 @@
 //! Gauss quadrature rules for the oracle, built from its **own** closed-form moments of
-//! each distribution family (never from `crate::moments`).
+//! each distribution family (never from `riskplan::moments`).
 //!
 //! A rule with `n` nodes integrates polynomials of degree ≤ 2n − 1 exactly. The oracle
 //! needs E[P] and E[P²] with P of degree ≤ 2 in each parameter, so P² has degree ≤ 4:
@@ -64,8 +64,11 @@ fn bad(family: &'static str, message: impl Into<String>) -> QuadratureError {
 /// Raw moments m₀..m₍₂ₙ₋₁₎ (m₀ = 1) of a standardised variable → n-node Gauss rule
 /// (fewer nodes when the distribution has fewer atoms).
 pub fn gauss_from_moments(m: &[f64], n: usize) -> Result<Rule, QuadratureError> {
-    if m.len() < 2 * n {
-        return Err(QuadratureError::NotMoments(format!("{} moments given, {} needed", m.len(), 2 * n)));
+    if n == 0 || m.len() < 2 * n {
+        return Err(QuadratureError::NotMoments(format!("{} moments given, {} needed", m.len(), 2 * n.max(1))));
+    }
+    if m.iter().any(|x| !x.is_finite()) {
+        return Err(QuadratureError::NotMoments("a moment is not finite".into()));
     }
     // Polynomials as coefficient vectors (low degree first); <p, q> = Σ p_i q_j m_{i+j}.
     let inner = |p: &[f64], q: &[f64]| -> f64 {
@@ -122,6 +125,10 @@ pub fn gauss_from_moments(m: &[f64], n: usize) -> Result<Rule, QuadratureError> 
         prev = cur;
         cur = next;
     }
+    // an eigen-decomposition of a matrix with NaN may not terminate: refuse it first
+    if alphas.iter().chain(&betas).any(|x| !x.is_finite()) || betas.iter().any(|&b| b < 0.0) {
+        return Err(QuadratureError::NotMoments("recurrence coefficients are not finite".into()));
+    }
     let k = alphas.len();
     let mut j = DMatrix::<f64>::zeros(k, k);
     for i in 0..k {
@@ -141,6 +148,9 @@ pub fn gauss_from_moments(m: &[f64], n: usize) -> Result<Rule, QuadratureError> 
 /// Moments of z = (w − c)/s from raw moments of w, with c the mean and s the standard
 /// deviation (binomial expansion of E[(w − c)^k]).
 pub fn standardise(raw: &[f64]) -> Result<(f64, f64, Vec<f64>), QuadratureError> {
+    if raw.len() < 3 {
+        return Err(QuadratureError::NotMoments(format!("{} raw moments given, at least 3 needed", raw.len())));
+    }
     let c = raw[1];
     let var = raw[2] - c * c;
     if var.is_nan() || var < 0.0 {
@@ -338,5 +348,10 @@ mod tests {
         assert!(close(r.expect(|w| w.powi(4)), 0.5, 1e-9));
         assert!(rule(&Dist::Gamma { shape: -1.0, scale: 1.0 }).is_err());
         assert!(standardise(&[1.0, 1.0, 0.5]).is_err());
+        // too few or non-finite moments: errors, never an index panic or a NaN matrix
+        assert!(standardise(&[1.0]).is_err());
+        assert!(gauss_from_moments(&[], 0).is_err());
+        assert!(gauss_from_moments(&[1.0, f64::NAN, 1.0, 0.0], 2).is_err());
+        assert!(gauss_from_moments(&[-1.0, 0.0, 1.0, 0.0], 2).is_err());
     }
 }

@@ -1,6 +1,6 @@
-//! Fuzz targets (feature `test-support`): the entry points of `fuzz/` (cargo-fuzz,
-//! libFuzzer) and of the corpus replay and seeded mutation run in the integration
-//! tests (`tests/integration/fuzz_replay.rs`), which any stable toolchain runs.
+//! Fuzz targets: the entry points of `fuzz/` (cargo-fuzz, libFuzzer) and of the corpus
+//! replay and seeded mutation run in riskplan's integration tests
+//! (`tests/integration/fuzz_replay.rs`), which any stable toolchain runs.
 //!
 //! Every target takes arbitrary bytes and must return normally: a panic, an abort
 //! (an allocation the input asked for), or more than a second of work is a bug. Each
@@ -8,13 +8,15 @@
 //! - [`poly_text`]: a parsed polynomial respects the parser's limits, and parsing its
 //!   own text gives it back (the printer and the parser agree);
 //! - [`scene_json`]: a scene that loads, written back and loaded again, loads the same;
-//! - [`request`] (feature `proto`): every request type in JSON and bincode, decoded as
-//!   the server decodes it and, when it decodes, handled as the server handles it
-//!   (apply on a scratch scene, plan, verify and risk on the paper's scenes with short
-//!   deadlines); every reply and error encodes in the request's codec.
+//! - [`request`]: every request type in JSON and bincode, decoded as the server decodes
+//!   it and, when it decodes, handled as the server handles it (apply on a scratch
+//!   scene, plan, verify and risk on the paper's scenes with short deadlines); every
+//!   reply and error encodes in the request's codec.
+//!
+//! A target's assertions are how it reports a bug to libFuzzer: they panic on purpose.
 
-use crate::poly::{parse, PolyError, VarTable, MAX_DECIMAL_DIGITS, MAX_PARSE_DEGREE, MAX_PARSE_TERMS};
-use crate::scene::Scene;
+use riskplan::poly::{parse, PolyError, VarTable, MAX_DECIMAL_DIGITS, MAX_PARSE_DEGREE, MAX_PARSE_TERMS};
+use riskplan::scene::Scene;
 
 /// The variables a fuzzed polynomial may use (a 3-D space, time and two parameters).
 const POLY_VARS: [&str; 6] = ["x1", "x2", "x3", "t", "w", "v"];
@@ -51,16 +53,14 @@ pub fn scene_json(data: &[u8]) {
     assert_eq!(reloaded.dim, scene.dim);
 }
 
-#[cfg(feature = "proto")]
 pub use request_target::{request, REQUEST_KINDS};
 
-#[cfg(feature = "proto")]
 mod request_target {
-    use crate::service::error::ServiceError;
-    use crate::service::handlers;
-    use crate::service::proto::*;
-    use crate::service::registry::Registry;
-    use crate::service::store::Store;
+    use riskplan::service::error::ServiceError;
+    use riskplan::service::handlers;
+    use riskplan::service::proto::*;
+    use riskplan::service::registry::Registry;
+    use riskplan::service::store::Store;
     use std::sync::atomic::AtomicBool;
     use std::sync::{Arc, OnceLock};
     use std::time::{Duration, Instant};
@@ -74,8 +74,8 @@ mod request_target {
     const JOB_BUDGET: Duration = Duration::from_millis(100);
 
     const FIXTURES: [(&str, &str); 2] = [
-        ("illustrative-3", include_str!("../scenes/illustrative-3.json")),
-        ("example-b-lane-change", include_str!("../scenes/example-b-lane-change.json")),
+        ("illustrative-3", include_str!("../../../scenes/illustrative-3.json")),
+        ("example-b-lane-change", include_str!("../../../scenes/example-b-lane-change.json")),
     ];
     const SCRATCH: &str = "scratch";
 

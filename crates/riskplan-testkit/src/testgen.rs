@@ -1,5 +1,6 @@
-//! Seeded random univariate polynomials for testing and benchmarking the positivity
-//! checkers (docs/design.md §5.8, generator 1). Not part of the stable API.
+//! Seeded random univariate polynomials for testing and benchmarking riskplan's
+//! positivity checkers (docs/design.md §5.8, generator 1; formerly
+//! `riskplan::certify::testgen`). Not part of the stable API.
 //!
 //! Each [`Case`] is built in a time variable `t` on a random interval `[t1, t2]` as
 //!
@@ -18,13 +19,13 @@
 //! Where the construction alone proves the answer, [`Case::truth`] records it, which
 //! checks the exact oracle itself.
 
-use crate::poly::{Interval, UPoly};
 use num_bigint::BigInt;
 use num_integer::Integer;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use riskplan::poly::{Interval, UPoly};
 
 /// Smallest and largest generated degree.
 pub const DEGREES: std::ops::RangeInclusive<usize> = 1..=10;
@@ -182,7 +183,7 @@ impl IntPoly {
     /// `max |c_i| / den` as an f64.
     fn size(&self) -> f64 {
         let big = self.c.iter().map(|x| x.abs()).max().unwrap_or_default();
-        crate::poly::rational_to_f64(&BigRational::new(big, self.den.clone()))
+        riskplan::poly::rational_to_f64(&BigRational::new(big, self.den.clone()))
     }
 }
 
