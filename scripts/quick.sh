@@ -1,16 +1,27 @@
 #!/usr/bin/env bash
-# The quick tier, for the edit–test loop (a few minutes warm on 2 cores): formatting,
-# clippy once over every target and feature, the library's unit and property tests and
-# the integration-test binary at quick sizes. Not run here: the Python client against
-# the server and the full-size differential runs (scripts/test.sh, what CI runs).
+# The quick tier, for the edit–test loop (a few minutes warm on 2 cores), with no
+# transport linked: formatting, clippy over the core (library, its unit tests, the
+# integration binary) without the service and CLI features, the library's unit and
+# property tests and the integration binary at quick sizes — no zenoh, tokio or
+# plotters — and the Python client's tests that need no server. Not run here: the
+# service, the CLI, the Python tests against the server, the full-size differential
+# runs (scripts/test.sh, what CI runs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1}   # small SDPs are faster single-threaded
 export RISKPLAN_TEST_TIER=quick
 export PROPTEST_CASES=${PROPTEST_CASES:-64}
+CORE=(--no-default-features --features test-support)
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
-echo "== cargo clippy (all targets, all features)"
-cargo clippy --all-targets --all-features -- -D warnings
-echo "== library unit/property tests and the integration binary (quick sizes)"
-cargo test --all-features --lib --test integration
+echo "== cargo clippy (the core: library, unit tests, integration binary; no transport)"
+cargo clippy "${CORE[@]}" --lib --tests -- -D warnings
+echo "== library unit/property tests and the integration binary (quick sizes, no transport)"
+cargo test "${CORE[@]}" --lib --test integration
+echo "== Python client tests that need no server"
+VENV=${RISKPLAN_VENV:-${TMPDIR:-/tmp}/riskplan-venv}
+if [ ! -x "$VENV/bin/python" ]; then
+    python3 -m venv "$VENV"
+    "$VENV/bin/pip" install -q -e './clients/python[plot,test]'
+fi
+"$VENV/bin/python" -m pytest clients/python/tests/test_offline.py -q

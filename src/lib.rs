@@ -16,9 +16,11 @@
 //! (Theorem 1). The guarantee is **per obstacle and per instant**; with several
 //! obstacles the total probability of collision can reach (number of obstacles)·Δ.
 //!
-//! Layers, bottom to top: [`poly`] and [`moments`] (L0) → [`contour`] and [`mc`]
-//! (L1) → [`scene`] (L2) → the command-line tool. The core does no I/O and has no
-//! async code.
+//! Layers, bottom to top (docs/architecture.md; `tests/integration/architecture.rs`
+//! fails on any import that runs upward or loops): [`poly`] → [`moments`], [`sdp`] →
+//! [`contour`], [`relax`] → [`mc`] → [`scene`] → [`motion`] → [`certify`] → [`plan`],
+//! [`verify`] → [`app`] → `service`, `viz` → the command-line tool. The core (below
+//! [`app`]) does no I/O and has no async code.
 //!
 //! Section numbers (§) in the doc comments refer to `docs/design.md`, the project's
 //! design document; equation numbers refer to the paper.
