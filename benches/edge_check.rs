@@ -69,8 +69,11 @@ fn bench(c: &mut Criterion) {
         let mut c = Vec::new();
         let mut total = 0;
         for e in &es {
-            let bb =
-                riskplan::certify::scene::piece_bbox(riskplan::certify::PieceRef { t0: e.t0, t1: e.t1, coeffs: &e.coeffs });
+            let bb = riskplan::certify::scene::piece_bbox(riskplan::certify::PieceRef {
+                t0: e.t0,
+                t1: e.t1,
+                coeffs: &e.coeffs,
+            });
             cert.index().candidates(bb.as_deref(), e.t0, e.t1, &mut c);
             total += c.len();
         }

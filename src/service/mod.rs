@@ -26,6 +26,8 @@ pub mod routes;
 pub mod server;
 #[cfg(feature = "service")]
 pub(crate) mod startup;
+#[cfg(feature = "service")]
+pub(crate) mod state;
 pub mod store;
 
 #[cfg(feature = "service")]

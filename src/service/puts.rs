@@ -6,7 +6,7 @@ use super::error::ServiceError;
 use super::proto::{Codec, ObstaclePut, MAX_PAYLOAD_BYTES};
 use super::replication;
 use super::routes::{Route, RouteError};
-use super::server::State;
+use super::state::State;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use tracing::{info, warn};

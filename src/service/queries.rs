@@ -7,7 +7,7 @@ use super::handlers;
 use super::proto::*;
 use super::replication;
 use super::routes::{query_log_fields, Route, RouteError};
-use super::server::State;
+use super::state::State;
 use super::store::embedded;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;

@@ -7,7 +7,7 @@ use super::error::{invalid, ServiceError};
 use super::proto::{Codec, ReplicationEntry, ReplicationIndex};
 use super::registry::{Commit, CommitListener};
 use super::routes::Route;
-use super::server::State;
+use super::state::State;
 use super::store::embedded;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;

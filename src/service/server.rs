@@ -6,12 +6,12 @@
 //! clean shutdown on SIGINT/SIGTERM (`startup.rs`).
 
 use super::jobs::{Cancels, Jobs};
-use super::proto::*;
 use super::puts::{spawn_put_worker, PUT_QUEUE};
 use super::registry::Registry;
 use super::replication::{spawn_publisher, spawn_sync};
 use super::routes::{REPLICATED_COMMITS, SCENE_UPDATES};
 use super::startup::{declare, early_keys, load_scenes, serve_queries, serve_when_ready};
+use super::state::State;
 use super::store::Store;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -45,66 +45,6 @@ pub struct ServerConfig {
     /// (deploy/cluster/README.md). Otherwise the server is a primary: it takes
     /// writes and publishes its commits for replicas.
     pub replica: bool,
-}
-
-/// Shared server state.
-#[derive(Debug)]
-pub(crate) struct State {
-    /// Scenes.
-    pub(crate) registry: Registry,
-    /// Job pool.
-    pub(crate) jobs: Jobs,
-    started: Instant,
-    counters: Mutex<BTreeMap<String, Counter>>,
-    /// Cap on a plan's time limit.
-    pub(crate) max_plan_seconds: Duration,
-    /// Cap (and default) of the deadline of apply, verify and risk jobs.
-    pub(crate) max_job_seconds: Duration,
-    /// Cancellation flags of running plans.
-    pub(crate) cancels: Cancels,
-    /// Set once the stored scenes and the `--preload` files are in.
-    pub(crate) ready: AtomicBool,
-    /// Set once the stored scenes are loaded (a replica is ready after catching up).
-    pub(crate) loaded: AtomicBool,
-    /// A replica's primary, by data-directory identity (`None` before the first
-    /// catch-up).
-    pub(crate) primary_id: Mutex<Option<u64>>,
-    /// A replica (reads only, following a primary), not a primary.
-    pub(crate) replica: bool,
-}
-
-impl State {
-    /// Counts a request of `kind` (a query's kind, or `put`) as served or failed.
-    pub(crate) fn count(&self, kind: &str, ok: bool) {
-        if let Ok(mut c) = self.counters.lock() {
-            let e = c.entry(kind.to_string()).or_default();
-            if ok {
-                e.served += 1;
-            } else {
-                e.failed += 1;
-            }
-        }
-    }
-
-    /// The `status` reply.
-    pub(crate) fn status(&self) -> StatusReply {
-        let (entries, hits, misses) = self.registry.cache.stats();
-        StatusReply {
-            state: if self.ready.load(Ordering::SeqCst) { "ready" } else { "loading" }.into(),
-            role: if self.replica { "replica" } else { "primary" }.into(),
-            uptime_s: self.started.elapsed().as_secs_f64(),
-            scenes: self
-                .registry
-                .list()
-                .into_iter()
-                .map(|(name, revision, n)| SceneStatus { name, revision, obstacles: n as u64 })
-                .collect(),
-            cache: CacheStatus { entries: entries as u64, hits, misses },
-            queue: self.jobs.status(),
-            requests: self.counters.lock().map(|c| c.clone()).unwrap_or_default(),
-            problems: self.registry.problems(),
-        }
-    }
 }
 
 /// Runs the server until SIGINT or SIGTERM.

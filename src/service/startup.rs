@@ -5,7 +5,7 @@
 use super::queries::handle_query;
 use super::registry::Registry;
 use super::routes::{Route, RouteKind, ALL_KEYS};
-use super::server::State;
+use super::state::State;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
