@@ -5,140 +5,16 @@
 
 use crate::contour::RiskLevel;
 use crate::plan::{
-    rrt_planner, FinalCheckStats, McChecker, McCheckerParams, MomentForm, MomentParams, MomentPlanner, MotionChecker,
-    NoPlanReason, PlanError, PlanOptions, PlanOutcome, PlanStatus, Planner, Problem, Termination, TvSos, TvSosParams,
+    Built, FinalCheckStats, Kinematics, MotionChecker, NoPlanReason, PlanError, PlanOptions, PlanOutcome, PlanStatus,
+    Planner, Problem, Setup, Termination,
 };
+pub use crate::plan::{PlannerKind, RiskMode, UnknownName};
 use crate::scene::Scene;
 use crate::verify::{final_check, FinalFailure, Interrupted, Method, SceneCertifier, SceneKernel};
 use num_rational::BigRational;
-use std::fmt;
-use std::str::FromStr;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
-use thiserror::Error;
-
-/// The planners a request can name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum PlannerKind {
-    /// The default: every edge certified in continuous time (eq. 15) — bidirectional
-    /// RRT on static scenes, the time-layered tree with the piece ladder on moving
-    /// ones — then certified shortcutting and C¹ corner blends.
-    RrtSos,
-    /// The paper's RRT-SOS as published (static tree with widening stripes, or the
-    /// time-layered tree), for reproducing the paper's numbers; straight pieces.
-    RrtSosPaper,
-    /// The Monte Carlo baseline: the default planner's search with the paper's
-    /// sampling edge check (K scenarios × W waypoints per edge): uncertified, its plans
-    /// say `certified: false`.
-    McRrt,
-    /// The paper's time-varying SOS planner (Section V-B): a moment relaxation over
-    /// straight pieces with convex–concave rank iterations, every piece of the
-    /// read-out certified; a retry ladder (seeds, iterations, pieces, tighter Δ_opt).
-    TvSos,
-    /// The paper's standard SOS planner with average risk (Section V-A.2): Lasserre's
-    /// moment relaxation over piecewise-linear trajectories, atoms extracted, every
-    /// piece of an atom's trajectory certified against the per-instant Δ.
-    Moment,
-    /// The standard SOS planner over one polynomial trajectory of degree `d` (the
-    /// scene's `planner.standard_sos.polynomial_trajectory_degree`, else 2).
-    MomentPoly,
-}
-
-impl PlannerKind {
-    /// Every planner, in the order help texts list them.
-    pub const ALL: [PlannerKind; 6] = [
-        PlannerKind::RrtSos,
-        PlannerKind::RrtSosPaper,
-        PlannerKind::McRrt,
-        PlannerKind::TvSos,
-        PlannerKind::Moment,
-        PlannerKind::MomentPoly,
-    ];
-
-    /// The name on the command line and on the wire.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            PlannerKind::RrtSos => "rrt-sos",
-            PlannerKind::RrtSosPaper => "rrt-sos-paper",
-            PlannerKind::McRrt => "mc-rrt",
-            PlannerKind::TvSos => "tv-sos",
-            PlannerKind::Moment => "moment",
-            PlannerKind::MomentPoly => "moment-poly",
-        }
-    }
-}
-
-/// What Δ bounds (docs/design.md §3.6).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
-pub enum RiskMode {
-    /// The paper's: the probability of colliding with each obstacle, at each instant, is
-    /// at most Δ.
-    #[default]
-    PerObstacle,
-    /// The probability of colliding with any obstacle at each instant is at most Δ:
-    /// obstacle `i` gets Δᵢ with Σ Δᵢ = Δ (Boole's inequality), Δᵢ = Δ/N.
-    JointUniform,
-    /// As `JointUniform`, with Δ split by need: each obstacle first gets what the start
-    /// and the goal need (1.01 × its Cantelli bound there), the rest by weight
-    /// `1/(1 + d/L)`, `d` the distance of the obstacle's proven cover from the
-    /// start–goal line, `L` the workspace's largest side: more for the obstacles that
-    /// constrain the path.
-    JointWeighted,
-}
-
-impl RiskMode {
-    /// Every mode.
-    pub const ALL: [RiskMode; 3] = [RiskMode::PerObstacle, RiskMode::JointUniform, RiskMode::JointWeighted];
-    /// The name on the command line and on the wire.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            RiskMode::PerObstacle => "per-obstacle",
-            RiskMode::JointUniform => "joint",
-            RiskMode::JointWeighted => "joint-weighted",
-        }
-    }
-}
-
-impl FromStr for RiskMode {
-    type Err = UnknownName;
-    fn from_str(s: &str) -> Result<Self, UnknownName> {
-        RiskMode::ALL.into_iter().find(|k| k.as_str() == s).ok_or_else(|| UnknownName {
-            what: "risk_mode",
-            name: s.to_string(),
-            expected: RiskMode::ALL.map(|k| k.as_str()).join(", "),
-        })
-    }
-}
-
-impl fmt::Display for PlannerKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-/// A name that is not one of the accepted ones.
-#[derive(Debug, Error, Clone, PartialEq)]
-#[error("unknown {what} '{name}' ({expected})")]
-pub struct UnknownName {
-    /// What was named (`planner`).
-    pub what: &'static str,
-    /// The name given.
-    pub name: String,
-    /// The accepted names.
-    pub expected: String,
-}
-
-impl FromStr for PlannerKind {
-    type Err = UnknownName;
-    fn from_str(s: &str) -> Result<Self, UnknownName> {
-        PlannerKind::ALL.into_iter().find(|k| k.as_str() == s).ok_or_else(|| UnknownName {
-            what: "planner",
-            name: s.to_string(),
-            expected: PlannerKind::ALL.map(|k| k.as_str()).join(", "),
-        })
-    }
-}
 
 /// The time limit of a plan from seconds: positive and finite.
 pub fn time_limit(seconds: f64) -> Result<Duration, PlanError> {
@@ -304,96 +180,16 @@ impl PlanRequest {
         let options = PlanOptions {
             pieces: self.pieces,
             improve: self.improve,
-            max_speed: self.max_speed,
-            max_accel: self.max_accel,
-            smooth: self.smooth,
+            kinematics: Kinematics { max_speed: self.max_speed, max_accel: self.max_accel, smooth: self.smooth },
+            certifier: self.certifier,
+            risk_mode: self.risk_mode,
         };
         let deltas = allocate(&kernel, &problem, self.risk_mode)?;
-        let planner: Box<dyn Planner> = match self.planner {
-            PlannerKind::TvSos => Box::new(self.tv_sos(&problem, &deltas)?),
-            PlannerKind::Moment | PlannerKind::MomentPoly => Box::new(self.moment(&problem, &deltas)?),
-            _ => rrt_planner(&problem, self.planner == PlannerKind::RrtSosPaper, &options)?,
-        };
-        let checker: Box<dyn MotionChecker> = match self.planner {
-            PlannerKind::RrtSos | PlannerKind::RrtSosPaper => {
-                Box::new(SceneCertifier::with_deltas(&kernel, deltas.clone(), self.certifier))
-            }
-            // a handful of pieces to check: covers would cost more than they save
-            PlannerKind::TvSos | PlannerKind::Moment | PlannerKind::MomentPoly => {
-                Box::new(SceneCertifier::with_deltas(&kernel, deltas.clone(), self.certifier).without_index_build())
-            }
-            PlannerKind::McRrt => {
-                if self.risk_mode != RiskMode::PerObstacle {
-                    return Err(PlanError::InvalidOption {
-                        option: "risk_mode".into(),
-                        message: "mc-rrt checks the paper's per-obstacle risk only".into(),
-                    });
-                }
-                let model = problem.scene.mc_model().map_err(|e| PlanError::InvalidOption {
-                    option: "planner".into(),
-                    message: format!("mc-rrt needs parameters it can sample: {e}"),
-                })?;
-                Box::new(McChecker::new(model, problem.delta.to_f64(), McCheckerParams::default(), self.seed))
-            }
-        };
+        let setup = Setup { problem: &problem, kernel: &kernel, deltas: &deltas, options: &options };
+        let Built { planner, checker } = self.planner.build(&setup)?;
         let allocation = (self.risk_mode != RiskMode::PerObstacle)
             .then(|| problem.scene.obstacles.iter().zip(&deltas).map(|(o, d)| (o.id.clone(), d.to_f64())).collect());
         Ok(PreparedPlan { problem, planner, checker, allocation, deltas, kernel })
-    }
-
-    /// The optimisation planners refuse the RRT planners' options (typed errors).
-    fn refuse_rrt_options(&self) -> Result<(), PlanError> {
-        if self.improve {
-            return Err(PlanError::InvalidOption {
-                option: "improve".into(),
-                message: "applies to the paper's static RRT planner only (rrt-sos-paper)".into(),
-            });
-        }
-        if self.max_accel.is_some() {
-            return Err(PlanError::InvalidOption {
-                option: "max_accel".into(),
-                message: format!("{} does not smooth its plan; max_accel applies to rrt-sos", self.planner.as_str()),
-            });
-        }
-        Ok(())
-    }
-
-    /// The time-varying SOS planner for this request: the scene's
-    /// `planner.time_varying_sos` values, the request's pieces and speed limit.
-    fn tv_sos(&self, problem: &Problem, deltas: &[RiskLevel]) -> Result<TvSos, PlanError> {
-        let block = problem.scene.file.planner.as_ref();
-        self.refuse_rrt_options()?;
-        let mut params = TvSosParams::paper(block.and_then(|b| b.time_varying_sos.as_ref()));
-        if let Some(s) = self.pieces {
-            params.pieces = s;
-            params.max_pieces = params.max_pieces.max(s);
-        }
-        params.max_speed = self.max_speed.or(block.and_then(|b| b.max_speed));
-        params.validate()?;
-        Ok(TvSos { params, deltas: Some(deltas.to_vec()) })
-    }
-
-    /// The standard SOS planner for this request: the scene's `planner.standard_sos`
-    /// values, the request's pieces (piecewise linear only) and speed limit.
-    fn moment(&self, problem: &Problem, deltas: &[RiskLevel]) -> Result<MomentPlanner, PlanError> {
-        let block = problem.scene.file.planner.as_ref();
-        self.refuse_rrt_options()?;
-        let mut params = MomentParams::paper(block.and_then(|b| b.standard_sos.as_ref()));
-        if self.planner == PlannerKind::MomentPoly {
-            params.form = MomentForm::Polynomial;
-            if self.pieces.is_some() {
-                return Err(PlanError::InvalidOption {
-                    option: "pieces".into(),
-                    message: "moment-poly plans one polynomial over the horizon; pieces applies to moment".into(),
-                });
-            }
-        }
-        if let Some(s) = self.pieces {
-            params.pieces = s;
-        }
-        params.max_speed = self.max_speed.or(block.and_then(|b| b.max_speed));
-        params.validate()?;
-        Ok(MomentPlanner { params, deltas: Some(deltas.to_vec()) })
     }
 
     /// When to stop: this request's time limit from now, and `cancel` if given.

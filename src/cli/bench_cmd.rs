@@ -127,28 +127,14 @@ fn run_paper(a: BenchArgs) -> Result<i32, CliError> {
         if scene.start.is_none() {
             continue;
         }
-        let dynamic = scene.obstacles.iter().any(|o| o.contour.is_dynamic());
         let paper = scene.file.expected.as_ref().map(|e| e["run_time_s"].clone()).unwrap_or_default();
         let paper_t = |k: &str| paper[k]["paper"].as_f64().map(|v| format!("{v}")).unwrap_or_else(|| "–".into());
+        // every planner, with the runs of the paper's table it makes on this scene
         let mut variants: Vec<(&str, PlannerKind, bool, String)> = vec![];
-        if dynamic {
-            variants.push(("rrt-sos", PlannerKind::RrtSos, false, "–".into()));
-            variants.push(("rrt-sos-paper", PlannerKind::RrtSosPaper, false, paper_t("rrt_sos")));
-        } else {
-            variants.push(("rrt-sos", PlannerKind::RrtSos, false, "–".into()));
-            variants.push(("rrt-sos-paper", PlannerKind::RrtSosPaper, false, paper_t("rrt_sos_feasible")));
-            variants.push(("rrt-sos-paper --improve", PlannerKind::RrtSosPaper, true, paper_t("rrt_sos_optimal")));
-        }
-        let mc_paper = if dynamic { "–".into() } else { paper_t("monte_carlo_rrt_feasible") };
-        variants.push(("mc-rrt", PlannerKind::McRrt, false, mc_paper));
-        // the optimisation planners on the scenes the paper ran them on
-        let block = scene.file.planner.as_ref();
-        if block.is_some_and(|b| b.time_varying_sos.is_some()) {
-            variants.push(("tv-sos", PlannerKind::TvSos, false, paper_t("time_varying_sos")));
-        }
-        if block.is_some_and(|b| b.standard_sos.is_some()) {
-            variants.push(("moment", PlannerKind::Moment, false, paper_t("standard_sos_piecewise_linear")));
-            variants.push(("moment-poly", PlannerKind::MomentPoly, false, paper_t("standard_sos_polynomial")));
+        for kind in PlannerKind::ALL {
+            for run in (kind.spec().paper_runs)(&scene) {
+                variants.push((run.label, kind, run.improve, run.paper_key.map_or_else(|| "–".into(), paper_t)));
+            }
         }
         variants.retain(|v| a.planners.is_empty() || a.planners.contains(&v.1));
         for (label, planner, improve, paper_time) in variants {

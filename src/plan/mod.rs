@@ -1,399 +1,54 @@
 //! Planning (layer L3): one planner interface, OMPL-like, so planners are
-//! interchangeable and testable alone.
+//! interchangeable and testable alone (docs/architecture.md).
 //!
-//! - [`Problem`]: the problem definition (scene, start, goal, horizon, Δ, seed).
+//! - [`Problem`] (`problem.rs`): the problem definition (scene, start, goal, horizon,
+//!   Δ, seed).
 //! - [`MotionChecker`]: decides whether a trajectory piece is acceptable — the
-//!   continuous-time certifier of eq. (15) for RRT-SOS, or a sampling judge for the
-//!   Monte Carlo baseline (which is marked unsound).
+//!   continuous-time certifier of eq. (15), or a sampling judge for the Monte Carlo
+//!   baseline (which is marked unsound).
 //! - [`Termination`]: deadline and cancellation flag, polled often.
-//! - [`Planner::solve`] returns a [`PlanOutcome`] (status, trajectory, stats) or a
-//!   typed [`PlanError`] for bad requests.
+//! - [`Planner::solve`] returns a [`PlanOutcome`] (`outcome.rs`: status, trajectory,
+//!   stats) or a typed [`PlanError`] for bad requests.
+//! - [`PlannerKind`]: every planner a request can name, each with its
+//!   [`PlannerSpec`] — how to build it and its checker from a [`Setup`].
+//!
+//! The planners live in folders: `rrt/` (the default and the paper's RRT-SOS, with
+//! smoothing, sampling and scale), `mc_rrt/` (the Monte Carlo baseline), `opt/` (the
+//! optimisation planners' shared ladder, `tv_sos/` and `moment/`). A new planner is a
+//! folder here and one entry in [`PlannerKind`].
 
-mod connect;
-mod layered;
-mod mc_checker;
-mod moment;
-mod rrt;
-mod sampling;
-pub mod scale;
-pub mod smooth;
+mod outcome;
+mod path;
+mod problem;
+
+pub mod mc_rrt;
+pub mod opt;
+pub mod rrt;
 #[cfg(any(test, feature = "test-support"))]
 pub mod testing;
-mod tvsos;
 
-pub use connect::{ConnectParams, ConnectRrt};
-pub use layered::{LayeredParams, LayeredRrt};
-pub use mc_checker::{McChecker, McCheckerParams};
-pub use moment::{extract_atoms, MomentForm, MomentParams, MomentPlanner};
-pub use rrt::{RrtParams, StaticRrt};
-pub use sampling::StripeSampler;
-pub use tvsos::{TvSos, TvSosParams};
+pub use mc_rrt::{McChecker, McCheckerParams};
+pub use opt::moment::{MomentForm, MomentParams, MomentPlanner};
+pub use opt::tv_sos::{TvSos, TvSosParams};
+pub use opt::RungFailure;
+pub use outcome::{FinalCheckStats, LadderStep, NoPlanReason, PlanError, PlanOutcome, PlanStats, PlanStatus, SdpStats};
+pub use path::{constant_speed, nearest, within_speed, SPEED_BOUND_ROUNDING, SPEED_SUBINTERVALS};
+pub(crate) use path::{taylor_shift, trajectory_length};
+pub use problem::Problem;
+pub use rrt::{
+    rrt_planner, scale, smooth, ConnectParams, ConnectRrt, LayeredParams, LayeredRrt, RrtParams, StaticRrt,
+    StripeSampler,
+};
 
 pub use crate::motion::{dist, CheckCounter, Motion, MotionChecker, Termination};
 
+use crate::certify::scene::{Method, SceneKernel};
 use crate::contour::RiskLevel;
-use crate::scene::{Piece, Scene, Trajectory};
-use serde::Serialize;
-use std::sync::Arc;
+use crate::scene::{PlannerBlock, Scene};
+use std::fmt;
+use std::str::FromStr;
 use std::time::Instant;
 use thiserror::Error;
-
-/// A planning problem, immutable while a planner runs.
-#[derive(Clone, Debug)]
-pub struct Problem {
-    /// The scene with its cached contours.
-    pub scene: Arc<Scene>,
-    /// x(t0).
-    pub start: Vec<f64>,
-    /// x(tf).
-    pub goal: Vec<f64>,
-    /// `[t0, tf]`.
-    pub horizon: (f64, f64),
-    /// Risk level Δ (exact, validated).
-    pub delta: RiskLevel,
-    /// Seed of the planner's RNG.
-    pub seed: u64,
-}
-
-impl Problem {
-    /// The scene's own start, goal, horizon and Δ.
-    pub fn from_scene(scene: Arc<Scene>, seed: u64) -> Result<Problem, PlanError> {
-        let (Some(start), Some(goal)) = (scene.start.clone(), scene.goal.clone()) else {
-            return Err(PlanError::InvalidRequest {
-                field: "start".into(),
-                message: format!("scene '{}' has no start and goal (a contour-only scene)", scene.name),
-            });
-        };
-        Ok(Problem { horizon: scene.horizon, delta: scene.risk.clone(), start, goal, scene, seed })
-    }
-
-    /// Whether any obstacle moves.
-    pub fn is_dynamic(&self) -> bool {
-        self.scene.obstacles.iter().any(|o| o.contour.is_dynamic())
-    }
-
-    /// Checks the request: dimensions, workspace, a non-empty horizon (Δ is a
-    /// [`RiskLevel`], valid by construction).
-    pub fn validate(&self) -> Result<(), PlanError> {
-        let s = &self.scene;
-        if !self.horizon.0.is_finite() || !self.horizon.1.is_finite() || self.horizon.0 >= self.horizon.1 {
-            return Err(PlanError::InvalidRequest { field: "horizon".into(), message: "needs finite t0 < tf".into() });
-        }
-        for (name, p) in [("start", &self.start), ("goal", &self.goal)] {
-            if p.len() != s.dim {
-                return Err(PlanError::InvalidRequest {
-                    field: name.into(),
-                    message: format!("needs {} coordinates, got {}", s.dim, p.len()),
-                });
-            }
-            if p.iter().any(|v| !v.is_finite()) || !s.workspace.contains(p) {
-                return Err(PlanError::OutsideWorkspace { which: name.into(), point: p.clone() });
-            }
-        }
-        Ok(())
-    }
-}
-
-/// How a planner ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PlanStatus {
-    /// A trajectory from start to goal.
-    Exact,
-    /// The deadline passed first.
-    DeadlineReached,
-    /// Cancelled.
-    Cancelled,
-    /// The planner's own limits (iterations, attempts) were spent.
-    Exhausted,
-}
-
-/// What a planner reports about its run.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
-pub struct PlanStats {
-    /// Wall time of `solve`, seconds.
-    pub planning_time_s: f64,
-    /// Time until the first feasible path, seconds.
-    pub time_to_feasible_s: Option<f64>,
-    /// Time spent in the improve step, seconds.
-    pub improve_time_s: f64,
-    /// Sampling iterations.
-    pub iterations: u64,
-    /// Vertices in the tree (all layers).
-    pub vertices: u64,
-    /// Pieces sent to the motion checker.
-    pub edges_checked: u64,
-    /// Pieces it accepted.
-    pub edges_accepted: u64,
-    /// Time inside the motion checker, seconds.
-    pub checker_time_s: f64,
-    /// Restarts (layered planner).
-    pub attempts: u64,
-    /// Length of the returned path.
-    pub path_length: Option<f64>,
-    /// Length before the improve step.
-    pub feasible_path_length: Option<f64>,
-    /// The motion checker used.
-    pub checker: String,
-    /// Seed.
-    pub seed: u64,
-    /// Pieces of the layered planner's successful rung (or the last tried).
-    #[serde(default)]
-    pub pieces: Option<usize>,
-    /// What shortcutting and blending did.
-    #[serde(default)]
-    pub smoothing: Option<smooth::SmoothStats>,
-    /// The risk level Δᵢ of each obstacle in a joint risk mode (obstacle id, Δᵢ).
-    #[serde(default)]
-    pub risk_allocation: Option<Vec<(String, f64)>>,
-    /// The SDPs of an optimisation planner (sizes of the last one built, totals of
-    /// all solves).
-    #[serde(default)]
-    pub sdp: Option<SdpStats>,
-    /// The steps of an optimisation planner's retry ladder, in order.
-    #[serde(default)]
-    pub ladder: Vec<LadderStep>,
-    /// The average-risk bound of the standard SOS planner's trajectory: per obstacle,
-    /// the largest Cantelli bound of the time-averaged moments over its pieces
-    /// (Section V-A.2, a weak guarantee reported beside the certified one).
-    #[serde(default)]
-    pub average_risk: Option<Vec<(String, f64)>>,
-    /// The final check of a certified plan (docs/design.md §5.12); `None` for an
-    /// uncertified planner or without a trajectory.
-    #[serde(default)]
-    pub final_check: Option<FinalCheckStats>,
-}
-
-/// What the final check of a certified plan cost and found (docs/design.md §5.12).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
-pub struct FinalCheckStats {
-    /// Wall time of the final checks, seconds (included in `planning_time_s`).
-    pub seconds: f64,
-    /// Pieces checked.
-    pub pieces: usize,
-    /// Trajectories the planners' checker accepted and the verify path did not: each
-    /// is an internal error (a bug), logged; the plan was made again without the fast
-    /// path.
-    pub disagreements: u32,
-}
-
-/// Sizes and solver totals of an optimisation planner's SDPs.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
-pub struct SdpStats {
-    /// Variables of the last SDP built.
-    pub variables: usize,
-    /// Constraint rows of the last SDP built.
-    pub rows: usize,
-    /// PSD constraints of the last SDP built (Gram blocks and affine blocks).
-    pub psd_cones: usize,
-    /// Largest PSD side of the last SDP built.
-    pub largest_psd: usize,
-    /// Solves, in all.
-    pub solves: u64,
-    /// Interior-point iterations, in all.
-    pub ipm_iterations: u64,
-    /// Time inside the solver, seconds.
-    pub solver_time_s: f64,
-    /// Time building models and setting up solvers, seconds.
-    pub setup_time_s: f64,
-}
-
-/// One step of an optimisation planner's retry ladder.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
-pub struct LadderStep {
-    /// Pieces.
-    pub pieces: usize,
-    /// Seed of the initial point.
-    pub seed: u64,
-    /// `η` of the tightened risk level `Δ_opt = η·Δ`.
-    pub eta: f64,
-    /// Convex–concave iterations run.
-    pub iterations: usize,
-    /// The last Dirac gap `Σ (E[z²] − E[z]²)` (normalised units).
-    pub dirac_gap: Option<f64>,
-    /// Started from the default RRT-SOS planner's path (else the perturbed straight line).
-    #[serde(default)]
-    pub from_rrt: bool,
-    /// How it ended (`certified`, or why not).
-    pub outcome: String,
-}
-
-/// Why a planner returned no trajectory (a typed outcome, not an error).
-#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum NoPlanReason {
-    /// The goal is farther than `max_speed` allows over the horizon (shown at once,
-    /// or for the shortest path found).
-    OutOfReach {
-        /// Distance (or path length) to cover.
-        distance: f64,
-        /// The speed limit.
-        max_speed: f64,
-        /// The horizon's duration.
-        duration: f64,
-    },
-    /// The planner's own limits were spent.
-    Exhausted {
-        /// Sampling iterations.
-        iterations: u64,
-        /// Edges checked.
-        edges_checked: u64,
-        /// Layered pieces tried (the ladder), if any.
-        #[serde(default, skip_serializing_if = "Vec::is_empty")]
-        pieces_tried: Vec<usize>,
-        /// An optimisation planner's ladder, step by step.
-        #[serde(default, skip_serializing_if = "Vec::is_empty")]
-        ladder: Vec<LadderStep>,
-    },
-    /// The time limit passed first.
-    DeadlineReached {
-        /// Sampling iterations.
-        iterations: u64,
-        /// Edges checked.
-        edges_checked: u64,
-        /// Layered pieces tried (the ladder), if any.
-        #[serde(default, skip_serializing_if = "Vec::is_empty")]
-        pieces_tried: Vec<usize>,
-        /// An optimisation planner's ladder, step by step.
-        #[serde(default, skip_serializing_if = "Vec::is_empty")]
-        ladder: Vec<LadderStep>,
-    },
-    /// Cancelled.
-    Cancelled,
-    /// The planned trajectory failed the final check (docs/design.md §5.12) and could
-    /// not be planned again: it is not a valid trajectory of the problem (non-finite
-    /// numbers, pieces that do not meet, endpoints missed — numeric limits of the
-    /// planner), or even the plan made without the fast path was not proven. An
-    /// internal error, never returned as certified.
-    FinalCheckFailed {
-        /// What failed.
-        why: String,
-    },
-}
-
-impl NoPlanReason {
-    /// The reason for an unsuccessful status.
-    pub fn from_status(status: PlanStatus, stats: &PlanStats, term: &Termination) -> Self {
-        let (iterations, edges_checked) = (stats.iterations, stats.edges_checked);
-        match status {
-            PlanStatus::Cancelled => NoPlanReason::Cancelled,
-            _ if term.cancelled() => NoPlanReason::Cancelled,
-            PlanStatus::DeadlineReached => NoPlanReason::DeadlineReached {
-                iterations,
-                edges_checked,
-                pieces_tried: Vec::new(),
-                ladder: Vec::new(),
-            },
-            _ => NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried: Vec::new(), ladder: Vec::new() },
-        }
-    }
-
-    /// One line for messages.
-    pub fn message(&self) -> String {
-        match self {
-            NoPlanReason::OutOfReach { distance, max_speed, duration } => format!(
-                "the goal is out of reach: {distance:.6} to cover in {duration} at max_speed {max_speed} (at most {:.6})",
-                max_speed * duration
-            ),
-            NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried, ladder } => format!(
-                "no plan within the planner's limits ({iterations} iterations, {edges_checked} edges checked{}{})",
-                ladder_text(pieces_tried),
-                steps_text(ladder)
-            ),
-            NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried, ladder } => format!(
-                "no plan within the time limit ({iterations} iterations, {edges_checked} edges checked{}{})",
-                ladder_text(pieces_tried),
-                steps_text(ladder)
-            ),
-            NoPlanReason::Cancelled => "the plan was cancelled".into(),
-            NoPlanReason::FinalCheckFailed { why } => {
-                format!("internal error: the planned trajectory failed the final check: {why} (reported)")
-            }
-        }
-    }
-}
-
-fn steps_text(l: &[LadderStep]) -> String {
-    if l.is_empty() {
-        return String::new();
-    }
-    let steps: Vec<String> =
-        l.iter().map(|s| format!("{} pieces, seed {}, η {}: {}", s.pieces, s.seed, s.eta, s.outcome)).collect();
-    format!("; ladder: {}", steps.join("; "))
-}
-
-fn ladder_text(p: &[usize]) -> String {
-    if p.is_empty() {
-        String::new()
-    } else {
-        format!(", pieces tried {p:?}")
-    }
-}
-
-/// The result of a planner run.
-#[derive(Clone, Debug)]
-pub struct PlanOutcome {
-    /// How it ended.
-    pub status: PlanStatus,
-    /// The trajectory (with `Exact`).
-    pub trajectory: Option<Trajectory>,
-    /// Whether every piece was accepted by a sound checker.
-    pub certified: bool,
-    /// Statistics.
-    pub stats: PlanStats,
-    /// Tree edges, for figures.
-    pub tree: Vec<(Vec<f64>, Vec<f64>)>,
-    /// Why there is no trajectory (`None` with one).
-    pub reason: Option<NoPlanReason>,
-}
-
-impl PlanOutcome {
-    /// An outcome without a trajectory.
-    pub fn no_plan(status: PlanStatus, stats: PlanStats, reason: NoPlanReason) -> Self {
-        PlanOutcome { status, trajectory: None, certified: false, stats, tree: Vec::new(), reason: Some(reason) }
-    }
-}
-
-/// A bad request (the caller's fault); "no plan found" is an outcome, not an error.
-#[derive(Debug, Error, Clone, PartialEq)]
-pub enum PlanError {
-    /// A malformed request field.
-    #[error("{field}: {message}")]
-    InvalidRequest {
-        /// Field.
-        field: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// Start or goal outside the workspace.
-    #[error("{which}: {point:?} is outside the workspace")]
-    OutsideWorkspace {
-        /// `start` or `goal`.
-        which: String,
-        /// The point.
-        point: Vec<f64>,
-    },
-    /// Start or goal not inside the Δ-risk contour of every obstacle.
-    #[error("{which}: {point:?} is not in the safe set of the Δ-risk contour of obstacle '{obstacle}' at t = {t} (its risk bound exceeds Δ, or it touches the contour)")]
-    UnsafeEndpoint {
-        /// `start` or `goal`.
-        which: String,
-        /// The point.
-        point: Vec<f64>,
-        /// The time.
-        t: f64,
-        /// The obstacle whose contour it is not inside (empty when unknown).
-        obstacle: String,
-    },
-    /// Planner options out of range.
-    #[error("invalid planner option {option}: {message}")]
-    InvalidOption {
-        /// Option name.
-        option: String,
-        /// What is wrong.
-        message: String,
-    },
-}
 
 /// A planner. Each `solve` starts afresh: the same problem (and seed) gives the same
 /// outcome however often it is called.
@@ -403,6 +58,266 @@ pub trait Planner: Send {
     /// Plans, polling `term`.
     fn solve(&mut self, p: &Problem, checker: &dyn MotionChecker, term: &Termination)
         -> Result<PlanOutcome, PlanError>;
+}
+
+/// The planners a request can name. Each entry's [`PlannerSpec`] (in its folder) says
+/// how to build it; adding a planner is its folder and one entry here
+/// (docs/architecture.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum PlannerKind {
+    /// The default: every edge certified in continuous time (eq. 15) — bidirectional
+    /// RRT on static scenes, the time-layered tree with the piece ladder on moving
+    /// ones — then certified shortcutting and C¹ corner blends.
+    #[default]
+    RrtSos,
+    /// The paper's RRT-SOS as published (static tree with widening stripes, or the
+    /// time-layered tree), for reproducing the paper's numbers; straight pieces.
+    RrtSosPaper,
+    /// The Monte Carlo baseline: the default planner's search with the paper's
+    /// sampling edge check (K scenarios × W waypoints per edge): uncertified, its plans
+    /// say `certified: false`.
+    McRrt,
+    /// The paper's time-varying SOS planner (Section V-B): a moment relaxation over
+    /// straight pieces with convex–concave rank iterations, every piece of the
+    /// read-out certified; a retry ladder (seeds, iterations, pieces, tighter Δ_opt).
+    TvSos,
+    /// The paper's standard SOS planner with average risk (Section V-A.2): Lasserre's
+    /// moment relaxation over piecewise-linear trajectories, atoms extracted, every
+    /// piece of an atom's trajectory certified against the per-instant Δ.
+    Moment,
+    /// The standard SOS planner over one polynomial trajectory of degree `d` (the
+    /// scene's `planner.standard_sos.polynomial_trajectory_degree`, else 2).
+    MomentPoly,
+}
+
+impl PlannerKind {
+    /// Every planner, in the order help texts list them.
+    pub const ALL: [PlannerKind; 6] = [
+        PlannerKind::RrtSos,
+        PlannerKind::RrtSosPaper,
+        PlannerKind::McRrt,
+        PlannerKind::TvSos,
+        PlannerKind::Moment,
+        PlannerKind::MomentPoly,
+    ];
+
+    /// The name on the command line and on the wire.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PlannerKind::RrtSos => "rrt-sos",
+            PlannerKind::RrtSosPaper => "rrt-sos-paper",
+            PlannerKind::McRrt => "mc-rrt",
+            PlannerKind::TvSos => "tv-sos",
+            PlannerKind::Moment => "moment",
+            PlannerKind::MomentPoly => "moment-poly",
+        }
+    }
+
+    /// How this planner is built, and what it is.
+    pub fn spec(self) -> &'static PlannerSpec {
+        match self {
+            PlannerKind::RrtSos => &rrt::DEFAULT,
+            PlannerKind::RrtSosPaper => &rrt::PAPER,
+            PlannerKind::McRrt => &mc_rrt::SPEC,
+            PlannerKind::TvSos => &opt::tv_sos::SPEC,
+            PlannerKind::Moment => &opt::moment::PIECEWISE_LINEAR,
+            PlannerKind::MomentPoly => &opt::moment::POLYNOMIAL,
+        }
+    }
+
+    /// The planner and its motion checker for `setup`, every option checked (typed
+    /// errors).
+    pub fn build(self, setup: &Setup<'_>) -> Result<Built, PlanError> {
+        (self.spec().build)(setup)
+    }
+}
+
+impl fmt::Display for PlannerKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for PlannerKind {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        PlannerKind::ALL.into_iter().find(|k| k.as_str() == s).ok_or_else(|| UnknownName {
+            what: "planner",
+            name: s.to_string(),
+            expected: PlannerKind::ALL.map(|k| k.as_str()).join(", "),
+        })
+    }
+}
+
+/// What a planner is and how it is built: one per [`PlannerKind`], defined in the
+/// planner's folder.
+pub struct PlannerSpec {
+    /// Whether its plans are certified (its checker is sound).
+    pub certified: bool,
+    /// The planner and its checker for a request.
+    pub build: fn(&Setup<'_>) -> Result<Built, PlanError>,
+    /// The runs of the paper's benchmark table on a scene (`riskplan bench`): none when
+    /// the paper did not run this planner there.
+    pub paper_runs: fn(&Scene) -> Vec<PaperRun>,
+}
+
+/// One row of the paper's benchmark table (`riskplan bench --suite paper`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PaperRun {
+    /// The row's label (`rrt-sos-paper --improve`).
+    pub label: &'static str,
+    /// The improve step.
+    pub improve: bool,
+    /// The key of the paper's time in the scene's `expected.run_time_s`, if any.
+    pub paper_key: Option<&'static str>,
+}
+
+/// Everything a planner is built from: the problem, the scene's kernel, the risk level
+/// of each obstacle and the request's options.
+pub struct Setup<'a> {
+    /// The problem.
+    pub problem: &'a Problem,
+    /// The scene's kernel (what certifying checkers cache).
+    pub kernel: &'a SceneKernel,
+    /// The risk level Δᵢ of each obstacle.
+    pub deltas: &'a [RiskLevel],
+    /// The request's options.
+    pub options: &'a PlanOptions,
+}
+
+impl Setup<'_> {
+    /// The scene's `planner` block, if any.
+    pub fn block(&self) -> Option<&PlannerBlock> {
+        self.problem.scene.file.planner.as_ref()
+    }
+
+    /// The kinematics of this plan: the request's, else the scene's block's — merged
+    /// here once, for every planner.
+    pub fn kinematics(&self) -> Result<Kinematics, PlanError> {
+        self.options.kinematics.or_block(self.block())
+    }
+}
+
+/// A planner with the motion checker it consults.
+pub struct Built {
+    /// The planner.
+    pub planner: Box<dyn Planner>,
+    /// Its motion checker.
+    pub checker: Box<dyn MotionChecker>,
+}
+
+/// What Δ bounds (docs/design.md §3.6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum RiskMode {
+    /// The paper's: the probability of colliding with each obstacle, at each instant, is
+    /// at most Δ.
+    #[default]
+    PerObstacle,
+    /// The probability of colliding with any obstacle at each instant is at most Δ:
+    /// obstacle `i` gets Δᵢ with Σ Δᵢ = Δ (Boole's inequality), Δᵢ = Δ/N.
+    JointUniform,
+    /// As `JointUniform`, with Δ split by need: each obstacle first gets what the start
+    /// and the goal need (1.01 × its Cantelli bound there), the rest by weight
+    /// `1/(1 + d/L)`, `d` the distance of the obstacle's proven cover from the
+    /// start–goal line, `L` the workspace's largest side: more for the obstacles that
+    /// constrain the path.
+    JointWeighted,
+}
+
+impl RiskMode {
+    /// Every mode.
+    pub const ALL: [RiskMode; 3] = [RiskMode::PerObstacle, RiskMode::JointUniform, RiskMode::JointWeighted];
+    /// The name on the command line and on the wire.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RiskMode::PerObstacle => "per-obstacle",
+            RiskMode::JointUniform => "joint",
+            RiskMode::JointWeighted => "joint-weighted",
+        }
+    }
+}
+
+impl FromStr for RiskMode {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        RiskMode::ALL.into_iter().find(|k| k.as_str() == s).ok_or_else(|| UnknownName {
+            what: "risk_mode",
+            name: s.to_string(),
+            expected: RiskMode::ALL.map(|k| k.as_str()).join(", "),
+        })
+    }
+}
+
+/// A name that is not one of the accepted ones.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("unknown {what} '{name}' ({expected})")]
+pub struct UnknownName {
+    /// What was named (`planner`).
+    pub what: &'static str,
+    /// The name given.
+    pub name: String,
+    /// The accepted names.
+    pub expected: String,
+}
+
+/// The robot's kinematic limits and whether to smooth: one value for every planner,
+/// merged once from the request and the scene's `planner` block
+/// ([`Kinematics::or_block`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Kinematics {
+    /// Speed limit (workspace units per time unit); `None`: none.
+    pub max_speed: Option<f64>,
+    /// Acceleration limit of the corner blends; `None`: none.
+    pub max_accel: Option<f64>,
+    /// Shortcut and blend the plan (the default planners only).
+    pub smooth: bool,
+}
+
+impl Kinematics {
+    /// Smoothing on, no limits.
+    pub const SMOOTH: Kinematics = Kinematics { max_speed: None, max_accel: None, smooth: true };
+
+    /// These values, each limit not given taken from the scene's block; both limits
+    /// checked (positive and finite: typed errors).
+    pub fn or_block(self, block: Option<&PlannerBlock>) -> Result<Kinematics, PlanError> {
+        let k = Kinematics {
+            max_speed: self.max_speed.or(block.and_then(|b| b.max_speed)),
+            max_accel: self.max_accel.or(block.and_then(|b| b.max_accel)),
+            smooth: self.smooth,
+        };
+        k.validate()?;
+        Ok(k)
+    }
+
+    /// Checks both limits: positive and finite when given.
+    pub fn validate(&self) -> Result<(), PlanError> {
+        for (name, v) in [("max_speed", self.max_speed), ("max_accel", self.max_accel)] {
+            if v.is_some_and(|v| !(v > 0.0 && v.is_finite())) {
+                return Err(PlanError::InvalidOption {
+                    option: name.into(),
+                    message: "must be a positive number".into(),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The options a request gives every planner (each takes what applies to it and
+/// refuses, with a typed error, what does not).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlanOptions {
+    /// Pieces of the layered planner (`Some` forces it; `None`: the ladder 2, 4, 8, …
+    /// on moving-obstacle scenes); the first rung of the optimisation planners.
+    pub pieces: Option<usize>,
+    /// The improve step of the paper's static planner.
+    pub improve: bool,
+    /// The request's kinematics (before the scene's block fills what it leaves out).
+    pub kinematics: Kinematics,
+    /// How certifying checkers certify.
+    pub certifier: Method,
+    /// What Δ bounds.
+    pub risk_mode: RiskMode,
 }
 
 /// Checks start and goal: inside the workspace and strictly inside every Δ-contour;
@@ -430,186 +345,6 @@ pub fn static_only(p: &Problem) -> Result<(), PlanError> {
     Ok(())
 }
 
-/// Options every RRT planner takes from a request.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PlanOptions {
-    /// Pieces of the layered planner (`Some` forces it; `None`: the ladder 2, 4, 8, …
-    /// on moving-obstacle scenes).
-    pub pieces: Option<usize>,
-    /// The improve step of the paper's static planner.
-    pub improve: bool,
-    /// Speed limit (request, else the scene's `planner.max_speed`).
-    pub max_speed: Option<f64>,
-    /// Acceleration limit for smoothing (request, else the scene's `planner.max_accel`).
-    pub max_accel: Option<f64>,
-    /// Shortcut and blend the result (the default planners only).
-    pub smooth: bool,
-}
-
-/// The planner a problem calls for. `paper`: the paper's RRT-SOS (static tree, or the
-/// time-layered tree when an obstacle moves or `pieces` is given), parameters from the
-/// scene's `planner.rrt_sos` block or scale-free defaults. Otherwise the default: the
-/// connect planner on static scenes, the layered planner with the ladder and local
-/// sampling on moving ones; both smoothed unless asked not to.
-pub fn rrt_planner(p: &Problem, paper: bool, o: &PlanOptions) -> Result<Box<dyn Planner>, PlanError> {
-    let block = p.scene.file.planner.as_ref();
-    let rrt_block = block.and_then(|b| b.rrt_sos.as_ref());
-    let max_speed = o.max_speed.or(block.and_then(|b| b.max_speed));
-    let max_accel = o.max_accel.or(block.and_then(|b| b.max_accel));
-    for (name, v) in [("max_speed", max_speed), ("max_accel", max_accel)] {
-        if v.is_some_and(|v| !(v > 0.0 && v.is_finite())) {
-            return Err(PlanError::InvalidOption { option: name.into(), message: "must be a positive number".into() });
-        }
-    }
-    let scale = scale::Scale::of(p);
-    let layered = o.pieces.is_some() || p.is_dynamic();
-    if o.improve && (layered || !paper) {
-        return Err(PlanError::InvalidOption {
-            option: "improve".into(),
-            message: "applies to the paper's static planner only (rrt-sos-paper on a static scene); the default planner shortcuts its path instead".into(),
-        });
-    }
-    if layered {
-        let mut params = if paper { LayeredParams::paper(rrt_block, &scale) } else { LayeredParams::fast(&scale) };
-        if o.pieces.is_some() {
-            params.pieces = o.pieces;
-        }
-        params.max_speed = max_speed;
-        params.max_accel = max_accel;
-        params.smooth = o.smooth && !paper;
-        Ok(Box::new(LayeredRrt::new(params)))
-    } else if paper {
-        let mut params = RrtParams::paper(rrt_block, &scale);
-        params.improve = o.improve;
-        params.max_speed = max_speed;
-        Ok(Box::new(StaticRrt::new(params)))
-    } else {
-        Ok(Box::new(ConnectRrt {
-            params: ConnectParams { smooth: o.smooth, max_speed, max_accel, ..Default::default() },
-        }))
-    }
-}
-
-/// Index of the point of `verts` nearest to `q` (linear scan; 0 when empty).
-pub fn nearest(verts: &[Vec<f64>], q: &[f64]) -> usize {
-    let mut best = (f64::INFINITY, 0);
-    for (i, v) in verts.iter().enumerate() {
-        let d = dist(v, q);
-        if d < best.0 {
-            best = (d, i);
-        }
-    }
-    best.1
-}
-
-/// Straight pieces through `points` at constant speed over `[t0, tf]`.
-pub fn constant_speed(points: &[Vec<f64>], horizon: (f64, f64)) -> Vec<Piece> {
-    let lens: Vec<f64> = points.windows(2).map(|w| dist(&w[0], &w[1])).collect();
-    let total: f64 = lens.iter().sum();
-    let n = lens.len();
-    let mut times = Vec::with_capacity(n + 1);
-    times.push(horizon.0);
-    let mut acc = 0.0;
-    for (i, l) in lens.iter().enumerate() {
-        acc += l;
-        let t = if i + 1 == n {
-            horizon.1
-        } else if total > 0.0 {
-            horizon.0 + (horizon.1 - horizon.0) * acc / total
-        } else {
-            horizon.0 + (horizon.1 - horizon.0) * (i + 1) as f64 / n as f64
-        };
-        times.push(t);
-    }
-    // Guard against zero-length time steps from rounding: keep times strictly increasing.
-    for i in 1..times.len() {
-        if times[i] <= times[i - 1] {
-            times[i] = times[i - 1].next_up();
-        }
-    }
-    points.windows(2).enumerate().map(|(i, w)| Piece::segment(&w[0], &w[1], times[i], times[i + 1])).collect()
-}
-
-/// Fills an optimisation planner's stats from its counters at the end of its ladder.
-pub(crate) fn fill_ladder_stats(
-    stats: &mut PlanStats,
-    counter: &CheckCounter,
-    sdp: SdpStats,
-    t_start: Instant,
-    ladder: &[LadderStep],
-) {
-    let (checked, accepted, secs) = counter.totals();
-    stats.edges_checked = checked;
-    stats.edges_accepted = accepted;
-    stats.checker_time_s = secs;
-    stats.iterations = sdp.solves;
-    stats.attempts = ladder.len() as u64;
-    stats.sdp = Some(sdp);
-    stats.planning_time_s = t_start.elapsed().as_secs_f64();
-    stats.ladder = ladder.to_vec();
-}
-
-/// The outcome of an optimisation planner's ladder (tv-sos, moment): the certified pieces
-/// found, or the typed reason — cancelled, the deadline (`stopped`), or the ladder
-/// exhausted — with the ladder's log. `stats` has every counter filled in already.
-pub(crate) fn ladder_outcome(
-    found: Option<Vec<Piece>>,
-    mut stats: PlanStats,
-    sound: bool,
-    term: &Termination,
-    stopped: bool,
-    ladder: Vec<LadderStep>,
-) -> PlanOutcome {
-    match found {
-        Some(pieces) => {
-            stats.time_to_feasible_s = Some(stats.planning_time_s);
-            stats.pieces = Some(pieces.len());
-            let len = trajectory_length(&pieces);
-            stats.path_length = Some(len);
-            stats.feasible_path_length = Some(len);
-            PlanOutcome {
-                status: PlanStatus::Exact,
-                trajectory: Some(Trajectory::new(pieces)),
-                certified: sound,
-                stats,
-                tree: Vec::new(),
-                reason: None,
-            }
-        }
-        None => {
-            let (iterations, edges_checked) = (stats.iterations, stats.edges_checked);
-            let pieces_tried: Vec<usize> = ladder.iter().map(|s| s.pieces).collect();
-            let (status, reason) = if term.cancelled() {
-                (PlanStatus::Cancelled, NoPlanReason::Cancelled)
-            } else if stopped {
-                (
-                    PlanStatus::DeadlineReached,
-                    NoPlanReason::DeadlineReached { iterations, edges_checked, pieces_tried, ladder },
-                )
-            } else {
-                (PlanStatus::Exhausted, NoPlanReason::Exhausted { iterations, edges_checked, pieces_tried, ladder })
-            };
-            PlanOutcome::no_plan(status, stats, reason)
-        }
-    }
-}
-
-/// Length of a trajectory: exact for straight pieces, from 64 chords per piece for
-/// curved ones (a lower bound that converges quadratically; for reports only).
-pub(crate) fn trajectory_length(pieces: &[Piece]) -> f64 {
-    pieces
-        .iter()
-        .map(|pc| {
-            if pc.degree() <= 1 {
-                return dist(&pc.at(pc.t0), &pc.at(pc.t1));
-            }
-            const CHORDS: usize = 64;
-            let at = |k: usize| pc.at(pc.t0 + (pc.t1 - pc.t0) * k as f64 / CHORDS as f64);
-            (0..CHORDS).map(|k| dist(&at(k), &at(k + 1))).sum::<f64>()
-        })
-        .sum()
-}
-
 /// How a planner's `solve` begins: planning, or already answered.
 pub(crate) enum Begin {
     /// Go on, with these fresh statistics.
@@ -630,7 +365,7 @@ pub(crate) fn begin(
 ) -> Result<Begin, PlanError> {
     check_endpoints(p, checker)?;
     let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
-    if let Some(r) = connect::out_of_reach(p, max_speed) {
+    if let Some(r) = out_of_reach(p, max_speed) {
         stats.planning_time_s = t_start.elapsed().as_secs_f64();
         return Ok(Begin::Answered(PlanOutcome::no_plan(PlanStatus::Exhausted, stats, r)));
     }
@@ -638,88 +373,11 @@ pub(crate) fn begin(
     Ok(Begin::Plan(stats))
 }
 
-/// Relative rounding allowance of [`within_speed`]'s bound on a curved piece, applied to
-/// the magnitudes `Σ_k k·|c_k|·(|m| + r)^(k−1)` that the piece's expansion in absolute time
-/// works with (docs/design.md §6.8). Re-expanding a coordinate about `m` sums at most 9
-/// terms of at most 10 roundings each; the bound's own powers, products and sums and the
-/// final norm add fewer than 30 more for degree ≤ 8 and up to 20 coordinates: fewer than 60
-/// roundings of relative size ε/2 in all, which `64·ε` covers with room. Without it the
-/// expansion in absolute time, which cancels heavily for a short piece far from t = 0,
-/// could hide speed.
-pub const SPEED_BOUND_ROUNDING: f64 = 64.0 * f64::EPSILON;
-
-/// Sub-intervals of [`within_speed`]'s bound on a piece of degree ≥ 3.
-pub const SPEED_SUBINTERVALS: usize = 64;
-
-/// The coefficients of `x(m + s)` in `s`, for `x(t) = Σ_k row[k]·t^k` (a Taylor shift in
-/// floating point: `e_j = Σ_{k ≥ j} C(k, j)·row[k]·m^(k−j)`; the binomials are exact).
-pub(crate) fn taylor_shift(row: &[f64], m: f64) -> Vec<f64> {
-    (0..row.len())
-        .map(|j| {
-            let (mut binom, mut pow, mut sum) = (1.0, 1.0, 0.0);
-            for (k, &c) in row.iter().enumerate().skip(j) {
-                sum += binom * c * pow;
-                // C(k + 1, j) = C(k, j)·(k + 1)/(k + 1 − j), an integer
-                binom = binom * (k + 1) as f64 / (k + 1 - j) as f64;
-                pow *= m;
-            }
-            sum
-        })
-        .collect()
-}
-
-/// An upper bound on the speed `|ẋ(t)|` of a piece for `|t − m| ≤ r`: each coordinate
-/// re-expanded about `m` as `Σ_j e_j (t − m)^j` has `|ẋ| ≤ Σ_j j·|e_j|·r^(j−1)`, plus
-/// [`SPEED_BOUND_ROUNDING`] times the magnitudes of the expansion; the coordinates'
-/// bounds are combined by the Euclidean norm.
-fn speed_bound(pc: &Piece, m: f64, r: f64) -> f64 {
-    let scale = m.abs() + r;
-    pc.coeffs
-        .iter()
-        .map(|row| {
-            let e = taylor_shift(row, m);
-            let tight: f64 = e.iter().enumerate().skip(1).map(|(j, c)| j as f64 * c.abs() * r.powi(j as i32 - 1)).sum();
-            let magnitude: f64 =
-                row.iter().enumerate().skip(1).map(|(k, c)| k as f64 * c.abs() * scale.powi(k as i32 - 1)).sum();
-            let b = tight + SPEED_BOUND_ROUNDING * magnitude;
-            b * b
-        })
-        .sum::<f64>()
-        .sqrt()
-}
-
-/// Whether a piece's speed stays within `v` (docs/design.md §6.8; every planner's speed
-/// check, and every piece smoothing returns under a speed limit):
-/// - a straight piece by its chord, `|x(t1) − x(t0)| ≤ v·(t1 − t0)` in floating point;
-/// - a piece of degree 2 (a blend) by its end velocities: its velocity is affine in t, so
-///   its speed is convex and largest at an end — exact up to [`SPEED_BOUND_ROUNDING`];
-/// - a piece of higher degree (an eased part) by the bound of `speed_bound` on each of
-///   [`SPEED_SUBINTERVALS`] sub-intervals, expanded about its centre — conservative (by
-///   less than 10⁻³ of the peak for the cubic eases smoothing makes: a piece it rejects
-///   may in truth be within the limit).
-pub fn within_speed(pc: &Piece, v: f64) -> bool {
-    match pc.degree() {
-        0 | 1 => dist(&pc.at(pc.t0), &pc.at(pc.t1)) <= v * (pc.t1 - pc.t0),
-        2 => [pc.t0, pc.t1].iter().all(|&t| speed_bound(pc, t, 0.0) <= v),
-        _ => {
-            let h = (pc.t1 - pc.t0) / SPEED_SUBINTERVALS as f64;
-            (0..SPEED_SUBINTERVALS).all(|k| {
-                let (a, b) = (
-                    pc.t0 + h * k as f64,
-                    if k + 1 == SPEED_SUBINTERVALS { pc.t1 } else { pc.t0 + h * (k + 1) as f64 },
-                );
-                let m = a + (b - a) * 0.5;
-                // the sub-intervals cover [t0, t1]: r reaches both computed ends
-                speed_bound(pc, m, (m - a).max(b - m)) <= v
-            })
-        }
-    }
-}
-
-/// Solver settings of an optimisation planner's SDPs at tolerance `tol` (gap and
-/// feasibility): no single solve may outlast the plan's time limit, so each gets what
-/// remains of it (at least 1 ms; Clarabel checks it between iterations).
-pub(crate) fn solver_settings(tol: f64, term: &Termination) -> crate::sdp::SdpSettings {
-    let time_limit = term.remaining().map_or(f64::INFINITY, |d| d.as_secs_f64().max(1e-3));
-    crate::sdp::SdpSettings { tol_gap_abs: tol, tol_gap_rel: tol, tol_feas: tol, time_limit, ..Default::default() }
+/// The typed answer for a goal farther than the speed limit can reach over the
+/// horizon (the straight line's length over its duration), decided before any search.
+pub fn out_of_reach(p: &Problem, max_speed: Option<f64>) -> Option<NoPlanReason> {
+    let v = max_speed?;
+    let d = dist(&p.start, &p.goal);
+    let duration = p.horizon.1 - p.horizon.0;
+    (d > v * duration).then_some(NoPlanReason::OutOfReach { distance: d, max_speed: v, duration })
 }

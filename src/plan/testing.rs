@@ -57,6 +57,35 @@ pub fn conformance(planner: &mut dyn Planner, p: &Problem, checker: &dyn MotionC
     }
 }
 
+/// The conformance checks of a planner that answers a problem without a plan (a
+/// planner known not to solve it within `budget`): the answer is typed (exhausted or
+/// the deadline, with a reason) and not called certified, the same seed gives the same
+/// status, and an expired termination and a set cancel flag are honoured as in
+/// [`conformance`]. Panics with a message on the first failure.
+pub fn conformance_without_plan(planner: &mut dyn Planner, p: &Problem, checker: &dyn MotionChecker, budget: Duration) {
+    let name = planner.name();
+    let out = planner.solve(p, checker, &Termination::after(budget)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert!(out.trajectory.is_none(), "{name}: planned a problem it is listed as not solving: use `conformance`");
+    assert!(
+        matches!(out.status, PlanStatus::Exhausted | PlanStatus::DeadlineReached) && out.reason.is_some(),
+        "{name}: no plan without a typed reason ({:?}, {:?})",
+        out.status,
+        out.reason
+    );
+    assert!(!out.certified, "{name}: no plan, yet certified");
+    if out.status == PlanStatus::Exhausted {
+        let again = planner.solve(p, checker, &Termination::after(budget)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(again.status, out.status, "{name}: same seed gave a different answer");
+    }
+    let expired =
+        planner.solve(p, checker, &Termination::never().with_budget(0)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert!(expired.trajectory.is_none() || expired.stats.iterations == 0, "{name}: ignored an expired termination");
+    let flag = Arc::new(AtomicBool::new(true));
+    let cancelled =
+        planner.solve(p, checker, &Termination::never().with_cancel(flag)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert_eq!(cancelled.status, PlanStatus::Cancelled, "{name}: cancel");
+}
+
 /// The largest speed of the pieces at 4096 evenly spaced times each: an oracle for the
 /// speed limit that shares no code with `within_speed` (a sampled peak is at most the
 /// true one).

@@ -19,8 +19,11 @@
 //! nothing. The planners read trajectories out of it and certify them with the
 //! motion checker like any other trajectory.
 
+mod extract;
 #[cfg(test)]
 mod tests;
+
+pub use extract::{extract_atoms, ExtractionError, RANK_REL};
 
 use crate::sdp::{AffineExpr, GramBlock, Model, PsdBlock, SdpError, Var};
 use std::collections::HashMap;

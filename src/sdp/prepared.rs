@@ -3,6 +3,8 @@
 use super::*;
 use clarabel::solver::{DefaultSolver, IPSolver};
 use std::fmt;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 /// A set-up Clarabel solver for one [`Model`] (see [`Model::prepare`]). Every
 /// [`Prepared::solve`] starts from Clarabel's default initial point, but Clarabel
@@ -56,6 +58,13 @@ impl Prepared {
         }
         let solver = &mut self.solver;
         guarded(|| solver.update_q(&q.to_vec()).map_err(|e| SdpError::Setup(e.to_string())))
+    }
+
+    /// Stops every later solve between two interior-point iterations once `stop` is
+    /// set (Clarabel's termination callback): the solve then ends with
+    /// [`SdpStatus::CallbackTerminated`]. How a plan's cancel flag reaches the solver.
+    pub fn stop_when(&mut self, stop: Arc<AtomicBool>) {
+        self.solver.set_termination_callback(move |_| stop.load(Ordering::Relaxed));
     }
 
     /// Solves (from Clarabel's default start).

@@ -286,3 +286,27 @@ fn prepared_update_b_and_q() {
     assert!(matches!(prep.update_b(&[1.0]), Err(SdpError::BadConeSize(_))));
     assert!(matches!(prep.update_q(&vec![f64::NAN; prep.num_vars()]), Err(SdpError::NonFinite(_))));
 }
+
+/// A set stop flag ends the solve inside Clarabel (its termination callback) with
+/// `CallbackTerminated` and no point; the same prepared model without the flag set
+/// solves to the known optimum 2√2.
+#[test]
+fn stop_flag_ends_a_solve_inside_the_solver() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    let mut m = Model::new();
+    let q = m.add_gram(3).unwrap();
+    m.add_eq(&[(q.var(0, 1), 1.0)], 1.0).unwrap();
+    m.add_eq(&[(q.var(1, 2), 1.0)], 1.0).unwrap();
+    m.set_objective(&[(q.var(0, 0), 1.0), (q.var(1, 1), 1.0), (q.var(2, 2), 1.0)]).unwrap();
+    let flag = Arc::new(AtomicBool::new(true));
+    let mut prep = m.prepare(&SdpSettings::default()).unwrap();
+    prep.stop_when(flag.clone());
+    let s = prep.solve().unwrap();
+    assert_eq!(s.status, SdpStatus::CallbackTerminated);
+    assert!(!s.status.has_solution());
+    flag.store(false, Ordering::Relaxed);
+    let s = prep.solve().unwrap();
+    assert_eq!(s.status, SdpStatus::Solved);
+    assert!((s.obj_primal - 2.0 * SQRT2).abs() < 1e-6, "{}", s.obj_primal);
+}

@@ -90,6 +90,8 @@ impl ServiceError {
             ServiceError::InvalidTrajectory { .. } => "invalid_trajectory",
             ServiceError::Plan(PlanError::OutsideWorkspace { .. }) => "outside_workspace",
             ServiceError::Plan(PlanError::UnsafeEndpoint { .. }) => "unsafe_endpoint",
+            // our own SDP model failed: a bug, not the request's fault
+            ServiceError::Plan(PlanError::SdpModel { .. }) => "internal",
             ServiceError::Plan(_) => "invalid_request",
             ServiceError::NoPlan(_) => "no_plan",
             ServiceError::Busy(_) => "busy",

@@ -7,7 +7,7 @@
 
 use riskplan::app::PlanRequest;
 use riskplan::plan::testing::sampled_peak_speed;
-use riskplan::plan::{within_speed, ConnectParams, ConnectRrt, PlanStats, Termination};
+use riskplan::plan::{within_speed, ConnectParams, ConnectRrt, Kinematics, PlanStats, Termination};
 use riskplan::scene::{Piece, Scene, Trajectory};
 use std::sync::Arc;
 use std::time::Duration;
@@ -41,8 +41,13 @@ fn plan_neck(max_speed: Option<f64>) -> (Trajectory, PlanStats) {
     let s = Arc::new(Scene::from_json(NECK).unwrap());
     let request = PlanRequest { seed: SEED, max_speed, ..PlanRequest::default() };
     let mut prepared = request.prepare(s).unwrap();
-    prepared.planner =
-        Box::new(ConnectRrt { params: ConnectParams { candidates: 1, max_speed, ..ConnectParams::default() } });
+    prepared.planner = Box::new(ConnectRrt {
+        params: ConnectParams {
+            candidates: 1,
+            kinematics: Kinematics { max_speed, ..Kinematics::SMOOTH },
+            ..ConnectParams::default()
+        },
+    });
     let out = prepared.solve(&Termination::after(Duration::from_secs(60))).unwrap();
     let t = out.trajectory.unwrap_or_else(|| panic!("no plan: {:?} {:?}", out.reason, out.stats));
     assert!(out.certified);

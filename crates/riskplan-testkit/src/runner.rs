@@ -211,6 +211,7 @@ fn error_kind(e: &PlanError) -> &'static str {
         PlanError::OutsideWorkspace { .. } => "OutsideWorkspace",
         PlanError::UnsafeEndpoint { .. } => "UnsafeEndpoint",
         PlanError::InvalidOption { .. } => "InvalidOption",
+        PlanError::SdpModel { .. } => "SdpModel",
     }
 }
 

@@ -11,12 +11,13 @@ use num_traits::Signed;
 use serde::{Deserialize, Serialize};
 
 /// Which method decides positivity.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
     /// The SOS certificate of eq. (15) on Clarabel, re-checked rigorously.
     Sos,
-    /// Bernstein subdivision in interval arithmetic with an exact fallback.
+    /// Bernstein subdivision in interval arithmetic with an exact fallback (the default).
+    #[default]
     Exact,
     /// Both; safe only when both prove it.
     Both,

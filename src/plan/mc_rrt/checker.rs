@@ -5,8 +5,8 @@
 //! at most Δ. **Not sound**: an accepted edge carries no guarantee, and planners
 //! using this checker mark their output `certified: false`.
 
-use super::{Motion, MotionChecker};
 use crate::mc::McModel;
+use crate::plan::{Motion, MotionChecker};
 use crate::scene::Piece;
 use std::hash::{Hash, Hasher};
 use std::sync::atomic::{AtomicU64, Ordering};

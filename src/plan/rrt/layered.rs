@@ -10,14 +10,14 @@
 //! (a new attempt with the RNG stream continuing) instead of crashing; the stripe
 //! index also grows with failed iterations so a layer cannot stall.
 
-use super::rrt::steer;
+use super::paper_static::steer;
 use super::sampling::{width_range, StripeSampler};
 use super::scale::Scale;
 use super::smooth::{blend, shortcut, Limits, SmoothStats, Waypoint};
-use super::NoPlanReason;
-use super::{
-    begin, dist, nearest, within_speed, Begin, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome, PlanStats,
-    PlanStatus, Planner, Problem, Termination,
+use crate::plan::NoPlanReason;
+use crate::plan::{
+    begin, dist, nearest, within_speed, Begin, CheckCounter, Kinematics, Motion, MotionChecker, PlanError, PlanOutcome,
+    PlanStats, PlanStatus, Planner, Problem, Termination,
 };
 use crate::scene::{Piece, RrtSosBlock, Trajectory};
 use rand::Rng;
@@ -61,12 +61,9 @@ pub struct LayeredParams {
     /// Sample layer `i` around the point `i/s` of the way from start to goal (the
     /// default planner) instead of the paper's stripe along the whole line.
     pub local: bool,
-    /// Speed limit.
-    pub max_speed: Option<f64>,
-    /// Acceleration limit for smoothing.
-    pub max_accel: Option<f64>,
-    /// Shortcut and blend the result.
-    pub smooth: bool,
+    /// Speed limit, acceleration limit for smoothing, and whether to shortcut and
+    /// blend the result.
+    pub kinematics: Kinematics,
 }
 
 impl Default for LayeredParams {
@@ -83,9 +80,7 @@ impl Default for LayeredParams {
             max_iterations_per_layer: 1000,
             max_attempts: 100,
             local: false,
-            max_speed: None,
-            max_accel: None,
-            smooth: false,
+            kinematics: Kinematics::default(),
         }
     }
 }
@@ -141,7 +136,7 @@ impl LayeredParams {
             max_attempts: 20,
             max_iterations_per_layer: 400,
             local: true,
-            smooth: true,
+            kinematics: Kinematics::SMOOTH,
             ..Default::default()
         }
     }
@@ -251,7 +246,7 @@ impl LayeredRrt {
                 let prev = &layers[i - 1];
                 let a = nearest(&prev.verts, &q);
                 let dt = times[i] - times[i - 1];
-                let cap = match (self.params.step, self.params.max_speed) {
+                let cap = match (self.params.step, self.params.kinematics.max_speed) {
                     (Some(st), Some(v)) => st.min(v * dt * (1.0 - SPEED_CAP_MARGIN)),
                     (Some(st), None) => st,
                     (None, Some(v)) => v * dt * (1.0 - SPEED_CAP_MARGIN),
@@ -314,11 +309,11 @@ impl LayeredRrt {
 
 impl LayeredRrt {
     fn speed_ok(&self, a: &[f64], b: &[f64], dt: f64) -> bool {
-        self.params.max_speed.is_none_or(|v| dist(a, b) <= v * dt)
+        self.params.kinematics.max_speed.is_none_or(|v| dist(a, b) <= v * dt)
     }
     /// Whether a piece keeps the speed limit, by the check every returned piece passes.
     fn piece_speed_ok(&self, pc: &Piece) -> bool {
-        self.params.max_speed.is_none_or(|v| within_speed(pc, v))
+        self.params.kinematics.max_speed.is_none_or(|v| within_speed(pc, v))
     }
 }
 
@@ -339,7 +334,7 @@ impl Planner for LayeredRrt {
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
         self.params.validate()?;
-        let mut stats = match begin(p, checker, term, self.params.max_speed, t_start)? {
+        let mut stats = match begin(p, checker, term, self.params.kinematics.max_speed, t_start)? {
             Begin::Plan(stats) => stats,
             Begin::Answered(outcome) => return Ok(outcome),
         };
@@ -392,7 +387,7 @@ impl Planner for LayeredRrt {
             stats.feasible_path_length = Some(len);
             stats.path_length = Some(len);
             let mut out = Some(pieces.clone());
-            if self.params.smooth {
+            if self.params.kinematics.smooth {
                 let t_imp = Instant::now();
                 let mut w: Vec<Waypoint> = pieces.iter().map(|pc| (pc.t0, pc.at(pc.t0))).collect();
                 w[0].1 = p.start.clone();
@@ -402,10 +397,11 @@ impl Planner for LayeredRrt {
                     w[k].1 = pc.at(pc.t0);
                 }
                 let mut sm = SmoothStats { waypoints_before: w.len(), ..Default::default() };
-                let short = shortcut(w, p.horizon, true, self.params.max_speed, checker, &counter, &mut rng, term);
+                let short =
+                    shortcut(w, p.horizon, true, self.params.kinematics.max_speed, checker, &counter, &mut rng, term);
                 sm.waypoints_after = short.len();
                 let bounds = (ws.lower.as_slice(), ws.upper.as_slice());
-                let limits = Limits { max_speed: self.params.max_speed, max_accel: self.params.max_accel };
+                let limits = Limits::of(&self.params.kinematics);
                 let smoothed = blend(&short, bounds, limits, true, checker, &counter, &mut sm, term).or_else(|| {
                     sm.corners_sharp = short.len().saturating_sub(2);
                     let s = super::smooth::straight(&short, &ws.lower, &ws.upper);

@@ -13,10 +13,10 @@
 
 use super::sampling::{width_range, StripeSampler};
 use super::scale::Scale;
-use super::NoPlanReason;
-use super::{
-    begin, constant_speed, dist, nearest, Begin, CheckCounter, Motion, MotionChecker, PlanError, PlanOutcome,
-    PlanStatus, Planner, Problem, Termination,
+use crate::plan::NoPlanReason;
+use crate::plan::{
+    begin, constant_speed, dist, nearest, Begin, CheckCounter, Kinematics, Motion, MotionChecker, PlanError,
+    PlanOutcome, PlanStatus, Planner, Problem, Termination,
 };
 use crate::scene::{Piece, RrtSosBlock, Trajectory};
 use rand::SeedableRng;
@@ -40,8 +40,9 @@ pub struct RrtParams {
     pub max_iterations: u64,
     /// Run the improve step after the first feasible path.
     pub improve: bool,
-    /// Speed limit (the path's length over the horizon).
-    pub max_speed: Option<f64>,
+    /// Speed limit (the path's length over the horizon; the paper's planner neither
+    /// smooths nor blends).
+    pub kinematics: Kinematics,
 }
 
 impl Default for RrtParams {
@@ -53,7 +54,7 @@ impl Default for RrtParams {
             failures_per_widen: 50,
             max_iterations: 100_000,
             improve: false,
-            max_speed: None,
+            kinematics: Kinematics::default(),
         }
     }
 }
@@ -163,8 +164,8 @@ impl Planner for StaticRrt {
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
         self.params.validate()?;
-        super::static_only(p)?;
-        let mut stats = match begin(p, checker, term, self.params.max_speed, t_start)? {
+        crate::plan::static_only(p)?;
+        let mut stats = match begin(p, checker, term, self.params.kinematics.max_speed, t_start)? {
             Begin::Plan(stats) => stats,
             Begin::Answered(outcome) => return Ok(outcome),
         };
@@ -232,7 +233,7 @@ impl Planner for StaticRrt {
             // checker's re-check would only redraw scenarios; it is skipped.)
             let duration = p.horizon.1 - p.horizon.0;
             for pts in candidates {
-                if self.params.max_speed.is_some_and(|v| path_length(&pts) > v * duration) {
+                if self.params.kinematics.max_speed.is_some_and(|v| path_length(&pts) > v * duration) {
                     continue;
                 }
                 let pieces = constant_speed(&pts, p.horizon);
@@ -252,7 +253,7 @@ impl Planner for StaticRrt {
         stats.attempts = 1;
         stats.planning_time_s = t_start.elapsed().as_secs_f64();
         let certified = trajectory.is_some() && checker.sound();
-        let reason = trajectory.is_none().then(|| match (goal_index, self.params.max_speed) {
+        let reason = trajectory.is_none().then(|| match (goal_index, self.params.kinematics.max_speed) {
             (Some(_), Some(v)) => NoPlanReason::OutOfReach {
                 distance: stats.feasible_path_length.unwrap_or(0.0),
                 max_speed: v,

@@ -29,7 +29,7 @@
 //!
 //! Every returned piece is accepted by the same motion checker as the plan's edges.
 
-use super::{dist, taylor_shift, within_speed, CheckCounter, Motion, MotionChecker, Termination};
+use crate::plan::{dist, taylor_shift, within_speed, CheckCounter, Kinematics, Motion, MotionChecker, Termination};
 use crate::scene::Piece;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -80,7 +80,7 @@ fn path_length(w: &[Waypoint]) -> f64 {
 
 /// Constant speed over `[t0, tf]` through `points`.
 pub fn time_at_constant_speed(points: &[Vec<f64>], horizon: (f64, f64)) -> Vec<Waypoint> {
-    let pieces = super::constant_speed(points, horizon);
+    let pieces = crate::plan::constant_speed(points, horizon);
     let mut out: Vec<Waypoint> = pieces.iter().map(|p| (p.t0, p.at(p.t0))).collect();
     out[0].1 = points[0].clone();
     out.push((horizon.1, points[points.len() - 1].clone()));
@@ -277,6 +277,13 @@ pub struct Limits {
     /// corner that cannot take a wide enough blend would otherwise stay sharp, which is
     /// worse).
     pub max_accel: Option<f64>,
+}
+
+impl Limits {
+    /// The limits of a plan's [`Kinematics`].
+    pub fn of(k: &Kinematics) -> Limits {
+        Limits { max_speed: k.max_speed, max_accel: k.max_accel }
+    }
 }
 
 /// How a corner is joined.

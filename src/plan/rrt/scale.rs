@@ -5,7 +5,7 @@
 //! unit-sized scenes get the paper's values (`rlim = 1` and stripes `0.1 … 1` on the
 //! 2-wide workspace of illustrative-3). A scene's `planner.rrt_sos` block overrides.
 
-use super::Problem;
+use crate::plan::{dist, Problem};
 
 /// Lengths of one problem.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -32,7 +32,7 @@ impl Scale {
         Scale {
             side: sides.iter().cloned().fold(0.0, f64::max),
             diagonal: sides.iter().map(|s| s * s).sum::<f64>().sqrt(),
-            start_goal: super::dist(&p.start, &p.goal),
+            start_goal: dist(&p.start, &p.goal),
             duration: p.horizon.1 - p.horizon.0,
             obstacles: p.scene.obstacles.len(),
             dim: p.scene.dim,

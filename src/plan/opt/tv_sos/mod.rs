@@ -61,15 +61,17 @@
 //!
 //! Every rung runs under the same [`Termination`].
 
-use super::{
-    begin, dist, fill_ladder_stats, ladder_outcome, solver_settings, within_speed, Begin, CheckCounter, LadderStep,
-    Motion, MotionChecker, PlanError, PlanOutcome, Planner, Problem, SdpStats, Termination,
-};
+use super::{normalise_poly, Attempt, Ladder, Next, Normalised, RungFailure};
+use crate::certify::scene::SceneCertifier;
 use crate::contour::RiskLevel;
-use crate::poly::{rational_to_f64, Poly, QPoly};
+use crate::plan::{
+    begin, dist, rrt_planner, Begin, Built, Kinematics, LadderStep, MotionChecker, PaperRun, PlanError, PlanOptions,
+    PlanOutcome, Planner, PlannerSpec, Problem, Setup, Termination,
+};
+use crate::poly::{Poly, QPoly};
 use crate::relax::{add_matrix_lukacs, MomentVars, ZtPoly};
 use crate::scene::{Piece, Trajectory};
-use crate::sdp::{AffineExpr, Model, Prepared, SdpError, SdpStatus, Var};
+use crate::sdp::{AffineExpr, Model, SdpError, SdpStatus, Var};
 use num_bigint::BigInt;
 use num_rational::BigRational;
 use rand::SeedableRng;
@@ -105,8 +107,8 @@ pub struct TvSosParams {
     pub gap_tol: f64,
     /// Solver tolerance (gap and feasibility).
     pub solver_tol: f64,
-    /// Speed limit (`None`: none).
-    pub max_speed: Option<f64>,
+    /// Speed limit (its `max_speed`; tv-sos neither smooths nor blends).
+    pub kinematics: Kinematics,
     /// Highest order of the localizing matrices (`None`: the full order
     /// `⌊(K − deg g)/2⌋` of the paper; see [`crate::relax::MomentVars::localizing_capped`]).
     pub localizing_order: Option<u32>,
@@ -150,7 +152,7 @@ impl Default for TvSosParams {
             noise: 0.1,
             gap_tol: 1e-2,
             solver_tol: 1e-6,
-            max_speed: None,
+            kinematics: Kinematics::default(),
             localizing_order: None,
         }
     }
@@ -215,12 +217,41 @@ impl TvSosParams {
         if self.solver_tol <= 0.0 {
             return bad("solver_tol", "must be > 0");
         }
-        if self.max_speed.is_some_and(|v| !(v > 0.0 && v.is_finite())) {
-            return bad("max_speed", "must be a positive number");
-        }
-        Ok(())
+        self.kinematics.validate()
     }
 }
+
+/// `tv-sos`: the scene's `planner.time_varying_sos` values, the request's pieces (the
+/// first rung's) and speed limit; every read-out certified by the scene certifier
+/// (without covers: a handful of pieces to check, covers would cost more than they
+/// save).
+pub static SPEC: PlannerSpec = PlannerSpec {
+    certified: true,
+    build: |s: &Setup<'_>| {
+        super::refuse_rrt_options(s, "tv-sos")?;
+        let mut params = TvSosParams::paper(s.block().and_then(|b| b.time_varying_sos.as_ref()));
+        if let Some(n) = s.options.pieces {
+            params.pieces = n;
+            params.max_pieces = params.max_pieces.max(n);
+        }
+        params.kinematics = Kinematics { max_accel: None, smooth: false, ..s.kinematics()? };
+        params.validate()?;
+        Ok(Built {
+            planner: Box::new(TvSos { params, deltas: Some(s.deltas.to_vec()) }),
+            checker: Box::new(
+                SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier).without_index_build(),
+            ),
+        })
+    },
+    paper_runs: |scene| {
+        let ran = scene.file.planner.as_ref().is_some_and(|b| b.time_varying_sos.is_some());
+        if ran {
+            vec![PaperRun { label: "tv-sos", improve: false, paper_key: Some("time_varying_sos") }]
+        } else {
+            vec![]
+        }
+    },
+};
 
 /// The time-varying SOS planner.
 #[derive(Clone, Debug)]
@@ -229,48 +260,6 @@ pub struct TvSos {
     pub params: TvSosParams,
     /// Risk level of each obstacle (joint risk modes); `None`: the problem's Δ for each.
     pub deltas: Option<Vec<RiskLevel>>,
-}
-
-/// The problem in normalised coordinates `ξ = (x − c)/L`, `τ = (t − t0)/(tf − t0)`.
-pub(super) struct Normalised {
-    pub(super) c: Vec<f64>,
-    pub(super) l: f64,
-    pub(super) lo: Vec<f64>,
-    pub(super) hi: Vec<f64>,
-    pub(super) x0: Vec<f64>,
-    pub(super) xt: Vec<f64>,
-}
-
-impl Normalised {
-    pub(super) fn new(p: &Problem) -> Normalised {
-        let ws = &p.scene.workspace;
-        let c: Vec<f64> = ws.lower.iter().zip(&ws.upper).map(|(a, b)| 0.5 * (a + b)).collect();
-        let l = ws.lower.iter().zip(&ws.upper).map(|(a, b)| 0.5 * (b - a)).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
-        let f = |x: &[f64]| x.iter().zip(&c).map(|(v, c)| (v - c) / l).collect::<Vec<f64>>();
-        Normalised { lo: f(&ws.lower), hi: f(&ws.upper), x0: f(&p.start), xt: f(&p.goal), c, l }
-    }
-    pub(super) fn back(&self, xi: &[f64]) -> Vec<f64> {
-        xi.iter().zip(&self.c).map(|(v, c)| c + self.l * v).collect()
-    }
-}
-
-/// `g(c + L·ξ, t0 + T·τ)` exactly, then rounded: the constraint in normalised
-/// coordinates (variables `ξ_1..ξ_n` = 0..n, `τ` = n).
-pub(super) fn normalise_poly(g: &QPoly, nrm: &Normalised, horizon: (f64, f64), dim: usize) -> Option<Poly<f64>> {
-    let q = |v: f64| BigRational::from_float(v);
-    let l = q(nrm.l)?;
-    let mut subs: Vec<QPoly> = Vec::with_capacity(dim + 1);
-    for d in 0..dim {
-        let mut s = QPoly::constant(q(nrm.c[d])?);
-        s.add_term(crate::poly::Monomial::var_pow(d as u16, 1), l.clone());
-        subs.push(s);
-    }
-    let (t0, t1) = (q(horizon.0)?, q(horizon.1)?);
-    let mut s = QPoly::constant(t0.clone());
-    s.add_term(crate::poly::Monomial::var_pow(dim as u16, 1), t1 - t0);
-    subs.push(s);
-    let r = g.subst(&|v| subs.get(v as usize).cloned());
-    Some(r.map_coeffs(rational_to_f64))
 }
 
 /// One attempt of the ladder.
@@ -347,8 +336,7 @@ impl TvSos {
     /// Builds the relaxation for `s` pieces.
     fn build(&self, p: &Problem, nrm: &Normalised, cons: &[[Poly<f64>; 2]], s: usize) -> Result<Relaxation, PlanError> {
         let n = p.scene.dim;
-        let sdp =
-            |e: SdpError| PlanError::InvalidOption { option: "planner".into(), message: format!("tv-sos model: {e}") };
+        let sdp = |e: SdpError| PlanError::SdpModel { planner: "tv-sos".into(), message: e.to_string() };
         // K: at least the z-degree of every composed constraint (the degree in x of g)
         let max_x_degree = cons
             .iter()
@@ -427,9 +415,9 @@ impl TvSos {
                         // identically zero on this piece: no constraint
                         continue;
                     };
-                    let (side, entries) = y.localizing_capped(&gz, cap).ok_or_else(|| PlanError::InvalidOption {
-                        option: "planner".into(),
-                        message: "tv-sos: a constraint's degree exceeds the relaxation degree".into(),
+                    let (side, entries) = y.localizing_capped(&gz, cap).ok_or_else(|| PlanError::SdpModel {
+                        planner: "tv-sos".into(),
+                        message: "a constraint's degree exceeds the relaxation degree".into(),
                     })?;
                     let sz = add_matrix_lukacs(&mut model, side, &entries).map_err(sdp)?;
                     if sz.q0 > 0 {
@@ -468,7 +456,7 @@ impl TvSos {
                 soc.push(AffineExpr { constant: b.constant - a.constant, terms });
             }
             model.add_soc(&soc).map_err(sdp)?;
-            if let Some(v) = self.params.max_speed {
+            if let Some(v) = self.params.kinematics.max_speed {
                 // 1 % below the limit, so that the rounded read-out keeps to it
                 let cap = 0.99 * v * (p.horizon.1 - p.horizon.0) / s as f64 / nrm.l;
                 model.add_le(&[(alpha, 1.0)], cap).map_err(sdp)?;
@@ -559,8 +547,8 @@ impl TvSos {
         // moving obstacles the raw layered path is used (its positions at the piece times
         // keep clear of the obstacles, which a re-timed shortcut path need not)
         let smooth = !p.is_dynamic();
-        let opts = super::PlanOptions { smooth, max_speed: self.params.max_speed, ..Default::default() };
-        let mut planner = super::rrt_planner(p, false, &opts).ok()?;
+        let opts = PlanOptions { kinematics: Kinematics { smooth, ..self.params.kinematics }, ..Default::default() };
+        let mut planner = rrt_planner(p, false, &opts).ok()?;
         let out = planner.solve(p, checker, term).ok()?;
         out.certified.then_some(out.trajectory).flatten()
     }
@@ -572,8 +560,9 @@ impl TvSos {
     /// so that sampling it at a rung's piece times gives the corners. `None` without a
     /// path or with more than [`MAX_PIECES`] segments.
     fn corner_path(&self, p: &Problem, checker: &dyn MotionChecker, term: &Termination) -> Option<Trajectory> {
-        let opts = super::PlanOptions { smooth: false, max_speed: self.params.max_speed, ..Default::default() };
-        let mut planner = super::rrt_planner(p, false, &opts).ok()?;
+        let opts =
+            PlanOptions { kinematics: Kinematics { smooth: false, ..self.params.kinematics }, ..Default::default() };
+        let mut planner = rrt_planner(p, false, &opts).ok()?;
         let out = planner.solve(p, checker, term).ok()?;
         let path = out.certified.then_some(out.trajectory).flatten()?;
         let mut pts: Vec<Vec<f64>> = vec![p.start.clone()];
@@ -610,13 +599,6 @@ impl TvSos {
 /// points of a straight run, which would add pieces without adding corners).
 const COLLINEAR_COS: f64 = 1e-7;
 
-/// What one attempt ended with.
-enum Attempt {
-    Certified(Vec<Piece>),
-    Failed(String),
-    Stopped,
-}
-
 impl Planner for TvSos {
     fn name(&self) -> &'static str {
         "tv-sos"
@@ -630,23 +612,20 @@ impl Planner for TvSos {
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
         self.params.validate()?;
-        let mut stats = match begin(p, checker, term, self.params.max_speed, t_start)? {
+        let stats = match begin(p, checker, term, self.params.kinematics.max_speed, t_start)? {
             Begin::Plan(stats) => stats,
             Begin::Answered(outcome) => return Ok(outcome),
         };
         let nrm = Normalised::new(p);
-        let counter = CheckCounter::default();
-        let mut sdp = SdpStats::default();
-        let mut ladder: Vec<LadderStep> = Vec::new();
+        let mut ladder = Ladder::default();
         let mut cons_cache: Vec<(f64, Vec<[Poly<f64>; 2]>)> = Vec::new();
         let mut found = None;
-        let mut stopped = false;
         let (mut rrt_path, mut rrt_tried) = (None, false);
         let mut corners: Option<Trajectory> = None;
         let mut rungs: std::collections::VecDeque<Rung> = self.ladder(p.seed).into();
         while let Some(rung) = rungs.pop_front() {
             if term.expired() {
-                stopped = true;
+                ladder.stopped = true;
                 break;
             }
             if !cons_cache.iter().any(|(e, _)| *e == rung.eta) {
@@ -668,8 +647,7 @@ impl Planner for TvSos {
                 rrt_path = self.rrt_path(p, checker, term);
             }
             if rung.from_rrt && rrt_path.is_none() {
-                step.outcome = "no RRT-SOS path to start from".into();
-                ladder.push(step);
+                ladder.skip(step, "no RRT-SOS path to start from");
                 continue;
             }
             let init = if rung.from_corners {
@@ -679,17 +657,13 @@ impl Planner for TvSos {
             } else {
                 None
             };
-            let outcome = self.attempt(p, checker, term, &nrm, cons, rung, init, &counter, &mut sdp, &mut step)?;
-            match outcome {
-                Attempt::Certified(pieces) => {
-                    step.outcome = "certified".into();
-                    ladder.push(step);
+            let attempt = self.attempt(p, checker, term, &nrm, cons, rung, init, &mut ladder, &mut step)?;
+            match ladder.record(step, attempt) {
+                Next::Found(pieces) => {
                     found = Some(pieces);
                     break;
                 }
-                Attempt::Failed(why) => {
-                    step.outcome = why;
-                    ladder.push(step);
+                Next::Failed(_) => {
                     // static scene, the first RRT-started rung failed: next, one piece per
                     // segment of the unsmoothed RRT path, started at its corners
                     if rung.from_rrt && !rung.from_corners && corners.is_none() && !p.is_dynamic() {
@@ -701,16 +675,10 @@ impl Planner for TvSos {
                         }
                     }
                 }
-                Attempt::Stopped => {
-                    step.outcome = "stopped by the time limit".into();
-                    ladder.push(step);
-                    stopped = true;
-                    break;
-                }
+                Next::Stop => break,
             }
         }
-        fill_ladder_stats(&mut stats, &counter, sdp, t_start, &ladder);
-        Ok(ladder_outcome(found, stats, checker.sound(), term, stopped, ladder))
+        Ok(ladder.finish(found, stats, checker, term, t_start))
     }
 }
 
@@ -725,10 +693,9 @@ impl TvSos {
         cons: &[[Poly<f64>; 2]],
         rung: Rung,
         init: Option<&Trajectory>,
-        counter: &CheckCounter,
-        sdp: &mut SdpStats,
+        ladder: &mut Ladder,
         step: &mut LadderStep,
-    ) -> Result<Attempt, PlanError> {
+    ) -> Result<Attempt<Vec<Piece>>, PlanError> {
         let s = rung.pieces;
         let times: Vec<f64> = (0..=s)
             .map(|i| if i == s { p.horizon.1 } else { p.horizon.0 + (p.horizon.1 - p.horizon.0) * i as f64 / s as f64 })
@@ -740,36 +707,20 @@ impl TvSos {
                 .map(|(i, w)| Piece::segment(&w[0], &w[1], times[i], times[i + 1]))
                 .collect()
         };
-        let certify = |pieces: &[Piece]| -> Result<(), usize> {
-            for (i, pc) in pieces.iter().enumerate() {
-                if self.params.max_speed.is_some_and(|v| !within_speed(pc, v))
-                    || counter.check(checker, pc) != Motion::Accepted
-                {
-                    return Err(i);
-                }
-            }
-            Ok(())
-        };
+        let max_speed = self.params.kinematics.max_speed;
         if s == 1 {
             let pieces = read_out(&[p.start.clone(), p.goal.clone()]);
-            return Ok(match certify(&pieces) {
+            return Ok(match ladder.certify(&pieces, max_speed, checker) {
                 Ok(()) => Attempt::Certified(pieces),
-                Err(_) => Attempt::Failed("the straight line is not certified".into()),
+                Err(_) => Attempt::Failed(RungFailure::StraightLine),
             });
         }
         let t_build = Instant::now();
         let rel = self.build(p, nrm, cons, s)?;
-        sdp.variables = rel.model.num_vars();
-        sdp.rows = rel.model.num_rows();
-        sdp.psd_cones = rel.psd_cones;
-        sdp.largest_psd = rel.largest_psd;
-        let tol = self.params.solver_tol;
-        let settings = solver_settings(tol, term);
-        let mut prepared: Prepared = rel.model.prepare(&settings).map_err(|e| PlanError::InvalidOption {
-            option: "planner".into(),
-            message: format!("tv-sos solver setup: {e}"),
-        })?;
-        sdp.setup_time_s += t_build.elapsed().as_secs_f64();
+        let mut prepared = ladder.prepare("tv-sos", &rel.model, self.params.solver_tol, term)?;
+        ladder.sdp.psd_cones = rel.psd_cones;
+        ladder.sdp.largest_psd = rel.largest_psd;
+        ladder.sdp.setup_time_s += t_build.elapsed().as_secs_f64();
         let mut zbar = self.initial(&rel, nrm, rung.seed);
         if let Some(path) = init {
             // the RRT path at the piece times, as every piece's (a, b)
@@ -797,20 +748,27 @@ impl TvSos {
             let q = self.objective(&rel, &zbar, &nrm.lo, length_weight);
             let sol = match prepared.update_q(&q).and_then(|_| prepared.solve()) {
                 Ok(sol) => sol,
-                Err(e) => return Ok(Attempt::Failed(format!("solver error: {e}"))),
+                Err(e) => return Ok(Attempt::Failed(RungFailure::Solver(e.to_string()))),
             };
-            sdp.solves += 1;
-            sdp.ipm_iterations += sol.iterations as u64;
-            sdp.solver_time_s += sol.solve_time;
+            ladder.sdp.solves += 1;
+            ladder.sdp.ipm_iterations += sol.iterations as u64;
+            ladder.sdp.solver_time_s += sol.solve_time;
             step.iterations = it + 1;
             match sol.status {
                 SdpStatus::Solved | SdpStatus::AlmostSolved => {}
                 SdpStatus::PrimalInfeasible | SdpStatus::AlmostPrimalInfeasible if it == 0 => {
-                    return Ok(Attempt::Failed(format!("no {s}-piece path: the relaxation is infeasible")));
+                    return Ok(Attempt::Failed(RungFailure::InfeasiblePieces { pieces: s }));
+                }
+                // the plan was cancelled inside the solve
+                SdpStatus::CallbackTerminated => {
+                    return Ok(match best {
+                        Some((_, pieces)) => Attempt::Certified(pieces),
+                        None => Attempt::Stopped,
+                    });
                 }
                 other => {
                     if it == 0 {
-                        return Ok(Attempt::Failed(format!("solver status {other:?}")));
+                        return Ok(Attempt::Failed(RungFailure::Status { order: None, status: other }));
                     }
                     break;
                 }
@@ -835,7 +793,7 @@ impl TvSos {
             }
             last_gap = gap;
             if !zbar.iter().flatten().all(|v| v.is_finite()) {
-                return Ok(Attempt::Failed("non-finite solver output".into()));
+                return Ok(Attempt::Failed(RungFailure::NonFinite("solver output")));
             }
             if gap <= self.params.gap_tol || it + 1 == rung.iterations {
                 let mut w = vec![p.start.clone()];
@@ -851,7 +809,7 @@ impl TvSos {
                 w.push(p.goal.clone());
                 let pieces = read_out(&w);
                 let length: f64 = w.windows(2).map(|x| dist(&x[0], &x[1])).sum();
-                match certify(&pieces) {
+                match ladder.certify(&pieces, max_speed, checker) {
                     Ok(()) => {
                         // polish: go on while each certified read-out is clearly shorter
                         let improved = best.as_ref().is_none_or(|(l, _)| length < (1.0 - POLISH_MIN_GAIN) * l);
@@ -875,8 +833,8 @@ impl TvSos {
             return Ok(Attempt::Certified(pieces));
         }
         Ok(Attempt::Failed(match last_rejected {
-            Some(i) => format!("piece {i} of the read-out not certified"),
-            None => "the measures did not converge to points".into(),
+            Some(i) => RungFailure::ReadOut(i),
+            None => RungFailure::NotConverged,
         }))
     }
 }

@@ -11,9 +11,9 @@
 
 use super::scale::Scale;
 use super::smooth::{blend, shortcut, straight, time_at_constant_speed, Limits, SmoothStats};
-use super::{
-    dist, nearest, within_speed, CheckCounter, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome, PlanStats,
-    PlanStatus, Planner, Problem, Termination,
+use crate::plan::{
+    dist, nearest, within_speed, CheckCounter, Kinematics, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome,
+    PlanStats, PlanStatus, Planner, Problem, Termination,
 };
 use crate::scene::{Piece, Trajectory};
 use rand::{Rng, SeedableRng};
@@ -29,12 +29,9 @@ pub struct ConnectParams {
     pub goal_bias: f64,
     /// Cap on iterations.
     pub max_iterations: u64,
-    /// Shortcut and blend the path (C¹ output).
-    pub smooth: bool,
-    /// Speed limit: the path's length over the horizon.
-    pub max_speed: Option<f64>,
-    /// Acceleration limit for the corner blends.
-    pub max_accel: Option<f64>,
+    /// Speed limit (the path's length over the horizon), acceleration limit of the
+    /// corner blends, and whether to shortcut and blend the path (C¹ output).
+    pub kinematics: Kinematics,
     /// Candidate paths grown before shortcutting keeps the shortest (smoothing only).
     pub candidates: usize,
 }
@@ -45,9 +42,7 @@ impl Default for ConnectParams {
             step: None,
             goal_bias: 0.1,
             max_iterations: 200_000,
-            smooth: true,
-            max_speed: None,
-            max_accel: None,
+            kinematics: Kinematics::SMOOTH,
             candidates: 4,
         }
     }
@@ -91,14 +86,6 @@ fn steer(from: &[f64], to: &[f64], step: f64) -> Vec<f64> {
     } else {
         from.iter().zip(to).map(|(a, b)| a + step * (b - a) / d).collect()
     }
-}
-
-/// Checks the speed limit of a static plan: its length over the horizon.
-pub fn out_of_reach(p: &Problem, max_speed: Option<f64>) -> Option<NoPlanReason> {
-    let v = max_speed?;
-    let d = dist(&p.start, &p.goal);
-    let duration = p.horizon.1 - p.horizon.0;
-    (d > v * duration).then_some(NoPlanReason::OutOfReach { distance: d, max_speed: v, duration })
 }
 
 /// Each further candidate path may take this many times the first one's time.
@@ -192,10 +179,10 @@ impl Planner for ConnectRrt {
         term: &Termination,
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
-        super::static_only(p)?;
-        let mut stats = match super::begin(p, checker, term, self.params.max_speed, t_start)? {
-            super::Begin::Plan(stats) => PlanStats { attempts: 1, ..stats },
-            super::Begin::Answered(outcome) => return Ok(outcome),
+        crate::plan::static_only(p)?;
+        let mut stats = match crate::plan::begin(p, checker, term, self.params.kinematics.max_speed, t_start)? {
+            crate::plan::Begin::Plan(stats) => PlanStats { attempts: 1, ..stats },
+            crate::plan::Begin::Answered(outcome) => return Ok(outcome),
         };
         let step = self.params.step.unwrap_or_else(|| Scale::of(p).connect_step());
         let counter = CheckCounter::default();
@@ -216,7 +203,7 @@ impl Planner for ConnectRrt {
         // more candidate paths (fresh trees), each within a few times the first's time:
         // the shortest after shortcutting is kept (a tree may find a long way round)
         let mut others = Vec::new();
-        if found.is_some() && !direct && self.params.smooth {
+        if found.is_some() && !direct && self.params.kinematics.smooth {
             let first = t_start.elapsed();
             for _ in 1..self.params.candidates {
                 let sub = term.clone().earliest((first * CANDIDATE_TIME_FACTOR).max(MIN_CANDIDATE_TIME));
@@ -239,7 +226,7 @@ impl Planner for ConnectRrt {
                     .then_some(pieces)
             };
             let length = |w: &[super::smooth::Waypoint]| w.windows(2).map(|x| dist(&x[0].1, &x[1].1)).sum::<f64>();
-            let pieces = if self.params.smooth {
+            let pieces = if self.params.kinematics.smooth {
                 let t_imp = Instant::now();
                 let mut sm = SmoothStats { waypoints_before: timed.len(), ..Default::default() };
                 let mut short = shortcut(timed.clone(), p.horizon, false, None, checker, &counter, &mut rng, term);
@@ -253,7 +240,7 @@ impl Planner for ConnectRrt {
                 sm.waypoints_after = short.len();
                 let short_len = length(&short);
                 // the blended path; else the shortcut polyline; else the tree's path
-                let limits = Limits { max_speed: self.params.max_speed, max_accel: self.params.max_accel };
+                let limits = Limits::of(&self.params.kinematics);
                 let blended = blend(&short, (&ws.lower, &ws.upper), limits, false, checker, &counter, &mut sm, term);
                 let out = match blended {
                     Some(b) => {
@@ -288,7 +275,7 @@ impl Planner for ConnectRrt {
                     let too_fast = |v: &f64| {
                         length > v * (p.horizon.1 - p.horizon.0) || pieces.iter().any(|pc| !within_speed(pc, *v))
                     };
-                    if let Some(v) = self.params.max_speed.filter(too_fast) {
+                    if let Some(v) = self.params.kinematics.max_speed.filter(too_fast) {
                         reason = Some(NoPlanReason::OutOfReach {
                             distance: length,
                             max_speed: v,

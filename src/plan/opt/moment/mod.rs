@@ -49,19 +49,18 @@
 //! ([`ETA_LADDER`]) until an atom is certified, then adds pieces (or degree), then raises
 //! the order once per rung when extraction fails.
 
-use super::tvsos::{normalise_poly, Normalised};
-use super::{
-    begin, fill_ladder_stats, ladder_outcome, solver_settings, within_speed, Begin, CheckCounter, LadderStep, Motion,
-    MotionChecker, PlanError, PlanOutcome, Planner, Problem, SdpStats, Termination,
-};
+use super::{normalise_poly, Attempt, Ladder, Next, Normalised, RungFailure};
+use crate::certify::scene::SceneCertifier;
 use crate::contour::{cantelli_bound_f64, RiskLevel};
+use crate::plan::{
+    begin, Begin, Built, Kinematics, LadderStep, MotionChecker, PaperRun, PlanError, PlanOutcome, Planner, PlannerSpec,
+    Problem, Setup, Termination,
+};
 use crate::poly::{Monomial, Poly};
+use crate::relax::extract_atoms;
 use crate::relax::{add_matrix_lukacs, MomentVars, ZtPoly};
 use crate::scene::Piece;
 use crate::sdp::{Model, SdpError, SdpStatus};
-use nalgebra::{DMatrix, SymmetricEigen};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
 
 /// The trajectory family of the standard SOS planner.
@@ -92,8 +91,8 @@ pub struct MomentParams {
     pub order: Option<u32>,
     /// Solver tolerance (gap and feasibility).
     pub solver_tol: f64,
-    /// Speed limit (`None`: none).
-    pub max_speed: Option<f64>,
+    /// Speed limit (its `max_speed`; the moment planner neither smooths nor blends).
+    pub kinematics: Kinematics,
 }
 
 impl Default for MomentParams {
@@ -105,7 +104,7 @@ impl Default for MomentParams {
             extra: 1,
             order: None,
             solver_tol: 1e-8,
-            max_speed: None,
+            kinematics: Kinematics::default(),
         }
     }
 }
@@ -131,12 +130,6 @@ pub const MAX_ORDER: u32 = 6;
 /// KKT rows) one factorisation took over 40 s here; side 35 (three 2-D pieces at order
 /// 3) takes a fraction of a second. Larger rungs are skipped and logged.
 pub const MAX_MOMENT_SIDE: usize = 40;
-
-/// Eigenvalues of the moment matrix below this fraction of the largest count as zero
-/// when its numerical rank is taken (the interior-point solution at tolerance
-/// `solver_tol` leaves the null directions at about `√tol` relative; 1e-6 is the
-/// threshold of Henrion–Lasserre's GloptiPoly).
-pub const RANK_REL: f64 = 1e-6;
 
 /// Largest piece count or polynomial degree.
 pub const MAX_FAMILY_SIZE: usize = 8;
@@ -176,12 +169,65 @@ impl MomentParams {
         if !(self.solver_tol.is_finite() && self.solver_tol > 0.0) {
             return bad("solver_tol", "must be a finite number > 0".into());
         }
-        if self.max_speed.is_some_and(|v| !(v > 0.0 && v.is_finite())) {
-            return bad("max_speed", "must be a positive number".into());
-        }
-        Ok(())
+        self.kinematics.validate()
     }
 }
+
+/// `moment`: piecewise-linear trajectories.
+pub static PIECEWISE_LINEAR: PlannerSpec = PlannerSpec {
+    certified: true,
+    build: |s| build_planner(s, MomentForm::PiecewiseLinear),
+    paper_runs: |scene| paper_run(scene, "moment", "standard_sos_piecewise_linear"),
+};
+
+/// `moment-poly`: one polynomial trajectory over the horizon.
+pub static POLYNOMIAL: PlannerSpec = PlannerSpec {
+    certified: true,
+    build: |s| build_planner(s, MomentForm::Polynomial),
+    paper_runs: |scene| paper_run(scene, "moment-poly", "standard_sos_polynomial"),
+};
+
+/// The standard SOS planner for a request: the scene's `planner.standard_sos` values,
+/// the request's pieces (piecewise linear only) and speed limit; every atom's
+/// trajectory certified by the scene certifier (without covers: a handful of pieces).
+fn build_planner(s: &Setup<'_>, form: MomentForm) -> Result<Built, PlanError> {
+    let name = match form {
+        MomentForm::PiecewiseLinear => "moment",
+        MomentForm::Polynomial => "moment-poly",
+    };
+    super::refuse_rrt_options(s, name)?;
+    let mut params = MomentParams::paper(s.block().and_then(|b| b.standard_sos.as_ref()));
+    params.form = form;
+    if let Some(n) = s.options.pieces {
+        if form == MomentForm::Polynomial {
+            return Err(PlanError::InvalidOption {
+                option: "pieces".into(),
+                message: "moment-poly plans one polynomial over the horizon; pieces applies to moment".into(),
+            });
+        }
+        params.pieces = n;
+    }
+    params.kinematics = Kinematics { max_accel: None, smooth: false, ..s.kinematics()? };
+    params.validate()?;
+    Ok(Built {
+        planner: Box::new(MomentPlanner { params, deltas: Some(s.deltas.to_vec()) }),
+        checker: Box::new(
+            SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier).without_index_build(),
+        ),
+    })
+}
+
+/// The paper ran the standard SOS planner on the scenes with a `planner.standard_sos`
+/// block.
+fn paper_run(scene: &crate::scene::Scene, label: &'static str, key: &'static str) -> Vec<PaperRun> {
+    match scene.file.planner.as_ref().is_some_and(|b| b.standard_sos.is_some()) {
+        true => vec![PaperRun { label, improve: false, paper_key: Some(key) }],
+        false => vec![],
+    }
+}
+
+/// What a certified rung gives: the pieces and, per obstacle, the average risk bound.
+type Found = (Vec<Piece>, Vec<f64>);
 
 /// The standard SOS planner (average-risk moment relaxation, every output certified).
 pub struct MomentPlanner {
@@ -370,13 +416,6 @@ impl Family {
 /// polynomials in `z`.
 type Averaged = Vec<Vec<(Poly<f64>, Poly<f64>)>>;
 
-/// What one rung of the ladder ended with.
-enum Attempt {
-    Certified { pieces: Vec<Piece>, average_risk: Vec<f64> },
-    Failed(String),
-    Stopped,
-}
-
 impl MomentPlanner {
     /// A planner with these parameters (per-obstacle Δ from the problem).
     pub fn new(params: MomentParams) -> MomentPlanner {
@@ -506,121 +545,12 @@ fn binomial(n: usize, k: usize) -> usize {
     r
 }
 
-/// The atoms of a flat moment matrix (Henrion–Lasserre 2005), or why there are none.
-///
-/// 1. `M_r = V Vᵀ` from the eigenvectors of the `ρ` eigenvalues above
-///    [`RANK_REL`]·λ_max; flatness `rank M_r = rank M_(r−v)` is checked first;
-/// 2. `V` is reduced to column echelon form `U`: its pivot rows are the identity and
-///    their monomials `w` a basis, `v_r(z) = U w(z)` at every atom;
-/// 3. for each variable `z_ℓ`, the multiplication matrix `N_ℓ` takes as row `j` the row of
-///    `U` of the monomial `z_ℓ·w_j`;
-/// 4. a random convex combination `Σ λ_ℓ N_ℓ = Q T Qᵀ` (real Schur form);
-/// 5. atom `j` has `z_ℓ = q_jᵀ N_ℓ q_j`.
-pub fn extract_atoms(moments: &MomentVars, x: &[f64], order: u32, v: u32, seed: u64) -> Result<Vec<Vec<f64>>, String> {
-    let mono = moments.monomials();
-    let nz = mono.nvars();
-    let side = mono.count_up_to(order);
-    let m = DMatrix::from_fn(side, side, |i, j| mono.product(i, j).map_or(f64::NAN, |k| moments.value(x, k)));
-    if m.iter().any(|v| !v.is_finite()) {
-        return Err("the moment matrix is not finite".into());
-    }
-    let rank_of = |a: &DMatrix<f64>| -> (usize, SymmetricEigen<f64, nalgebra::Dyn>) {
-        let e = SymmetricEigen::new(a.clone());
-        let max = e.eigenvalues.iter().fold(0.0, |m: f64, v| m.max(*v));
-        (e.eigenvalues.iter().filter(|&&l| l > RANK_REL * max).count(), e)
-    };
-    let (rho, eig) = rank_of(&m);
-    let low = mono.count_up_to(order.saturating_sub(v));
-    let (rho_low, _) = rank_of(&m.view((0, 0), (low, low)).into_owned());
-    if rho == 0 {
-        return Err("the moment matrix is zero".into());
-    }
-    if rho != rho_low {
-        return Err(format!("not flat: rank M_{order} = {rho}, rank M_{} = {rho_low}", order.saturating_sub(v)));
-    }
-    // V (side × ρ), columns √λ·eigenvector, largest first
-    let mut idx: Vec<usize> = (0..side).collect();
-    idx.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-    let mut w = DMatrix::zeros(rho, side); // Vᵀ, reduced to row echelon form below
-    for (c, &k) in idx.iter().take(rho).enumerate() {
-        let s = eig.eigenvalues[k].sqrt();
-        for i in 0..side {
-            w[(c, i)] = s * eig.eigenvectors[(i, k)];
-        }
-    }
-    // reduced row echelon form of Vᵀ with partial pivoting: pivot columns = basis monomials
-    let scale = w.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
-    let mut pivots = Vec::with_capacity(rho);
-    let mut row = 0;
-    for col in 0..side {
-        if row == rho {
-            break;
-        }
-        let (best, val) =
-            (row..rho).map(|r| (r, w[(r, col)].abs())).fold((row, 0.0), |a, b| if b.1 > a.1 { b } else { a });
-        if val <= RANK_REL.sqrt() * scale {
-            continue;
-        }
-        w.swap_rows(row, best);
-        let p = w[(row, col)];
-        for j in 0..side {
-            w[(row, j)] /= p;
-        }
-        for r in 0..rho {
-            if r != row {
-                let f = w[(r, col)];
-                if f != 0.0 {
-                    for j in 0..side {
-                        w[(r, j)] -= f * w[(row, j)];
-                    }
-                }
-            }
-        }
-        pivots.push(col);
-        row += 1;
-    }
-    if pivots.len() < rho {
-        return Err(format!("echelon form found {} of {rho} basis monomials", pivots.len()));
-    }
-    // N_ℓ[j, :] = U[index(z_ℓ · w_j), :] = W[:, index(z_ℓ · w_j)]ᵀ
-    let mut ns = Vec::with_capacity(nz);
-    for l in 0..nz {
-        let zl = mono.power(l, 1).ok_or("no first-degree monomial")?;
-        let mut nl = DMatrix::zeros(rho, rho);
-        for (j, &pj) in pivots.iter().enumerate() {
-            let k = mono.product(zl, pj).filter(|&k| k < side).ok_or("a shifted basis monomial is beyond the order")?;
-            for c in 0..rho {
-                nl[(j, c)] = w[(c, k)];
-            }
-        }
-        ns.push(nl);
-    }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let weights: Vec<f64> = (0..nz).map(|_| rng.random_range(0.1..1.0)).collect();
-    let total: f64 = weights.iter().sum();
-    let mut comb = DMatrix::zeros(rho, rho);
-    for (nl, wl) in ns.iter().zip(&weights) {
-        comb += nl * (*wl / total);
-    }
-    let schur = nalgebra::linalg::Schur::try_new(comb, 1e-12, 10_000).ok_or("no Schur form")?;
-    let (q, t) = schur.unpack();
-    let tnorm = t.iter().fold(0.0, |m: f64, v| m.max(v.abs())).max(1.0);
-    for j in 1..rho {
-        if t[(j, j - 1)].abs() > 1e-8 * tnorm {
-            return Err("complex eigenvalues in the multiplication matrices".into());
-        }
-    }
-    Ok((0..rho)
-        .map(|j| {
-            let qj = q.column(j);
-            ns.iter().map(|nl| (qj.transpose() * nl * qj)[(0, 0)]).collect()
-        })
-        .collect())
-}
-
 impl Planner for MomentPlanner {
     fn name(&self) -> &'static str {
-        "moment"
+        match self.params.form {
+            MomentForm::PiecewiseLinear => "moment",
+            MomentForm::Polynomial => "moment-poly",
+        }
     }
 
     fn solve(
@@ -631,17 +561,14 @@ impl Planner for MomentPlanner {
     ) -> Result<PlanOutcome, PlanError> {
         let t_start = Instant::now();
         self.params.validate()?;
-        let mut stats = match begin(p, checker, term, self.params.max_speed, t_start)? {
+        let mut stats = match begin(p, checker, term, self.params.kinematics.max_speed, t_start)? {
             Begin::Plan(stats) => stats,
             Begin::Answered(outcome) => return Ok(outcome),
         };
         let nrm = Normalised::new(p);
         let deltas: Vec<f64> = (0..p.scene.obstacles.len()).map(|j| self.delta(p, j)).collect();
-        let counter = CheckCounter::default();
-        let mut sdp = SdpStats::default();
-        let mut ladder: Vec<LadderStep> = Vec::new();
+        let mut ladder = Ladder::default();
         let mut found = None;
-        let mut stopped = false;
         let first = match self.params.form {
             MomentForm::PiecewiseLinear => self.params.pieces,
             MomentForm::Polynomial => self.params.degree,
@@ -651,7 +578,7 @@ impl Planner for MomentPlanner {
             let avg = self.averaged(p, &nrm, &fam)?;
             for eta in ETA_LADDER {
                 if term.should_stop() {
-                    stopped = true;
+                    ladder.stopped = true;
                     break 'families;
                 }
                 let mut step = LadderStep {
@@ -663,40 +590,25 @@ impl Planner for MomentPlanner {
                     from_rrt: false,
                     outcome: String::new(),
                 };
-                let outcome =
-                    self.attempt(p, checker, term, &nrm, &fam, &avg, &deltas, eta, &counter, &mut sdp, &mut step)?;
-                match outcome {
-                    Attempt::Certified { pieces, average_risk } => {
-                        step.outcome = "certified".into();
-                        ladder.push(step);
-                        found = Some((pieces, average_risk));
+                let attempt = self.attempt(p, checker, term, &nrm, &fam, &avg, &deltas, eta, &mut ladder, &mut step)?;
+                match ladder.record(step, attempt) {
+                    Next::Found(f) => {
+                        found = Some(f);
                         break 'families;
                     }
-                    Attempt::Failed(why) => {
-                        let infeasible = why.contains("infeasible");
-                        step.outcome = why;
-                        ladder.push(step);
-                        // a tighter Δ_opt only shrinks the feasible set
-                        if infeasible {
-                            break;
-                        }
-                    }
-                    Attempt::Stopped => {
-                        step.outcome = "stopped by the time limit".into();
-                        ladder.push(step);
-                        stopped = true;
-                        break 'families;
-                    }
+                    // a tighter Δ_opt only shrinks the feasible set
+                    Next::Failed(why) if why.infeasible() => break,
+                    Next::Failed(_) => {}
+                    Next::Stop => break 'families,
                 }
             }
         }
-        fill_ladder_stats(&mut stats, &counter, sdp, t_start, &ladder);
-        let found = found.map(|(pieces, average_risk): (Vec<Piece>, Vec<f64>)| {
+        let found = found.map(|(pieces, average_risk): Found| {
             stats.average_risk =
                 Some(p.scene.obstacles.iter().zip(average_risk).map(|(o, r)| (o.id.clone(), r)).collect());
             pieces
         });
-        Ok(ladder_outcome(found, stats, checker.sound(), term, stopped, ladder))
+        Ok(ladder.finish(found, stats, checker, term, t_start))
     }
 }
 
@@ -727,19 +639,22 @@ impl MomentPlanner {
         avg: &Averaged,
         deltas: &[f64],
         eta: f64,
-        counter: &CheckCounter,
-        sdp: &mut SdpStats,
+        ladder: &mut Ladder,
         step: &mut LadderStep,
-    ) -> Result<Attempt, PlanError> {
+    ) -> Result<Attempt<Found>, PlanError> {
         if fam.nz == 0 {
             // one straight piece (or a degree-1 polynomial): nothing to optimise
             let pieces = fam.trajectory(&[], p, nrm);
-            return Ok(match self.certify(&pieces, checker, counter) {
-                true => Attempt::Certified { average_risk: average_risk(avg, &[]), pieces },
-                false => Attempt::Failed("the straight line is not certified".into()),
+            return Ok(match ladder.certify(&pieces, self.params.kinematics.max_speed, checker) {
+                Ok(()) => Attempt::Certified((pieces, average_risk(avg, &[]))),
+                Err(_) => Attempt::Failed(RungFailure::StraightLine),
             });
         }
-        let mut why = String::new();
+        let mut why: Vec<RungFailure> = Vec::new();
+        let with_prior = |why: &[RungFailure], last: RungFailure| match why {
+            [] => last,
+            _ => RungFailure::Several(why.iter().cloned().chain([last]).collect()),
+        };
         for raise in 0..2 {
             if term.should_stop() {
                 return Ok(Attempt::Stopped);
@@ -747,52 +662,45 @@ impl MomentPlanner {
             let t_build = Instant::now();
             let rel = match build(fam, avg, deltas, eta, self.params.order, raise) {
                 Ok(rel) => rel,
-                Err(BuildError::TooLarge(k)) => {
-                    return Ok(Attempt::Failed(format!(
-                        "{why}relaxation too large ({k} moments, at most {MAX_MOMENTS}, order ≤ {MAX_ORDER})"
-                    )))
+                Err(BuildError::TooLarge(moments)) => {
+                    let last = RungFailure::TooManyMoments { moments, max: MAX_MOMENTS, max_order: MAX_ORDER };
+                    return Ok(Attempt::Failed(with_prior(&why, last)));
                 }
                 Err(BuildError::TooLargeSide(side)) => {
-                    return Ok(Attempt::Failed(format!(
-                        "{why}relaxation too large (moment matrix side {side}, at most {MAX_MOMENT_SIDE})"
-                    )))
+                    let last = RungFailure::TooLargeSide { side, max: MAX_MOMENT_SIDE };
+                    return Ok(Attempt::Failed(with_prior(&why, last)));
                 }
-                Err(BuildError::NonFinite) => return Ok(Attempt::Failed("non-finite constraint".into())),
+                Err(BuildError::NonFinite) => return Ok(Attempt::Failed(RungFailure::NonFinite("constraint"))),
                 Err(BuildError::Model(e)) => {
-                    return Err(PlanError::InvalidOption {
-                        option: "planner".into(),
-                        message: format!("moment model: {e}"),
-                    })
+                    return Err(PlanError::SdpModel { planner: "moment".into(), message: e.to_string() })
                 }
             };
-            sdp.variables = rel.model.num_vars();
-            sdp.rows = rel.model.num_rows();
-            sdp.psd_cones = rel.psd_cones;
-            sdp.largest_psd = rel.largest_psd;
-            let tol = self.params.solver_tol;
-            let settings = solver_settings(tol, term);
-            sdp.setup_time_s += t_build.elapsed().as_secs_f64();
-            let sol = match rel.model.solve(&settings) {
+            let mut prepared = ladder.prepare("moment", &rel.model, self.params.solver_tol, term)?;
+            ladder.sdp.psd_cones = rel.psd_cones;
+            ladder.sdp.largest_psd = rel.largest_psd;
+            ladder.sdp.setup_time_s += t_build.elapsed().as_secs_f64();
+            let sol = match prepared.solve() {
                 Ok(sol) => sol,
-                Err(e) => return Ok(Attempt::Failed(format!("solver error: {e}"))),
+                Err(e) => return Ok(Attempt::Failed(RungFailure::Solver(e.to_string()))),
             };
-            sdp.solves += 1;
-            sdp.ipm_iterations += sol.iterations as u64;
-            sdp.solver_time_s += sol.solve_time;
+            ladder.sdp.solves += 1;
+            ladder.sdp.ipm_iterations += sol.iterations as u64;
+            ladder.sdp.solver_time_s += sol.solve_time;
             step.iterations += 1;
             match sol.status {
                 SdpStatus::Solved | SdpStatus::AlmostSolved => {}
                 SdpStatus::PrimalInfeasible | SdpStatus::AlmostPrimalInfeasible => {
-                    return Ok(Attempt::Failed(format!("order {}: the relaxation is infeasible", rel.order)));
+                    return Ok(Attempt::Failed(RungFailure::InfeasibleOrder { order: rel.order }));
                 }
-                // the solve's time limit is what remains of the plan's: the plan's time is up
-                SdpStatus::MaxTime => return Ok(Attempt::Stopped),
-                other => return Ok(Attempt::Failed(format!("order {}: solver status {other:?}", rel.order))),
+                // the solve's time limit is what remains of the plan's, and its callback
+                // the plan's cancel flag: the plan's time is up, or it was cancelled
+                SdpStatus::MaxTime | SdpStatus::CallbackTerminated => return Ok(Attempt::Stopped),
+                status => return Ok(Attempt::Failed(RungFailure::Status { order: Some(rel.order), status })),
             }
             let atoms = match extract_atoms(&rel.moments, &sol.x, rel.order, rel.v, p.seed) {
                 Ok(a) => a,
                 Err(e) => {
-                    why = format!("order {}: {e}; ", rel.order);
+                    why.push(RungFailure::Extraction { order: rel.order, why: e });
                     continue;
                 }
             };
@@ -806,26 +714,22 @@ impl MomentPlanner {
                     return Ok(Attempt::Stopped);
                 }
                 let pieces = fam.trajectory(z, p, nrm);
-                if self.certify(&pieces, checker, counter) {
-                    return Ok(Attempt::Certified { average_risk: average_risk(avg, z), pieces });
+                if ladder.certify(&pieces, self.params.kinematics.max_speed, checker).is_ok() {
+                    return Ok(Attempt::Certified((pieces, average_risk(avg, z))));
                 }
                 outside += usize::from(leaves_workspace(&pieces, p));
             }
-            let where_ = if outside > 0 { format!(" ({outside} leave the workspace)") } else { String::new() };
-            return Ok(Attempt::Failed(format!(
-                "order {}: bound {:.6}, {n_atoms} atom(s) extracted, none certified{where_}",
-                rel.order,
-                sol.obj_primal + fam.objective.constant_term()
-            )));
+            return Ok(Attempt::Failed(RungFailure::NoAtomCertified {
+                order: rel.order,
+                bound: sol.obj_primal + fam.objective.constant_term(),
+                atoms: n_atoms,
+                outside,
+            }));
         }
-        Ok(Attempt::Failed(why.trim_end_matches("; ").to_string()))
-    }
-
-    /// Every piece accepted by the checker (and within the speed limit).
-    fn certify(&self, pieces: &[Piece], checker: &dyn MotionChecker, counter: &CheckCounter) -> bool {
-        pieces.iter().all(|pc| {
-            self.params.max_speed.is_none_or(|v| within_speed(pc, v)) && counter.check(checker, pc) == Motion::Accepted
-        })
+        Ok(Attempt::Failed(match why.len() {
+            1 => why.remove(0),
+            _ => RungFailure::Several(why),
+        }))
     }
 }
 
@@ -852,7 +756,7 @@ mod tests {
     }
 
     fn illustrative_3() -> (Problem, Normalised) {
-        let s = crate::scene::Scene::from_json(include_str!("../../scenes/illustrative-3.json")).unwrap();
+        let s = crate::scene::Scene::from_json(include_str!("../../../../scenes/illustrative-3.json")).unwrap();
         let p = Problem::from_scene(std::sync::Arc::new(s), 1).unwrap();
         let nrm = Normalised::new(&p);
         (p, nrm)
