@@ -118,7 +118,7 @@ pub struct PlanRequest {
     /// Goal (default: the scene's).
     #[serde(default)]
     pub goal: Option<Vec<f64>>,
-    /// `rrt-sos` (default), `rrt-sos-paper`, `mc-rrt`, `tv-sos`, `moment` or `moment-poly`.
+    /// A planner by its `PlannerKind` name: `rrt-sos` (the default) or any other that `riskplan plan --help` lists.
     #[serde(default)]
     pub planner: Option<String>,
     /// Seconds (capped by the server).

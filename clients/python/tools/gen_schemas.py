@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -31,6 +32,21 @@ BASE = "https://riskplan.invalid/proto/v1/"
 
 ROOT = Path(__file__).resolve().parents[3]
 OUT = ROOT / "proto" / "schemas"
+
+def planner_names() -> list[str]:
+    """The planners' wire names, in `PlannerKind::ALL` order, read from the one place
+    that names them (`PlannerKind::as_str` in src/plan/mod.rs): a new planner reaches
+    the schemas when they are regenerated, and `--check` fails until they are."""
+    src = (ROOT / "src" / "plan" / "mod.rs").read_text(encoding="utf-8")
+    body = src[src.index("pub fn as_str(self) -> &'static str {"):]
+    body = body[: body.index("\n    }\n")]
+    names = re.findall(r'PlannerKind::\w+ => "([a-z0-9-]+)"', body)
+    if not names:
+        raise SystemExit("no planner names found in src/plan/mod.rs (PlannerKind::as_str)")
+    return names
+
+
+PLANNERS = planner_names()
 
 U64 = {"type": "integer", "minimum": 0, "maximum": 18446744073709551615}
 NUMBER = {"type": "number"}
@@ -374,7 +390,7 @@ MESSAGES = {
         "properties": {
             "start": VECTOR,
             "goal": VECTOR,
-            "planner": {"enum": ["rrt-sos", "rrt-sos-paper", "mc-rrt", "tv-sos", "moment", "moment-poly"]},
+            "planner": {"enum": PLANNERS},
             "time_limit": {"type": "number", "exclusiveMinimum": 0, "description": "seconds (> 0); the server caps it at --max-plan-seconds"},
             "seed": U64,
             "pieces": {"type": "integer", "minimum": 1, "maximum": 1000, "description": "pieces of the time-layered planner (forces it; default: the ladder 1, 2, 4, … 32); for tv-sos the first rung's pieces (1 to 16; default: the scene's planner.time_varying_sos.pieces, else 2); for moment the first rung's pieces (1 to 8; default: the scene's planner.standard_sos.piecewise_linear_pieces, else 2)"},
@@ -395,7 +411,7 @@ MESSAGES = {
         "properties": {
             "format": {"const": "riskplan-trajectory/1"},
             "pieces": {"type": "array", "minItems": 1, "items": ref("piece")},
-            "planner": {"enum": ["rrt-sos", "rrt-sos-paper", "mc-rrt", "tv-sos", "moment", "moment-poly"]},
+            "planner": {"enum": PLANNERS},
             "certified": {"type": "boolean", "description": "every piece proven safe (always false for mc-rrt)"},
             "stats": {
                 "type": "object",
