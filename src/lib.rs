@@ -5,40 +5,106 @@
 //! Trajectory Planning in Uncertain Nonconvex Environments" (RSS 2021).
 //!
 //! An obstacle is the set `{x : P(x, ω, t) ≥ 0}` with uncertain parameters ω. From
-//! the moments of ω the polynomials E[P] and E[P²] in (x, t) give, for a risk
+//! the moments of ω the polynomials E\[P\] and E\[P²\] in (x, t) give, for a risk
 //! level Δ, the Cantelli inner approximation of the Δ-risk contour (eqs. 10, 12):
 //!
 //! ```text
-//! Ĉ^Δ = { x : E[P]² − (1−Δ)·E[P²] ≥ 0,  −E[P] ≥ 0 }
+//! Ĉ^Δ = { x : E\[P\]² − (1−Δ)·E\[P²\] ≥ 0,  −E\[P\] ≥ 0 }
 //! ```
 //!
 //! Every point of Ĉ^Δ has probability of collision with that obstacle at most Δ
 //! (Theorem 1). The guarantee is **per obstacle and per instant**; with several
 //! obstacles the total probability of collision can reach (number of obstacles)·Δ.
 //!
-//! Layers, bottom to top (docs/architecture.md; `tests/integration/architecture.rs`
-//! fails on any import that runs upward or loops): [`poly`] → [`moments`], [`sdp`] →
-//! [`contour`], [`relax`] → [`mc`] → [`scene`] → [`motion`] → [`certify`] → [`plan`],
-//! [`verify`] → [`app`] → `service`, `viz` → the command-line tool. The core (below
-//! [`app`]) does no I/O and has no async code.
+//! ## The API
+//!
+//! What a user of the library needs is re-exported here, flat: a [`Scene`] (from its
+//! JSON, scene format v1) and its [`Trajectory`]; a [`PlanRequest`] naming a
+//! [`PlannerKind`], a [`RiskLevel`] and a [`RiskMode`], run to a [`PlanOutcome`] (or a
+//! typed [`PlanError`]); [`verify`] with its [`VerifyReport`] and the Monte Carlo
+//! [`audit_trajectory`]; a [`SceneKernel`] to share what checkers cache across plans and
+//! verifications of one scene. The Zenoh service and its Rust client are [`service`]
+//! (feature `service`), the command line [`cli`] (feature `cli`).
+//!
+//! ```no_run
+//! use riskplan::{verify, Method, PlanRequest, PlannerKind, RiskLevel, Scene};
+//! let scene = Scene::from_json(&std::fs::read_to_string("scenes/illustrative-3.json").unwrap()).unwrap();
+//! let request = PlanRequest { planner: PlannerKind::RrtSos, delta: Some(RiskLevel::from_f64(0.05).unwrap()), ..Default::default() };
+//! let (problem, outcome) = request.run(scene.clone(), None).unwrap();
+//! if let Some(trajectory) = &outcome.trajectory {
+//!     let report = verify(&scene, trajectory, &problem.delta, Method::Exact, &Default::default());
+//!     assert!(report.safe);
+//! }
+//! ```
+//!
+//! ## Layers
+//!
+//! Bottom to top (docs/architecture.md; `tests/integration/architecture.rs` fails on
+//! any import that runs upward or loops): `poly` → `moments`, `sdp` → `contour`, `relax`
+//! → `mc` → `scene` → `motion` → `certify` → `plan`, `verify` → `app` → `service`,
+//! `viz` → `cli`. The core (below `app`) does no I/O and has no async code. The modules
+//! are internal: public (for the tests, benches and the testkit) only with the feature
+//! `test-support`, which a release build never has.
 //!
 //! Section numbers (§) in the doc comments refer to `docs/design.md`, the project's
 //! design document; equation numbers refer to the paper.
 #![warn(missing_docs)]
 
-pub mod app;
-pub mod certify;
-pub mod contour;
-pub mod mc;
-pub mod moments;
-pub mod motion;
-pub mod plan;
-pub mod poly;
-pub mod relax;
-pub mod scene;
-pub mod sdp;
+/// Declares the internal modules: `pub(crate)`, public with the feature
+/// `test-support` (the tests, benches, the testkit and the fuzz targets). Without it,
+/// what only those use is unused here, so `dead_code` and `unused_imports` are not
+/// reported for it; the `test-support` build (`cargo clippy --all-features`, the quick
+/// tier's core clippy) still reports both.
+macro_rules! internal {
+    ($($(#[$attr:meta])* $name:ident;)*) => {
+        $(
+            $(#[$attr])*
+            #[cfg(feature = "test-support")]
+            pub mod $name;
+            $(#[$attr])*
+            #[cfg(not(feature = "test-support"))]
+            #[allow(dead_code, unused_imports)]
+            pub(crate) mod $name;
+        )*
+    };
+}
+
+internal! {
+    app;
+    certify;
+    contour;
+    mc;
+    moments;
+    motion;
+    plan;
+    poly;
+    relax;
+    scene;
+    sdp;
+    verify;
+    #[cfg(feature = "cli")]
+    viz;
+}
+
+#[cfg(feature = "cli")]
+pub mod cli;
 #[cfg(feature = "proto")]
 pub mod service;
-pub mod verify;
-#[cfg(feature = "cli")]
-pub mod viz;
+
+pub use crate::app::{PlanRequest, PreparedPlan, DEFAULT_TIME_LIMIT};
+pub use crate::certify::scene::{Method, SceneKernel};
+pub use crate::certify::sos::SosSettings;
+pub use crate::contour::{RiskContour, RiskLevel, RiskLevelError};
+pub use crate::motion::Termination;
+pub use crate::plan::rrt::smooth::SmoothStats;
+pub use crate::plan::{
+    FinalCheckStats, Kinematics, LadderStep, NoPlanReason, PlanError, PlanOutcome, PlanStats, PlanStatus, PlannerKind,
+    Problem, RiskMode, RungFailure, SdpStats, UnknownName,
+};
+pub use crate::scene::{
+    Obstacle, Param, Piece, Scene, SceneError, SceneErrorKind, SceneFile, Trajectory, TrajectoryError, Workspace,
+};
+pub use crate::verify::{
+    audit_trajectory, verify, verify_until, Audit, AuditOptions, ConstraintReport, Exceedance, MethodReport,
+    ObstacleReport, PieceReport, VerifyReport,
+};

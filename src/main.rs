@@ -1,7 +1,6 @@
-//! The `riskplan` command-line tool: see `riskplan --help`.
-
-mod cli;
+//! The `riskplan` command-line tool: see `riskplan --help` (the commands live in the
+//! library's `cli` module, feature `cli`).
 
 fn main() {
-    std::process::exit(cli::run());
+    std::process::exit(riskplan::cli::run());
 }

@@ -3,8 +3,8 @@
 //!
 //! [`super::restrict_interval`] composes the contour polynomials with a piece through
 //! general polynomial objects, a heap allocation per product; for a planner's edge
-//! that bookkeeping costs far more than the positivity proof itself. Here E[P] and
-//! E[P²] are compiled once into a Horner tree ([`Compiled`]) over **centred**
+//! that bookkeeping costs far more than the positivity proof itself. Here E\[P\] and
+//! E\[P²\] are compiled once into a Horner tree ([`Compiled`]) over **centred**
 //! variables `y = x − c`, `s = t − t_c`, and a piece's coordinates are substituted as
 //! fixed-capacity univariate interval polynomials ([`FPoly`]), on the stack.
 //!
@@ -678,7 +678,7 @@ pub fn derivative(p: &QPoly, v: usize) -> QPoly {
     out
 }
 
-/// One obstacle's E[P] and E[P²], compiled in centred variables
+/// One obstacle's E\[P\] and E\[P²\], compiled in centred variables
 /// `(y_1..y_n, s) = (x − c, t − t_c)`.
 #[derive(Clone, Debug)]
 pub struct CompiledContour {
@@ -751,7 +751,7 @@ impl CompiledContour {
         Some(subs)
     }
 
-    /// E[P] and E[P²] restricted to a piece, enclosed, with capacity `N`; `None`
+    /// E\[P\] and E\[P²\] restricted to a piece, enclosed, with capacity `N`; `None`
     /// beyond it.
     pub fn restrict_with<const N: usize>(&self, piece: PieceRef<'_>) -> Option<FastRestriction<N>> {
         let subs = self.substitutions::<N>(piece)?;
@@ -759,7 +759,7 @@ impl CompiledContour {
         Some(FastRestriction { mean: self.mean.compose(subs)?, second: self.second.compose(subs)? })
     }
 
-    /// E[P] and E[P²] restricted to a piece, enclosed; `None` beyond [`CAPACITY`].
+    /// E\[P\] and E\[P²\] restricted to a piece, enclosed; `None` beyond [`CAPACITY`].
     pub fn restrict(&self, piece: PieceRef<'_>) -> Option<FastRestriction> {
         self.restrict_with::<CAPACITY>(piece)
     }
@@ -960,7 +960,7 @@ mod tests {
 
     /// An obstacle at scale `10^k` (lengths `x/S`, `S = 10^k`) and horizon `T`, and a piece
     /// through it: the three shapes of the extreme-scale tests — the superellipse of
-    /// issue 17 (degree 8, E[P²] of degree 16), a disk, and a mixed degree-6 polynomial;
+    /// issue 17 (degree 8, E\[P²\] of degree 16), a disk, and a mixed degree-6 polynomial;
     /// static or moving, in 2-D or 3-D.
     fn extreme_case(k: i32, t: f64, dim: usize, shape: usize, moving: bool) -> RiskContour {
         let s = format!("1e{k}");
@@ -984,7 +984,7 @@ mod tests {
     /// The fast path's enclosures (the `f64` running error bound, and the interval
     /// composition) hold the exact rational restriction (a different code path: no
     /// frame, general composition in rationals), or the fast path refuses. Scales
-    /// 10⁻³⁰…10³⁰⁰, horizons 10⁻³…10⁶, degrees up to 8 (16 in E[P²]), 2-D and 3-D,
+    /// 10⁻³⁰…10³⁰⁰, horizons 10⁻³…10⁶, degrees up to 8 (16 in E\[P²\]), 2-D and 3-D,
     /// moving obstacles, straight and curved pieces cut down to 2⁻⁴⁰ of the horizon
     /// (grazing), in three frames: the scene's (scaled to the workspace), a unit frame
     /// (the compiled numbers then reach 10^±4800: underflow and overflow everywhere),

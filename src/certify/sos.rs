@@ -98,14 +98,14 @@ pub const DEFAULT_MAX_DEGREE: usize = 40;
 /// are rejected (conservative).
 pub const MAX_CERT_SIDE: usize = 256;
 
-/// Settings of [`certify`].
+/// Settings of `certify`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SosSettings {
-    /// Acceptance threshold on the normalised margin `γ̂` (default [`EPS_ACC`]).
+    /// Acceptance threshold on the normalised margin `γ̂` (default `EPS_ACC`).
     pub eps_acc: f64,
-    /// Grid intervals of the witness search (default [`DEFAULT_WITNESS_GRID`]).
+    /// Grid intervals of the witness search (default `DEFAULT_WITNESS_GRID`).
     pub witness_grid: usize,
-    /// Largest degree sent to the solver (default [`DEFAULT_MAX_DEGREE`]).
+    /// Largest degree sent to the solver (default `DEFAULT_MAX_DEGREE`).
     pub max_degree: usize,
     /// Solver settings.
     pub sdp: SdpSettings,
@@ -117,8 +117,8 @@ pub struct SosSettings {
     /// way: every verdict comes from the rigorous re-check.
     pub reuse_solver: bool,
     /// Try the certificate constructed from Bernstein coefficients first
-    /// ([`construct`], no interior-point solve; default on). It is re-checked exactly like
-    /// a solver's; when it cannot be built (within [`construct::MAX_EXTRA_DEGREE`]
+    /// (`construct`, no interior-point solve; default on). It is re-checked exactly like
+    /// a solver's; when it cannot be built (within `construct::MAX_EXTRA_DEGREE`
     /// elevations) or its re-check fails, the margin SDP runs as before. Off: always the
     /// SDP (its margin is the largest `γ`, about twice the constructed one).
     #[serde(default = "default_construct")]

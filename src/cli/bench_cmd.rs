@@ -5,9 +5,9 @@
 //! not part of this tool.)
 
 use super::util::{load_scene, print_out, time_limit_arg, CliError};
+use crate::app::{PlanRequest, PlannerKind};
+use crate::verify::{audit_trajectory, AuditOptions};
 use clap::{Args, ValueEnum};
-use riskplan::app::{PlanRequest, PlannerKind};
-use riskplan::verify::{audit_trajectory, AuditOptions};
 use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;

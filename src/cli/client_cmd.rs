@@ -1,9 +1,9 @@
 //! `riskplan client ...`: talk to a running `riskplan serve`.
 
 use super::util::{print_out, CliError};
+use crate::service::proto::*;
+use crate::service::{Client, ClientError, Route};
 use clap::{Args, Subcommand};
-use riskplan::service::proto::*;
-use riskplan::service::{Client, ClientError, Route};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -271,7 +271,7 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             match trajectory {
                 Some(p) => {
                     req.trajectory = Some(
-                        riskplan::scene::Trajectory::from_json(&read_json(&p)?.to_string())
+                        crate::scene::Trajectory::from_json(&read_json(&p)?.to_string())
                             .map_err(|e| CliError(format!("{}: {e}", p.display())))?,
                     )
                 }

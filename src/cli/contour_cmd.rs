@@ -1,10 +1,10 @@
 //! `riskplan contour`: figures of the Δ-risk contours.
 
 use super::util::{delta_arg, exact_arg, load_scene, CliError};
+use crate::contour::RiskLevel;
+use crate::poly::rational_to_f64;
+use crate::viz::{self, ContourOptions};
 use clap::Args;
-use riskplan::contour::RiskLevel;
-use riskplan::poly::rational_to_f64;
-use riskplan::viz::{self, ContourOptions};
 use std::path::PathBuf;
 
 /// Draw the Δ-risk contours of a scene (like the paper's Figs. 1–3, 6–8).

@@ -23,7 +23,7 @@ use clap::{Parser, Subcommand};
 /// at that instant. Scenes are JSON files in scene format v1.
 #[derive(Parser, Debug)]
 #[command(name = "riskplan", version, about, long_about, max_term_width = 100)]
-pub struct Cli {
+struct Cli {
     #[command(subcommand)]
     command: Command,
 }

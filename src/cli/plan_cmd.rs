@@ -1,12 +1,12 @@
 //! `riskplan plan`: RRT-SOS (static or time-layered) and the Monte Carlo baseline.
 
 use super::util::{delta_arg, load_scene, method_parser, planner_parser, print_out, time_limit_arg, CliError};
+use crate::app::{PlanRequest, PlannerKind};
+use crate::plan::{PlanStatus, Problem, Termination};
+use crate::scene::{Scene, TrajectoryFile, TRAJECTORY_FORMAT};
+use crate::verify::Method;
+use crate::viz::{self, ContourOptions, Overlay};
 use clap::Args;
-use riskplan::app::{PlanRequest, PlannerKind};
-use riskplan::plan::{PlanStatus, Problem, Termination};
-use riskplan::scene::{Scene, TrajectoryFile, TRAJECTORY_FORMAT};
-use riskplan::verify::Method;
-use riskplan::viz::{self, ContourOptions, Overlay};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -82,7 +82,7 @@ pub struct PlanArgs {
     no_smooth: bool,
     /// What Δ bounds: per-obstacle (the paper's), joint (any obstacle; Δ split evenly) or joint-weighted (more of Δ to obstacles near the start–goal line).
     #[arg(long, default_value = "per-obstacle")]
-    risk_mode: riskplan::app::RiskMode,
+    risk_mode: crate::app::RiskMode,
     /// Time limit in seconds.
     #[arg(long, default_value_t = 120.0)]
     time_limit: f64,
@@ -178,7 +178,7 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
 fn draw_figure(
     scene: &Scene,
     p: &Problem,
-    out: &riskplan::plan::PlanOutcome,
+    out: &crate::plan::PlanOutcome,
     sampled_edges: bool,
     fig: &std::path::Path,
 ) -> Result<(), CliError> {

@@ -1,16 +1,16 @@
 //! `riskplan risk`: the risk bound at a point, per obstacle, optionally with Monte Carlo.
 
 use super::util::{delta_arg, exact_arg, load_scene, print_out, CliError};
+use crate::mc::DEFAULT_CONFIDENCE;
+use crate::poly::rational_to_f64;
 use clap::Args;
 use num_rational::BigRational;
-use riskplan::mc::DEFAULT_CONFIDENCE;
-use riskplan::poly::rational_to_f64;
 use serde_json::json;
 use std::path::PathBuf;
 
-/// Risk at a point: E[P], E[P²] and the Cantelli bound per obstacle (JSON on stdout).
+/// Risk at a point: E\[P\], E\[P²\] and the Cantelli bound per obstacle (JSON on stdout).
 ///
-/// The bound is (E[P²] − E[P]²)/E[P²] where E[P] ≤ 0, and 1 where E[P] > 0 (Theorem 1);
+/// The bound is (E\[P²\] − E\[P\]²)/E\[P²\] where E\[P\] ≤ 0, and 1 where E\[P\] > 0 (Theorem 1);
 /// it is computed exactly (rational arithmetic) and printed both as a float and as an
 /// exact fraction. With --mc, the Monte Carlo estimate of the true probability
 /// Prob(P(x, ω, t) ≥ 0) is added with its exact Clopper–Pearson interval.
@@ -55,7 +55,7 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
     let mut xt: Vec<BigRational> = a.point.iter().map(|s| exact_arg("--point", s)).collect::<Result<_, _>>()?;
     let t = match &a.time {
         Some(s) => exact_arg("--time", s)?,
-        None => riskplan::poly::f64_shortest_decimal(scene.horizon.0).unwrap_or_default(),
+        None => crate::poly::f64_shortest_decimal(scene.horizon.0).unwrap_or_default(),
     };
     xt.push(t.clone());
     let delta = a.delta.as_deref().map(delta_arg).transpose()?;

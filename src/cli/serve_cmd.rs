@@ -1,8 +1,8 @@
 //! `riskplan serve`: the Zenoh planning service (the main job).
 
 use super::util::CliError;
+use crate::service::{serve, ServerConfig};
 use clap::Args;
-use riskplan::service::{serve, ServerConfig};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -101,7 +101,7 @@ pub fn run_router(a: RouterArgs) -> Result<i32, CliError> {
     rt.block_on(async move {
         let session = zenoh::open(cfg).await.map_err(|e| CliError(format!("cannot open the Zenoh router: {e}")))?;
         eprintln!("riskplan: router listening on {}", listen.join(", "));
-        riskplan::service::server::shutdown_signal().await;
+        crate::service::server::shutdown_signal().await;
         let _ = session.close().await;
         Ok::<(), CliError>(())
     })?;

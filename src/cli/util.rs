@@ -1,9 +1,9 @@
 //! Helpers shared by subcommands: loading scenes, parsing exact numbers.
 
-use riskplan::app::PlannerKind;
-use riskplan::contour::RiskLevel;
-use riskplan::scene::{parse_num_text, Scene};
-use riskplan::verify::Method;
+use crate::app::PlannerKind;
+use crate::contour::RiskLevel;
+use crate::scene::{parse_num_text, Scene};
+use crate::verify::Method;
 use std::path::Path;
 
 /// A user-facing error: one line, printed as `error: ...`, exit status 2.
@@ -29,8 +29,8 @@ pub fn delta_arg(s: &str) -> Result<RiskLevel, CliError> {
 
 /// `--time-limit`: positive, finite seconds.
 pub fn time_limit_arg(seconds: f64) -> Result<std::time::Duration, CliError> {
-    riskplan::app::time_limit(seconds).map_err(|e| match e {
-        riskplan::plan::PlanError::InvalidRequest { message, .. } => CliError(format!("--time-limit: {message}")),
+    crate::app::time_limit(seconds).map_err(|e| match e {
+        crate::plan::PlanError::InvalidRequest { message, .. } => CliError(format!("--time-limit: {message}")),
         other => CliError(other.to_string()),
     })
 }

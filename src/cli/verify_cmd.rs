@@ -1,15 +1,15 @@
 //! `riskplan verify`: certify a trajectory against a scene.
 
 use super::util::{delta_arg, load_scene, method_parser, print_out, CliError};
+use crate::scene::Trajectory;
+use crate::verify::{verify, Method};
 use clap::Args;
-use riskplan::scene::Trajectory;
-use riskplan::verify::{verify, Method};
 use std::path::PathBuf;
 
 /// Certify a trajectory against a scene, continuously in time (eq. 15).
 ///
 /// For every piece and obstacle, both constraints of the Δ-risk contour
-/// (−E[P] > 0 and E[P]² − (1−Δ)E[P²] > 0) are composed with the piece on its own time
+/// (−E\[P\] > 0 and E\[P\]² − (1−Δ)E\[P²\] > 0) are composed with the piece on its own time
 /// interval and proven positive — by the exact checker (Bernstein subdivision in
 /// outward-rounded interval arithmetic with an exact rational fallback), by an SOS
 /// certificate (Clarabel, re-checked rigorously), or by both. Unsafe verdicts come
@@ -41,7 +41,7 @@ pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
     let text = std::fs::read_to_string(&a.trajectory)
         .map_err(|e| CliError(format!("{}: cannot read: {e}", a.trajectory.display())))?;
     let traj = Trajectory::from_json(&text).map_err(|e| CliError(format!("{}: {e}", a.trajectory.display())))?;
-    let diag = riskplan::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
+    let diag = crate::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
     traj.validate(scene.dim, scene.horizon, diag).map_err(|e| CliError(format!("{}: {e}", a.trajectory.display())))?;
     let delta = match &a.delta {
         Some(d) => delta_arg(d)?,

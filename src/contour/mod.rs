@@ -1,13 +1,13 @@
 //! Risk contours (Section IV: eq. (10) `rc_s_cheby`, static; eq. (12) `rc_d_cheby`,
 //! dynamic) — layer L1.
 //!
-//! For an obstacle `{x : P(x, ω, t) ≥ 0}` the contour polynomials are E[P] and E[P²]
+//! For an obstacle `{x : P(x, ω, t) ≥ 0}` the contour polynomials are E\[P\] and E\[P²\]
 //! in (x, t), computed once from the moments of ω and kept ([`RiskContour`]). For a
 //! risk level Δ they give the two constraints of docs/design.md §3.2,
 //!
 //! ```text
-//! g1 = E[P]² − (1−Δ)·E[P²] ≥ 0      (Cantelli, Theorem 1)
-//! g2 = −E[P] ≥ 0                    (mean on the safe side)
+//! g1 = E\[P\]² − (1−Δ)·E\[P²\] ≥ 0      (Cantelli, Theorem 1)
+//! g2 = −E\[P\] ≥ 0                    (mean on the safe side)
 //! ```
 //!
 //! and, at a point, the bound `(E[P²] − E[P]²) / E[P²]` on the probability of
@@ -67,9 +67,9 @@ pub struct Constraints {
 /// The risk at one point and time, exact.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointRisk {
-    /// E[P] at the point.
+    /// E\[P\] at the point.
     pub mean: BigRational,
-    /// E[P²] at the point.
+    /// E\[P²\] at the point.
     pub second_moment: BigRational,
     /// The Cantelli bound on Prob(P ≥ 0): `(E[P²] − E[P]²)/E[P²]` where `E[P] ≤ 0` and
     /// `E[P²] > 0`, and 1 otherwise.
@@ -96,9 +96,9 @@ pub fn cantelli_bound_f64(mean: f64, second: f64) -> f64 {
 #[derive(Clone, Debug)]
 pub struct RiskContour {
     layout: Layout,
-    /// E[P](x, t), exact.
+    /// E\[P\](x, t), exact.
     pub mean: QPoly,
-    /// E[P²](x, t), exact.
+    /// E\[P²\](x, t), exact.
     pub second: QPoly,
     mean_f: Poly<f64>,
     second_f: Poly<f64>,
@@ -108,9 +108,9 @@ pub struct RiskContour {
 }
 
 impl RiskContour {
-    /// Builds E[P] and E[P²] from the obstacle polynomial and the raw moments of its
+    /// Builds E\[P\] and E\[P²\] from the obstacle polynomial and the raw moments of its
     /// parameters (`moment(ω, k)` = E[ω^k]). Squares first, then takes expectations
-    /// (E[P²] ≠ E[P]², docs/design.md §2.3).
+    /// (E\[P²\] ≠ E\[P\]², docs/design.md §2.3).
     pub fn new(
         layout: Layout,
         p: &QPoly,
@@ -144,9 +144,9 @@ impl RiskContour {
         self.layout
     }
 
-    /// `D`: the largest total degree in (x, t) of E[P] (docs/design.md §3.3);
+    /// `D`: the largest total degree in (x, t) of E\[P\] (docs/design.md §3.3);
     /// `deg g2 = D`, while `deg g1 ≤ 2·deg P`, which can exceed `2D` when the top-degree
-    /// part of P averages out (E[P²] keeps it).
+    /// part of P averages out (E\[P²\] keeps it).
     pub fn degree(&self) -> u32 {
         self.mean.degree()
     }
@@ -157,7 +157,7 @@ impl RiskContour {
         Constraints { cantelli: self.mean.mul(&self.mean).sub(&self.second.scale(&one_minus)), mean: self.mean.neg() }
     }
 
-    /// E[P] and E[P²] with outward-rounded interval coefficients (each encloses the
+    /// E\[P\] and E\[P²\] with outward-rounded interval coefficients (each encloses the
     /// exact rational coefficient), for fast sound certification.
     pub fn interval_polys(&self) -> (&Poly<Interval>, &Poly<Interval>) {
         (&self.mean_i, &self.second_i)
@@ -172,7 +172,7 @@ impl RiskContour {
         PointRisk { mean, second_moment: second, bound }
     }
 
-    /// Floating-point E[P], E[P²] at `xt` (fast; for plots and sampling displays).
+    /// Floating-point E\[P\], E\[P²\] at `xt` (fast; for plots and sampling displays).
     pub fn moments_f64(&self, xt: &[f64]) -> (f64, f64) {
         let vals = self.pad(xt, 0.0);
         (self.mean_f.eval(&vals), self.second_f.eval(&vals))
@@ -261,7 +261,7 @@ mod tests {
     }
 
     /// Illustrative Example 1 (Section IV-A): the paper prints
-    /// E[P] = 0.1233 − x1² − x2², E[P²] = 0.0156 − 0.2466x1² − 0.2466x2² + x1⁴ + 2x1²x2² + x2⁴.
+    /// E\[P\] = 0.1233 − x1² − x2², E\[P²\] = 0.0156 − 0.2466x1² − 0.2466x2² + x1⁴ + 2x1²x2² + x2⁴.
     #[test]
     fn illustrative_example_1_polynomials() {
         let (c, vars) = example1();

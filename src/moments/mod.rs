@@ -3,7 +3,7 @@
 //! Every family of scene format v1 has rational moments when its parameters are
 //! rational, so moments are computed exactly as [`BigRational`]s with the
 //! recurrences of docs/design.md §2.1. This sidesteps the cancellation in
-//! E[P²] − E[P]² that floats suffer when a mean dominates its spread (§1.4).
+//! E\[P²\] − E\[P\]² that floats suffer when a mean dominates its spread (§1.4).
 //! [`Sampler`] draws the same distributions with `rand_distr` for Monte Carlo.
 
 mod sample;
@@ -346,7 +346,7 @@ fn validate_discrete(values: &[BigRational], weights: &[BigRational]) -> Result<
 /// Exact test that the Hankel matrix `[m_{i+j}]`, `i, j ≤ ⌊K/2⌋`, is positive
 /// semidefinite, by symmetric elimination with diagonal pivots (a PSD matrix with a
 /// zero pivot has a zero row). A necessary condition for raw moments of a real
-/// distribution; without it E[P²] can come out negative.
+/// distribution; without it E\[P²\] can come out negative.
 fn check_hankel(m: &[BigRational]) -> Result<(), MomentError> {
     let n = (m.len() - 1) / 2 + 1;
     let mut a: Vec<Vec<BigRational>> = (0..n).map(|i| (0..n).map(|j| m[i + j].clone()).collect()).collect();

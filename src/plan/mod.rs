@@ -60,7 +60,7 @@ pub trait Planner: Send {
         -> Result<PlanOutcome, PlanError>;
 }
 
-/// The planners a request can name. Each entry's [`PlannerSpec`] (in its folder) says
+/// The planners a request can name. Each entry's `PlannerSpec` (in its folder) says
 /// how to build it; adding a planner is its folder and one entry here
 /// (docs/architecture.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]

@@ -1,7 +1,7 @@
 //! The coefficient rings polynomials are generic over.
 //!
 //! Three rings matter to riskplan: exact rationals ([`BigRational`]) for the
-//! contour polynomials E[P], E[P²] (docs/design.md §1.4: exact arithmetic makes
+//! contour polynomials E\[P\], E\[P²\] (docs/design.md §1.4: exact arithmetic makes
 //! certification reproducible), `f64` for plotting and sampling, and
 //! outward-rounded [`Interval`](super::Interval)s (their ring instance beside the type) for fast *sound* certification (§5.3).
 

@@ -12,7 +12,7 @@ pub const SCENE_FORMAT: &str = "riskplan-scene/1";
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
-    /// Must be [`SCENE_FORMAT`].
+    /// Must be `SCENE_FORMAT`.
     pub format: String,
     /// Scene name.
     pub name: String,

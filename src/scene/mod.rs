@@ -31,17 +31,17 @@ use thiserror::Error;
 
 /// Largest spatial dimension accepted.
 pub const MAX_DIM: usize = 8;
-/// Largest total degree of an obstacle polynomial in (x, t). E[P²] has twice this
+/// Largest total degree of an obstacle polynomial in (x, t). E\[P²\] has twice this
 /// degree; 8 keeps every certification polynomial at degree ≤ 16 for segments.
 pub const MAX_OBSTACLE_DEGREE: u32 = 8;
 /// Largest degree of an obstacle polynomial in one parameter (moments to twice this).
 pub const MAX_PARAM_DEGREE: u32 = 8;
-/// Largest number of terms of an obstacle polynomial after expansion. Building E[P²]
+/// Largest number of terms of an obstacle polynomial after expansion. Building E\[P²\]
 /// costs one exact product per pair of terms (`terms²`): 462 terms took 0.4 s; the
 /// 1287 terms of `(x1+x2+x3+t+w+1)^8` took 2.3 s.
 pub const MAX_TERMS: usize = 500;
 /// Budget of the whole scene's contour construction, Σ over obstacles of `terms²`
-/// (the products that E[P²] needs): measured at about 2 µs a product, so at most about
+/// (the products that E\[P²\] needs): measured at about 2 µs a product, so at most about
 /// half a second of exact arithmetic, and a scene cannot hold a server's worker for
 /// long (fuzzing counts an input that takes over a second as a hang). The paper's
 /// largest scene needs under 2 000.
@@ -124,7 +124,7 @@ pub struct Obstacle {
     pub text: String,
     /// P(x, ω, t), exact.
     pub poly: QPoly,
-    /// E[P], E[P²], built once (eqs. 10/12).
+    /// E\[P\], E\[P²\], built once (eqs. 10/12).
     pub contour: Arc<RiskContour>,
 }
 
@@ -184,7 +184,7 @@ impl Scene {
     /// Validates a parsed scene file, taking each obstacle's contour from `cache` when
     /// the same polynomial with the same parameter distributions was built before
     /// (and adding the ones built now). A scene update that moves one obstacle thus
-    /// rebuilds only that obstacle's E[P] and E[P²].
+    /// rebuilds only that obstacle's E\[P\] and E\[P²\].
     pub fn from_file_cached(file: SceneFile, cache: &ContourCache) -> Result<Scene, SceneError> {
         if file.format != SCENE_FORMAT {
             return Err(err("format", format!("must be \"{SCENE_FORMAT}\", got \"{}\"", file.format)));
@@ -534,7 +534,7 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
     Ok(out)
 }
 
-/// Raw moments of every parameter up to `2·max deg` over the obstacles (§2.1: E[P²]).
+/// Raw moments of every parameter up to `2·max deg` over the obstacles (§2.1: E\[P²\]).
 fn needed_moments(polys: &[QPoly], params: &[Param]) -> Result<BTreeMap<Var, Vec<BigRational>>, SceneError> {
     let mut out = BTreeMap::new();
     for p in params {

@@ -68,7 +68,7 @@ impl Piece {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Trajectory {
-    /// Must be [`TRAJECTORY_FORMAT`].
+    /// Must be `TRAJECTORY_FORMAT`.
     pub format: String,
     /// The pieces, in time order.
     pub pieces: Vec<Piece>,
@@ -137,7 +137,7 @@ impl Trajectory {
 
     /// Checks the trajectory against a scene's dimension, horizon and workspace size:
     /// finite numbers, `t0 < t1`, contiguous pieces inside the horizon, one
-    /// coefficient row per dimension, degree ≤ [`MAX_PIECE_DEGREE`], continuity.
+    /// coefficient row per dimension, degree ≤ `MAX_PIECE_DEGREE`, continuity.
     pub fn validate(&self, dim: usize, horizon: (f64, f64), workspace_diagonal: f64) -> Result<(), TrajectoryError> {
         if self.pieces.is_empty() {
             return Err(terr("pieces", "must hold at least one piece"));

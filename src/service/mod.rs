@@ -6,29 +6,33 @@
 //! Feature `proto` builds the messages, errors, registry and handlers alone (no
 //! transport, no async); `service` adds the Zenoh server and client.
 
+// Internal parts (the `internal!` macro of lib.rs): the fuzz targets and the tests
+// use the handlers, the registry and the store directly, with `test-support`.
+internal! {
+    #[cfg(feature = "service")]
+    client;
+    error;
+    handlers;
+    registry;
+    #[cfg(feature = "service")]
+    routes;
+    #[cfg(feature = "service")]
+    server;
+    store;
+}
 #[cfg(feature = "service")]
-pub mod client;
-pub mod error;
-pub mod handlers;
-#[cfg(feature = "service")]
-pub(crate) mod jobs;
+mod jobs;
 pub mod proto;
 #[cfg(feature = "service")]
-pub(crate) mod puts;
+mod puts;
 #[cfg(feature = "service")]
-pub(crate) mod queries;
-pub mod registry;
+mod queries;
 #[cfg(feature = "service")]
-pub(crate) mod replication;
+mod replication;
 #[cfg(feature = "service")]
-pub mod routes;
+mod startup;
 #[cfg(feature = "service")]
-pub mod server;
-#[cfg(feature = "service")]
-pub(crate) mod startup;
-#[cfg(feature = "service")]
-pub(crate) mod state;
-pub mod store;
+mod state;
 
 #[cfg(feature = "service")]
 pub use client::{Client, ClientError};

@@ -43,7 +43,7 @@ pub struct MethodReport {
 /// The verdict on one constraint of one obstacle over one piece.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ConstraintReport {
-    /// `mean` (−E[P] > 0) or `cantelli` (E[P]² − (1−Δ)E[P²] > 0).
+    /// `mean` (−E\[P\] > 0) or `cantelli` (E\[P\]² − (1−Δ)E\[P²\] > 0).
     pub name: String,
     /// Combined status.
     pub status: Status,
@@ -195,7 +195,7 @@ pub fn verify(
 }
 
 /// [`verify`] that asks `stop` before each piece and obstacle and gives up with
-/// [`Interrupted`] as soon as it says yes (a service deadline). One check of one piece
+/// `Interrupted` as soon as it says yes (a service deadline). One check of one piece
 /// against one obstacle is the largest step between two questions.
 pub fn verify_until(
     kernel: &SceneKernel,

@@ -8,7 +8,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The layers, bottom to top: a module may use only modules of lower layers.
-/// `cli` is the binary's (its paths are written `riskplan::…`).
+/// `cli` is the command line (`src/main.rs` only calls `riskplan::cli::run`).
 const LAYERS: &[&[&str]] = &[
     &["poly"],
     &["moments", "sdp"],
@@ -84,8 +84,7 @@ fn edges(src: &Path) -> BTreeSet<(String, String)> {
         let text = code(&std::fs::read_to_string(f).unwrap());
         let me: Vec<String> = from.split("::").map(str::to_string).collect();
         let mut targets = Vec::new();
-        let prefix_root = if from.starts_with("cli") { "riskplan::" } else { "crate::" };
-        for p in paths(&text, prefix_root) {
+        for p in paths(&text, "crate::") {
             targets.extend(resolve(&p));
         }
         for p in paths(&text, "super::") {

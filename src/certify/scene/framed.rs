@@ -34,8 +34,8 @@ pub struct FramedContours {
 }
 
 /// One obstacle's contour polynomials around a point of its own (`y = x − c`), with
-/// interval coefficients: evaluated over a piece's bounding box they bound E[P] and
-/// E[P²] there.
+/// interval coefficients: evaluated over a piece's bounding box they bound E\[P\] and
+/// E\[P²\] there.
 #[derive(Debug)]
 pub(crate) struct Near {
     center: Vec<f64>,
@@ -44,15 +44,15 @@ pub(crate) struct Near {
 }
 
 impl Near {
-    /// The Cantelli polynomial g₁ = E[P]² − (1−Δ)·E[P²] around the centre, formed
+    /// The Cantelli polynomial g₁ = E\[P\]² − (1−Δ)·E\[P²\] around the centre, formed
     /// before any evaluation so that its leading terms cancel symbolically (evaluating
-    /// E[P]² and E[P²] separately over a box cannot prove g₁ > 0 a few box-widths away).
+    /// E\[P\]² and E\[P²\] separately over a box cannot prove g₁ > 0 a few box-widths away).
     fn cantelli(&self, one_minus_delta: Interval) -> crate::poly::Poly<Interval> {
         self.mean.mul(&self.mean).sub(&self.second.scale(&one_minus_delta))
     }
 
     /// Whether both constraints of eq. (15) are proven over the box `bbox × t` by naive
-    /// interval evaluation of −E[P] and of `cantelli` (from [`Near::cantelli`]).
+    /// interval evaluation of −E\[P\] and of `cantelli` (from [`Near::cantelli`]).
     fn clears(&self, bbox: &[Interval], t: Interval, cantelli: &crate::poly::Poly<Interval>) -> bool {
         let mut vals: Vec<Interval> = bbox.iter().zip(&self.center).map(|(&b, &c)| b - Interval::point(c)).collect();
         vals.push(t - Interval::point(self.center[bbox.len()]));

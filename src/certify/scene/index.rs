@@ -268,11 +268,11 @@ impl SceneIndex {
 }
 
 /// Points per dimension of the grid on which [`obstacle_center`] looks for the largest
-/// E[P] (a centre for the bounds, not a decision: any point works, a near one is better).
+/// E\[P\] (a centre for the bounds, not a decision: any point works, a near one is better).
 pub const CENTER_GRID: usize = 16;
 
 /// A point of `region` (space, then a time interval) near the obstacle: the grid point
-/// of largest E[P] at the middle time, in floats.
+/// of largest E\[P\] at the middle time, in floats.
 pub fn obstacle_center(contour: &crate::contour::RiskContour, region: &[(f64, f64)]) -> Vec<f64> {
     let dim = region.len() - 1;
     let t = 0.5 * region[dim].0 + 0.5 * region[dim].1;

@@ -107,7 +107,7 @@ impl SceneKernel {
     }
 
     /// The index at `deltas`, built if absent (asking `stop` between obstacles); kept
-    /// only when complete, among the last [`INDEXES_PER_SCENE`].
+    /// only when complete, among the last `INDEXES_PER_SCENE`.
     pub fn index(&self, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> Arc<SceneIndex> {
         if let Some(i) = self.peek_index(deltas) {
             return i;

@@ -365,7 +365,7 @@ fn random_positive_polynomials_are_safe() {
 }
 
 /// The authors' tangent case (docs/design.md §5.6, §8.5): Example 3, piece 2 of the
-/// time-varying SOS output against g1 = E[P]² − 0.9·E[P²] of the disk w² − x1² − x2²,
+/// time-varying SOS output against g1 = E\[P\]² − 0.9·E\[P²\] of the disk w² − x1² − x2²,
 /// w ~ U[0.3, 0.4]. Exactly, min g1 ≈ −1.5e-9 < 0 on the piece: never Safe.
 #[test]
 fn example3_piece2_tangent_is_not_safe() {
