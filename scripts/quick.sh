@@ -20,7 +20,7 @@ echo "== library unit/property tests and the integration binary (quick sizes, no
 cargo test "${CORE[@]}" --lib --test integration
 echo "== Python client tests that need no server"
 VENV=${RISKPLAN_VENV:-${TMPDIR:-/tmp}/riskplan-venv}
-if [ ! -x "$VENV/bin/python" ]; then
+if ! "$VENV/bin/python" -c 'import riskplan, jsonschema' 2>/dev/null; then
     python3 -m venv "$VENV"
     "$VENV/bin/pip" install -q -e './clients/python[plot,test]'
 fi

@@ -201,7 +201,7 @@ fn write_seeds(dir: &Path, seeds: &[Vec<u8>]) {
 
 #[test]
 fn fuzz_poly_parser() {
-    replay("poly", riskplan_testkit::fuzzing::poly_text, poly_seeds(), common::size("FUZZ_MUTATIONS", 3000, 30_000));
+    replay("poly", riskplan_testkit::fuzzing::poly_text, poly_seeds(), common::size("FUZZ_MUTATIONS", 1000, 30_000));
 }
 
 #[test]

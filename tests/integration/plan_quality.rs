@@ -100,7 +100,7 @@ fn scaled_and_shifted_copies_plan_with_default_options() {
 fn default_plans_are_c1() {
     for name in common::PLANNING_SCENES {
         let s = Arc::new(common::scene(name));
-        for seed in 1..=3 {
+        for seed in 1..=common::size("C1_SEEDS", 1, 3) as u64 {
             let (t, stats) = plan(&s, PlanRequest { seed, ..PlanRequest::default() });
             let jump = max_velocity_jump(&t.pieces);
             let sm = stats.smoothing.expect("smoothing stats");

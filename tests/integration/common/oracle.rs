@@ -24,8 +24,12 @@ use riskplan::scene::{Piece, Scene};
 /// a few ulps, stays below 1e-12 of that sum, so 1e-6 leaves a wide margin.
 pub const F64_TRUST: f64 = 1e-6;
 
-/// Times checked per piece.
-pub const TIMES_PER_PIECE: usize = 1000;
+/// Times checked per piece by [`check_trajectory`]: 1000 in the full tier, 200 in the
+/// quick edit-loop tier (`RISKPLAN_ORACLE_TIMES` overrides both). At extreme scales most
+/// evaluations fall back to exact rationals, which is what the oracle's time goes to.
+pub fn times_per_piece() -> usize {
+    super::size("ORACLE_TIMES", 200, 1000)
+}
 
 /// What the oracle saw on one piece.
 #[derive(Clone, Copy, Debug, Default)]
@@ -132,11 +136,11 @@ pub fn check_piece(scene: &Scene, piece: &Piece, delta: &RiskLevel, n: usize) ->
     Ok(st)
 }
 
-/// [`check_piece`] on every piece of a trajectory, with [`TIMES_PER_PIECE`] times.
+/// [`check_piece`] on every piece of a trajectory, at [`times_per_piece`] times.
 pub fn check_trajectory(scene: &Scene, pieces: &[Piece], delta: &RiskLevel) -> Result<OracleStats, String> {
     let mut total = OracleStats::default();
     for pc in pieces {
-        let s = check_piece(scene, pc, delta, TIMES_PER_PIECE)?;
+        let s = check_piece(scene, pc, delta, times_per_piece())?;
         total.evaluations += s.evaluations;
         total.exact += s.exact;
     }
