@@ -13,6 +13,8 @@ echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy (the workspace, all targets, all features)"
 cargo clippy --workspace --all-targets --all-features -- -D warnings
+echo "== the shipped build (default features: internal modules private, no test-support)"
+cargo check --lib --bins
 echo "== the math core builds alone (no service, no CLI)"
 cargo check --no-default-features --lib
 echo "== the service's messages and handlers without the transport (what fuzz/ builds)"
