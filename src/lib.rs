@@ -26,13 +26,17 @@
 //! verifications of one scene. The Zenoh service and its Rust client are [`service`]
 //! (feature `service`), the command line [`cli`] (feature `cli`).
 //!
-//! ```no_run
-//! use riskplan::{verify, Method, PlanRequest, PlannerKind, RiskLevel, Scene};
-//! let scene = Scene::from_json(&std::fs::read_to_string("scenes/illustrative-3.json").unwrap()).unwrap();
-//! let request = PlanRequest { planner: PlannerKind::RrtSos, delta: Some(RiskLevel::from_f64(0.05).unwrap()), ..Default::default() };
-//! let (problem, outcome) = request.run(scene.clone(), None).unwrap();
+//! ```
+//! use riskplan::{verify, Method, PlanRequest, PlannerKind, RiskLevel, Scene, SceneKernel};
+//! use std::sync::Arc;
+//! let text = std::fs::read_to_string("scenes/illustrative-3.json").unwrap();
+//! // the scene with what its checkers cache, shared by the plan and the verification
+//! let kernel = SceneKernel::from(Arc::new(Scene::from_json(&text).unwrap()));
+//! let delta = RiskLevel::from_f64(0.05).unwrap();
+//! let request = PlanRequest { planner: PlannerKind::RrtSos, delta: Some(delta), ..Default::default() };
+//! let (problem, outcome) = request.run(&kernel, None).unwrap();
 //! if let Some(trajectory) = &outcome.trajectory {
-//!     let report = verify(&scene, trajectory, &problem.delta, Method::Exact, &Default::default());
+//!     let report = verify(&kernel, trajectory, &problem.delta, Method::Exact, &Default::default());
 //!     assert!(report.safe);
 //! }
 //! ```
