@@ -90,15 +90,17 @@ fn bench(c: &mut Criterion) {
     g.finish();
 
     // time to the first certified plan on the same family (covers warm: built once per
-    // scene and Δ and cached with the scene, like the contours); no smoothing
+    // scene and Δ and kept by the scene's SceneKernel, as the service's registry entry
+    // keeps it); no smoothing
     let mut g = c.benchmark_group("first_plan");
     g.sample_size(10);
     for n in [8usize, 32, 128, 512] {
         let s = Arc::new(Scene::from_json(&common::disks_scene(n, 1)).expect("disk scene"));
+        let kernel = riskplan::verify::SceneKernel::from(s.clone());
         let request = riskplan::app::PlanRequest { smooth: false, ..Default::default() };
-        let (_, out) = request.run(s.clone(), None).expect("plan");
+        let (_, out) = request.run(&kernel, None).expect("plan");
         assert!(out.certified, "disks-{n}: {:?}", out.reason);
-        let smoothed = riskplan::app::PlanRequest::default().run(s.clone(), None).expect("plan").1;
+        let smoothed = riskplan::app::PlanRequest::default().run(&kernel, None).expect("plan").1;
         eprintln!(
             "disks-{n}: first plan {:.4} s, {} edges, checker {:.4} s, final check {:.4} s ({} pieces); with smoothing {:.4} s, length {:.1} → {:.1}",
             out.stats.planning_time_s,
@@ -110,7 +112,7 @@ fn bench(c: &mut Criterion) {
             out.stats.path_length.unwrap_or(f64::NAN),
             smoothed.stats.path_length.unwrap_or(f64::NAN)
         );
-        g.bench_function(format!("disks-{n}"), |b| b.iter(|| request.run(s.clone(), None).expect("plan").1.certified));
+        g.bench_function(format!("disks-{n}"), |b| b.iter(|| request.run(&kernel, None).expect("plan").1.certified));
     }
     g.finish();
 }

@@ -1,11 +1,13 @@
 //! `verify` of a 2-piece trajectory against all 8 obstacles of example-d1-cluttered-2d
-//! (16 constraints per piece), with the exact checker and with SOS certificates; and
-//! the planners' fast path (the scene certifier, stopping at the first failure).
+//! (16 constraints per piece), with the exact checker and with SOS certificates, warm
+//! (through one `SceneKernel`, as the service's registry entry keeps it) and cold (from
+//! the bare scene: its framed contours compiled on every call); and the planners' fast
+//! path (the scene certifier, stopping at the first failure).
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use riskplan::plan::MotionChecker;
 use riskplan::scene::{Piece, Trajectory};
-use riskplan::verify::{verify, Method, SceneCertifier};
+use riskplan::verify::{verify, Method, SceneCertifier, SceneKernel};
 use std::sync::Arc;
 
 mod common;
@@ -18,11 +20,15 @@ fn bench(c: &mut Criterion) {
         Piece::segment(&[1.5, 0.5], &[5.0, 5.0], 0.5, 1.0),
     ]);
     let delta = s.risk.clone();
+    let kernel = SceneKernel::from(Arc::new(s.clone()));
     c.bench_function("verify_2_pieces_d1_exact", |b| {
-        b.iter(|| verify(&s, black_box(&traj), &delta, Method::Exact, &Default::default()))
+        b.iter(|| verify(&kernel, black_box(&traj), &delta, Method::Exact, &Default::default()))
     });
     c.bench_function("verify_2_pieces_d1_sos", |b| {
-        b.iter(|| verify(&s, black_box(&traj), &delta, Method::Sos, &Default::default()))
+        b.iter(|| verify(&kernel, black_box(&traj), &delta, Method::Sos, &Default::default()))
+    });
+    c.bench_function("verify_2_pieces_d1_exact_cold", |b| {
+        b.iter(|| verify(&s, black_box(&traj), &delta, Method::Exact, &Default::default()))
     });
     let cert = SceneCertifier::new(Arc::new(s.clone()), delta.clone(), Method::Exact);
     let safe = Piece::segment(&[0.0, 0.0], &[1.5, 0.5], 0.0, 0.5);
