@@ -103,7 +103,7 @@ pub use crate::motion::Termination;
 pub use crate::plan::rrt::smooth::SmoothStats;
 pub use crate::plan::{
     FinalCheckStats, Kinematics, LadderStep, NoPlanReason, PlanError, PlanOutcome, PlanStats, PlanStatus, PlannerKind,
-    Problem, RiskMode, RungFailure, SdpStats, UnknownName,
+    Problem, RiskMode, SdpStats, UnknownName,
 };
 pub use crate::scene::{
     Obstacle, Param, Piece, Scene, SceneError, SceneErrorKind, SceneFile, Trajectory, TrajectoryError, Workspace,

@@ -152,7 +152,7 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
         );
     }
     if let Some(fig) = &a.figure {
-        draw_figure(&scene, &problem, &outcome, !a.planner.spec().certified, fig)?;
+        draw_figure(&scene, &problem, &outcome, !a.planner.certifies(), fig)?;
     }
     let Some(traj) = outcome.trajectory else { return Ok(1) };
     let file = TrajectoryFile {

@@ -113,8 +113,13 @@ impl PlannerKind {
         }
     }
 
+    /// Whether this planner's plans are certified (its checker is sound).
+    pub fn certifies(self) -> bool {
+        self.spec().certified
+    }
+
     /// How this planner is built, and what it is.
-    pub fn spec(self) -> &'static PlannerSpec {
+    pub(crate) fn spec(self) -> &'static PlannerSpec {
         match self {
             PlannerKind::RrtSos => &rrt::DEFAULT,
             PlannerKind::RrtSosPaper => &rrt::PAPER,
@@ -127,7 +132,7 @@ impl PlannerKind {
 
     /// The planner and its motion checker for `setup`, every option checked (typed
     /// errors).
-    pub fn build(self, setup: &Setup<'_>) -> Result<Built, PlanError> {
+    pub(crate) fn build(self, setup: &Setup<'_>) -> Result<Built, PlanError> {
         (self.spec().build)(setup)
     }
 }
@@ -192,9 +197,9 @@ impl Setup<'_> {
     }
 
     /// The kinematics of this plan: the request's, else the scene's block's — merged
-    /// here once, for every planner.
-    pub fn kinematics(&self) -> Result<Kinematics, PlanError> {
-        self.options.kinematics.or_block(self.block())
+    /// here once, for every planner (each checks the limits it uses, in its own order).
+    pub fn kinematics(&self) -> Kinematics {
+        self.options.kinematics.merged(self.block())
     }
 }
 
@@ -264,6 +269,7 @@ pub struct UnknownName {
 /// merged once from the request and the scene's `planner` block
 /// ([`Kinematics::or_block`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct Kinematics {
     /// Speed limit (workspace units per time unit); `None`: none.
     pub max_speed: Option<f64>,
@@ -277,14 +283,19 @@ impl Kinematics {
     /// Smoothing on, no limits.
     pub const SMOOTH: Kinematics = Kinematics { max_speed: None, max_accel: None, smooth: true };
 
-    /// These values, each limit not given taken from the scene's block; both limits
-    /// checked (positive and finite: typed errors).
-    pub fn or_block(self, block: Option<&PlannerBlock>) -> Result<Kinematics, PlanError> {
-        let k = Kinematics {
+    /// These values, each limit not given taken from the scene's block (unchecked: see
+    /// [`Kinematics::or_block`]).
+    pub fn merged(self, block: Option<&PlannerBlock>) -> Kinematics {
+        Kinematics {
             max_speed: self.max_speed.or(block.and_then(|b| b.max_speed)),
             max_accel: self.max_accel.or(block.and_then(|b| b.max_accel)),
             smooth: self.smooth,
-        };
+        }
+    }
+
+    /// [`Kinematics::merged`], both limits checked (positive and finite: typed errors).
+    pub fn or_block(self, block: Option<&PlannerBlock>) -> Result<Kinematics, PlanError> {
+        let k = self.merged(block);
         k.validate()?;
         Ok(k)
     }

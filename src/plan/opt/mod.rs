@@ -13,7 +13,7 @@ use super::{
 };
 use crate::poly::{rational_to_f64, Poly, QPoly};
 use crate::scene::{Piece, Trajectory};
-use crate::sdp::{Model, Prepared, SdpSettings, SdpStatus};
+use crate::sdp::{Model, Prepared, SdpError, SdpSettings, SdpStatus};
 use num_rational::BigRational;
 use std::time::Instant;
 use thiserror::Error;
@@ -234,20 +234,13 @@ impl Ladder {
         }
     }
 
-    /// The ladder's model built for its solves: statistics of its size, the settings
+    /// The ladder's model set up for its solves: statistics of its size, the settings
     /// at tolerance `tol` with what remains of the plan's time, and the plan's cancel
-    /// flag wired into the solver (so a cancelled plan stops inside a solve). A model
-    /// Clarabel refuses is our bug: [`PlanError::SdpModel`].
-    pub(crate) fn prepare(
-        &mut self,
-        planner: &'static str,
-        model: &Model,
-        tol: f64,
-        term: &Termination,
-    ) -> Result<Prepared, PlanError> {
-        let mut prepared = model
-            .prepare(&solver_settings(tol, term))
-            .map_err(|e| PlanError::SdpModel { planner: planner.into(), message: format!("solver setup: {e}") })?;
+    /// flag wired into the solver (so a cancelled plan stops inside a solve). Each
+    /// planner says what a refused set-up means for it (tv-sos: our model's bug,
+    /// [`PlanError::SdpModel`]; moment: a failed rung, as before).
+    pub(crate) fn prepare(&mut self, model: &Model, tol: f64, term: &Termination) -> Result<Prepared, SdpError> {
+        let mut prepared = model.prepare(&solver_settings(tol, term))?;
         prepared.stop_when(term.cancel_flag());
         self.sdp.variables = model.num_vars();
         self.sdp.rows = model.num_rows();

@@ -207,7 +207,8 @@ fn build_planner(s: &Setup<'_>, form: MomentForm) -> Result<Built, PlanError> {
         }
         params.pieces = n;
     }
-    params.kinematics = Kinematics { max_accel: None, smooth: false, ..s.kinematics()? };
+    // max_speed checked by validate, last, as every other parameter
+    params.kinematics = Kinematics { max_accel: None, smooth: false, ..s.kinematics() };
     params.validate()?;
     Ok(Built {
         planner: Box::new(MomentPlanner { params, deltas: Some(s.deltas.to_vec()) }),
@@ -672,14 +673,15 @@ impl MomentPlanner {
                 }
                 Err(BuildError::NonFinite) => return Ok(Attempt::Failed(RungFailure::NonFinite("constraint"))),
                 Err(BuildError::Model(e)) => {
-                    return Err(PlanError::SdpModel { planner: "moment".into(), message: e.to_string() })
+                    return Err(PlanError::SdpModel { planner: self.name().into(), message: e.to_string() })
                 }
             };
-            let mut prepared = ladder.prepare("moment", &rel.model, self.params.solver_tol, term)?;
             ladder.sdp.psd_cones = rel.psd_cones;
             ladder.sdp.largest_psd = rel.largest_psd;
+            // the model's build; Clarabel's own setup counts in its solve time
             ladder.sdp.setup_time_s += t_build.elapsed().as_secs_f64();
-            let sol = match prepared.solve() {
+            // a solver that cannot be set up is a failed rung (the ladder goes on)
+            let sol = match ladder.prepare(&rel.model, self.params.solver_tol, term).and_then(|mut p| p.solve()) {
                 Ok(sol) => sol,
                 Err(e) => return Ok(Attempt::Failed(RungFailure::Solver(e.to_string()))),
             };
@@ -726,10 +728,8 @@ impl MomentPlanner {
                 outside,
             }));
         }
-        Ok(Attempt::Failed(match why.len() {
-            1 => why.remove(0),
-            _ => RungFailure::Several(why),
-        }))
+        // both orders tried, neither gave atoms
+        Ok(Attempt::Failed(RungFailure::Several(why)))
     }
 }
 

@@ -234,7 +234,8 @@ pub static SPEC: PlannerSpec = PlannerSpec {
             params.pieces = n;
             params.max_pieces = params.max_pieces.max(n);
         }
-        params.kinematics = Kinematics { max_accel: None, smooth: false, ..s.kinematics()? };
+        // max_speed checked by validate, last, as every other parameter
+        params.kinematics = Kinematics { max_accel: None, smooth: false, ..s.kinematics() };
         params.validate()?;
         Ok(Built {
             planner: Box::new(TvSos { params, deltas: Some(s.deltas.to_vec()) }),
@@ -717,7 +718,9 @@ impl TvSos {
         }
         let t_build = Instant::now();
         let rel = self.build(p, nrm, cons, s)?;
-        let mut prepared = ladder.prepare("tv-sos", &rel.model, self.params.solver_tol, term)?;
+        let mut prepared = ladder
+            .prepare(&rel.model, self.params.solver_tol, term)
+            .map_err(|e| PlanError::SdpModel { planner: "tv-sos".into(), message: e.to_string() })?;
         ladder.sdp.psd_cones = rel.psd_cones;
         ladder.sdp.largest_psd = rel.largest_psd;
         ladder.sdp.setup_time_s += t_build.elapsed().as_secs_f64();
