@@ -3,7 +3,7 @@
 //! place. The CLI, the service, the bench and the tests all go through
 //! [`PlanRequest`], so a planner added here is available to each of them at once.
 
-use crate::contour::RiskLevel;
+use crate::contour::{BoundChoice, RiskLevel};
 use crate::plan::{
     Built, FinalCheckStats, Kinematics, MotionChecker, NoPlanReason, PlanError, PlanOptions, PlanOutcome, PlanStatus,
     Planner, Problem, Setup, Termination,
@@ -53,6 +53,10 @@ pub struct PlanRequest {
     pub smooth: bool,
     /// What Δ bounds.
     pub risk_mode: RiskMode,
+    /// Which risk bounds may prove safety: `auto` (the tightest sound one) or `cantelli`
+    /// (the paper's; docs/design.md §3.7–§3.10, §5.13). `None`: the scene's
+    /// `planner.bound`, else `auto`.
+    pub bound: Option<BoundChoice>,
 }
 
 /// The time limit of a request that gives none (the service's default).
@@ -73,6 +77,7 @@ impl Default for PlanRequest {
             max_accel: None,
             smooth: true,
             risk_mode: RiskMode::PerObstacle,
+            bound: None,
         }
     }
 }
@@ -91,6 +96,8 @@ pub struct PreparedPlan {
     pub deltas: Vec<RiskLevel>,
     /// The scene's kernel: what its checkers and the final check cache.
     pub kernel: SceneKernel,
+    /// The bounds the checker and the final check may use.
+    pub bounds: BoundChoice,
 }
 
 /// How long the final check of a plan found in time may run past the plan's deadline
@@ -112,7 +119,7 @@ impl PreparedPlan {
         let stop = || term.expired_by(FINAL_CHECK_GRACE);
         while let Some(traj) = out.trajectory.as_ref().filter(|_| out.certified) {
             let ends = (self.problem.start.as_slice(), self.problem.goal.as_slice());
-            let check = match final_check(&self.kernel, traj, ends, &self.deltas, &stop) {
+            let check = match final_check(&self.kernel, traj, ends, &self.deltas, self.bounds, &stop) {
                 Ok(c) => c,
                 Err(Interrupted) => {
                     let status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
@@ -133,6 +140,7 @@ impl PreparedPlan {
                         // plan again without it
                         self.checker = Box::new(
                             SceneCertifier::with_deltas(&self.kernel, self.deltas.clone(), Method::Exact)
+                                .with_bounds(self.bounds)
                                 .without_fast_path(),
                         );
                         out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
@@ -177,19 +185,27 @@ impl PlanRequest {
     pub fn prepare(&self, scene: impl Into<SceneKernel>) -> Result<PreparedPlan, PlanError> {
         let kernel = scene.into();
         let problem = self.problem(kernel.scene().clone())?;
+        let bound = self.bound_on(kernel.scene());
         let options = PlanOptions {
             pieces: self.pieces,
             improve: self.improve,
             kinematics: Kinematics { max_speed: self.max_speed, max_accel: self.max_accel, smooth: self.smooth },
             certifier: self.certifier,
             risk_mode: self.risk_mode,
+            bounds: bound,
         };
-        let deltas = allocate(&kernel, &problem, self.risk_mode)?;
+        let deltas = allocate(&kernel, &problem, self.risk_mode, bound)?;
         let setup = Setup { problem: &problem, kernel: &kernel, deltas: &deltas, options: &options };
         let Built { planner, checker } = self.planner.build(&setup)?;
         let allocation = (self.risk_mode != RiskMode::PerObstacle)
             .then(|| problem.scene.obstacles.iter().zip(&deltas).map(|(o, d)| (o.id.clone(), d.to_f64())).collect());
-        Ok(PreparedPlan { problem, planner, checker, allocation, deltas, kernel })
+        Ok(PreparedPlan { problem, planner, checker, allocation, deltas, kernel, bounds: bound })
+    }
+
+    /// The bounds this request uses on `scene`: its own, else the scene's
+    /// `planner.bound`, else `auto`.
+    pub fn bound_on(&self, scene: &Scene) -> BoundChoice {
+        self.bound.or_else(|| scene.file.planner.as_ref().and_then(|b| b.bound)).unwrap_or_default()
     }
 
     /// When to stop: this request's time limit from now, and `cancel` if given.
@@ -234,7 +250,12 @@ pub fn no_plan_reason(out: &PlanOutcome, limit: Duration) -> String {
 /// paper's mode; in a joint mode exact rationals with Σ Δᵢ = Δ, so that by Boole's
 /// inequality the probability of colliding with any obstacle at an instant is ≤ Δ
 /// (`kernel`: the scene's, whose covers weigh the obstacles near the straight path).
-pub fn allocate(kernel: &SceneKernel, p: &Problem, mode: RiskMode) -> Result<Vec<RiskLevel>, PlanError> {
+pub fn allocate(
+    kernel: &SceneKernel,
+    p: &Problem,
+    mode: RiskMode,
+    bounds: BoundChoice,
+) -> Result<Vec<RiskLevel>, PlanError> {
     let n = p.scene.obstacles.len();
     let delta = p.delta.rational().clone();
     let weights: Vec<BigRational> = match mode {
@@ -259,7 +280,8 @@ pub fn allocate(kernel: &SceneKernel, p: &Problem, mode: RiskMode) -> Result<Vec
         }
     };
     // floors: what each obstacle needs at the start (t0) and the goal (tf) — the
-    // Cantelli bound there (weighted mode only); the rest of Δ is split by weight
+    // bound there (Cantelli's, or with `auto` the best proven one; weighted mode only);
+    // the rest of Δ is split by weight
     let point = |v: &[f64], t: f64| -> Option<Vec<BigRational>> {
         let mut x: Vec<BigRational> = v.iter().map(|&c| BigRational::from_float(c)).collect::<Option<_>>()?;
         x.push(BigRational::from_float(t)?);
@@ -274,7 +296,13 @@ pub fn allocate(kernel: &SceneKernel, p: &Problem, mode: RiskMode) -> Result<Vec
         p.scene
             .obstacles
             .iter()
-            .map(|o| (o.contour.risk_at(&a).bound * &margin, o.contour.risk_at(&b).bound * &margin))
+            .map(|o| {
+                let bound = |x: &[BigRational]| match bounds {
+                    BoundChoice::Cantelli => o.contour.risk_at(x).bound,
+                    BoundChoice::Auto => crate::certify::bounds::point_bounds_proven(&o.contour, x).best().1,
+                };
+                (bound(&a) * &margin, bound(&b) * &margin)
+            })
             .collect()
     } else {
         vec![(BigRational::from_integer(0.into()), BigRational::from_integer(0.into())); n]

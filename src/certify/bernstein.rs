@@ -160,6 +160,23 @@ pub fn bernstein_enclosure(a: &[Interval]) -> Option<Interval> {
         .then_some(Interval { lo, hi })
 }
 
+/// [`bernstein_enclosure`] for any degree (a heap buffer above [`MAX_DEGREE`]): an
+/// enclosure of the range on [0, 1] of the polynomial with monomial coefficients `a`;
+/// `None` for non-finite input or results.
+pub fn bernstein_hull(a: &[Interval]) -> Option<Interval> {
+    if a.len() <= MAX_DEGREE + 1 {
+        return bernstein_enclosure(a);
+    }
+    if a.iter().any(|x| !(x.lo.is_finite() && x.hi.is_finite())) {
+        return None;
+    }
+    let mut b = vec![Interval::point(0.0); a.len()];
+    bernstein_interval_into(a, &mut b);
+    let lo = b.iter().map(|x| x.lo).fold(f64::INFINITY, f64::min);
+    let hi = b.iter().map(|x| x.hi).fold(f64::NEG_INFINITY, f64::max);
+    (lo.is_finite() && hi.is_finite()).then_some(Interval { lo, hi })
+}
+
 /// Decides `p > 0` on [0, 1] in exact rational arithmetic (same algorithm as
 /// [`check_interval`]). Every witness value is exact (reported rounded to nearest);
 /// the margin is an exact leaf bound rounded down. `Undecided(DepthLimit)` remains
@@ -264,16 +281,21 @@ fn bernstein_interval_into(a: &[Interval], out: &mut [Interval]) {
     }
 }
 
-/// An enclosure of `1/C(n, i)`: from a table built once for `n ≤ MAX_DEGREE`, and from
-/// exact integers above (the heap path).
+/// Degrees whose reciprocal binomials are tabulated: the moment bounds' restricted
+/// constraints reach 8·deg P·deg piece (docs/design.md §3.8), 64 for a quadratic obstacle
+/// on a quartic piece.
+const TABLE_DEGREE: usize = 64;
+
+/// An enclosure of `1/C(n, i)`: from a table built once for `n ≤ TABLE_DEGREE`, and from
+/// exact integers above.
 fn reciprocal_binomial(n: usize, i: usize) -> Interval {
     static TABLE: OnceLock<Vec<Interval>> = OnceLock::new();
     let enclose = |n: usize, i: usize| Interval::enclose_rational(&BigRational::new(BigInt::one(), binomial_big(n, i)));
-    if n > MAX_DEGREE {
+    if n > TABLE_DEGREE {
         return enclose(n, i);
     }
     let table = TABLE.get_or_init(|| {
-        (0..=MAX_DEGREE).flat_map(|n| (0..=n).map(move |i| (n, i))).map(|(n, i)| enclose(n, i)).collect()
+        (0..=TABLE_DEGREE).flat_map(|n| (0..=n).map(move |i| (n, i))).map(|(n, i)| enclose(n, i)).collect()
     });
     table[n * (n + 1) / 2 + i]
 }

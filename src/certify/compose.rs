@@ -68,6 +68,14 @@ pub fn restrict_interval(contour: &RiskContour, piece: PieceRef<'_>, delta: &Big
     restrict(m, s, &subs, &omd)
 }
 
+/// The substitutions x_d(τ), t(τ) of a piece in interval arithmetic (each coefficient
+/// encloses the exact one), for restricting any polynomial in (x, t).
+pub fn interval_substitutions(piece: PieceRef<'_>, dim: usize) -> Vec<UPoly<Interval>> {
+    let t0 = Interval::point(piece.t0);
+    let h = Interval::point(piece.t1) - t0;
+    substitutions(piece, dim, t0, h, Interval::point)
+}
+
 /// Exact restriction in rationals.
 pub fn restrict_exact(contour: &RiskContour, piece: PieceRef<'_>, delta: &BigRational) -> Restricted<BigRational> {
     let q = |f: f64| BigRational::from_float(f).unwrap_or_default();

@@ -10,6 +10,7 @@
 //! the verify path.
 
 pub mod bernstein;
+pub mod bounds;
 mod compose;
 pub mod fast;
 pub mod region;
@@ -20,5 +21,5 @@ pub mod sturm;
 mod verdict;
 
 pub use bernstein::{check, check_exact, check_interval, DEFAULT_MAX_DEPTH};
-pub use compose::{coordinates_exact, restrict_exact, restrict_interval, restrict_poly_exact, PieceRef, Restricted};
+pub use compose::{coordinates_exact, interval_substitutions, restrict_exact, restrict_interval, restrict_poly_exact, PieceRef, Restricted};
 pub use verdict::{Undecided, Verdict, Witness};

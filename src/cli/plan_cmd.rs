@@ -83,6 +83,9 @@ pub struct PlanArgs {
     /// What Δ bounds: per-obstacle (the paper's), joint (any obstacle; Δ split evenly) or joint-weighted (more of Δ to obstacles near the start–goal line).
     #[arg(long, default_value = "per-obstacle")]
     risk_mode: crate::app::RiskMode,
+    /// Which risk bounds may prove safety: auto (the tightest sound one: Cantelli, zero risk from bounded support, shifted moment bounds of orders 4–8, on sub-intervals) or cantelli (the paper's). Default: the scene's planner.bound, else auto.
+    #[arg(long)]
+    bound: Option<crate::contour::BoundChoice>,
     /// Time limit in seconds.
     #[arg(long, default_value_t = 120.0)]
     time_limit: f64,
@@ -115,6 +118,7 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
         max_accel: a.max_accel,
         smooth: !a.no_smooth,
         risk_mode: a.risk_mode,
+        bound: a.bound,
     };
     let mut prepared = request.prepare(scene.clone()).map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
     let term = request.termination(None);

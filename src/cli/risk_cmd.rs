@@ -37,6 +37,9 @@ pub struct RiskArgs {
     /// A risk level Δ: adds `"within_delta": bound ≤ Δ` per obstacle.
     #[arg(long)]
     delta: Option<String>,
+    /// Which bound `bound` reports: auto (the smallest proven one: Cantelli, zero risk from bounded support, shifted moment bounds of orders 4–8) or cantelli. Every bound is listed under `bounds` either way.
+    #[arg(long, default_value = "auto")]
+    bound: crate::contour::BoundChoice,
 }
 
 pub fn run(a: RiskArgs) -> Result<i32, CliError> {
@@ -70,17 +73,41 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
     let mut obstacles = Vec::new();
     for (i, o) in scene.obstacles.iter().enumerate() {
         let r = o.contour.risk_at(&xt);
-        let bound = rational_to_f64(&r.bound);
+        let all = crate::certify::bounds::point_bounds_proven(&o.contour, &xt);
+        let (kind, best) = match a.bound {
+            crate::contour::BoundChoice::Auto => all.best(),
+            crate::contour::BoundChoice::Cantelli => (crate::contour::BoundKind::Cantelli, r.bound.clone()),
+        };
+        let bound = rational_to_f64(&best);
         max_bound = max_bound.max(bound);
+        let mut each = serde_json::Map::new();
+        each.insert(
+            "cantelli".into(),
+            json!({"value": rational_to_f64(&all.cantelli), "exact": all.cantelli.to_string()}),
+        );
+        if let Some(z) = all.support_zero {
+            each.insert("support".into(), json!({"value": if z { 0.0 } else { 1.0 }, "proven_zero": z}));
+        }
+        for m in &all.moments {
+            each.insert(
+                crate::contour::BoundKind::Moment(m.order).as_str().into(),
+                json!({"value": rational_to_f64(&m.value), "exact": m.value.to_string(), "shift": m.shift}),
+            );
+        }
         let mut entry = json!({
             "id": o.id,
             "mean": rational_to_f64(&r.mean),
             "second_moment": rational_to_f64(&r.second_moment),
             "bound": bound,
-            "bound_exact": r.bound.to_string(),
+            "bound_exact": best.to_string(),
+            "best": kind.as_str(),
+            "bounds": each,
         });
+        if let Some(l) = &all.moment_limit {
+            entry["moment_limit"] = json!(l.to_string());
+        }
         if let Some(d) = &delta {
-            entry["within_delta"] = json!(&r.bound <= d.rational());
+            entry["within_delta"] = json!(&best <= d.rational());
         }
         if let Some(mc) = &mc {
             let e = mc[i];
@@ -90,6 +117,7 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
     }
     let out = json!({
         "scene": scene.name,
+        "bound": a.bound.as_str(),
         "point": xt_f[..scene.dim],
         "time": rational_to_f64(&t),
         "obstacles": obstacles,

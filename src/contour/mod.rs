@@ -14,9 +14,14 @@
 //! collision where `E[P] ≤ 0` (1 elsewhere). The guarantee is per obstacle and per
 //! instant (§3.1, §1.1).
 
+pub mod bounds;
+
+pub use bounds::{BoundChoice, BoundKind, HigherLimit, HigherMoments, PointBounds, SupportForm, UnknownBound};
+
 use crate::poly::{rational_to_f64, Interval, Poly, QPoly, Var};
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
+use std::sync::{Arc, OnceLock};
 use thiserror::Error;
 
 /// Why a contour could not be built.
@@ -105,6 +110,15 @@ pub struct RiskContour {
     mean_i: Poly<Interval>,
     second_i: Poly<Interval>,
     dynamic: bool,
+    /// P itself (for the higher moments and the support form).
+    poly: QPoly,
+    /// Raw moments of P's parameters, `E[ω^k]` for k = 0 … up to
+    /// [`bounds::MAX_MOMENT_ORDER`]·deg_ω P (fewer when a moment list stops early).
+    raw: Vec<(Var, String, Vec<BigRational>)>,
+    /// The support form, when every parameter of P has a bounded support.
+    support: Option<Arc<SupportForm>>,
+    /// Central moments, built on first use (docs/design.md §3.8).
+    higher: OnceLock<Arc<HigherMoments>>,
 }
 
 impl RiskContour {
@@ -122,6 +136,17 @@ impl RiskContour {
         let mean = p.expect(is_param, moment).map_err(missing)?;
         let second = p.mul(p).expect(is_param, moment).map_err(missing)?;
         let dynamic = p.contains_var(layout.t());
+        // the raw moments the higher central moments may need, as far as they are known
+        let raw = p
+            .vars()
+            .into_iter()
+            .filter(|&v| layout.is_param(v))
+            .map(|v| {
+                let top = bounds::MAX_MOMENT_ORDER * p.degree_in(v);
+                let ms: Vec<BigRational> = (0..=top).map_while(|k| moment(v, k)).collect();
+                (v, name(v), ms)
+            })
+            .collect();
         Ok(RiskContour {
             layout,
             mean_f: mean.map_coeffs(rational_to_f64),
@@ -131,7 +156,47 @@ impl RiskContour {
             mean,
             second,
             dynamic,
+            poly: p.clone(),
+            raw,
+            support: None,
+            higher: OnceLock::new(),
         })
+    }
+
+    /// The same contour with the parameters' bounded supports `(parameter, lo, hi)`: when
+    /// every parameter of P has one, zero-risk certificates become possible (§3.7).
+    pub fn with_support(mut self, support: &[(Var, BigRational, BigRational)]) -> Self {
+        let layout = self.layout;
+        self.support = SupportForm::new(&self.poly, |v| layout.is_param(v), support).map(Arc::new);
+        self
+    }
+
+    /// The obstacle polynomial P(x, ω, t).
+    pub fn poly(&self) -> &QPoly {
+        &self.poly
+    }
+
+    /// The support form, when every parameter has a bounded support.
+    pub fn support(&self) -> Option<&SupportForm> {
+        self.support.as_deref()
+    }
+
+    /// The central moments (built on first use, within [`bounds::MAX_HIGHER_MOMENT_WORK`]).
+    pub fn higher(&self) -> &HigherMoments {
+        self.higher.get_or_init(|| Arc::new(bounds::build_higher(self)))
+    }
+
+    /// Whether the central moments have been built (for status and benches).
+    pub fn higher_built(&self) -> bool {
+        self.higher.get().is_some()
+    }
+
+    fn raw_moment(&self, v: Var, k: u32) -> Option<BigRational> {
+        self.raw.iter().find(|r| r.0 == v).and_then(|r| r.2.get(k as usize)).cloned()
+    }
+
+    fn param_name(&self, v: Var) -> String {
+        self.raw.iter().find(|r| r.0 == v).map_or_else(|| format!("#{v}"), |r| r.1.clone())
     }
 
     /// Whether the obstacle moves (its polynomial contains `t`).

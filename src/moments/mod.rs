@@ -148,6 +148,25 @@ impl Distribution {
         }
     }
 
+    /// The smallest interval `[lo, hi]` that holds the parameter with probability 1,
+    /// when it is bounded (docs/design.md §3.7): uniform and beta on their ends, discrete on
+    /// its smallest and largest value, a normal with σ = 0 on its mean. `None` for the
+    /// unbounded families and for a moment list (its support is not known).
+    pub fn support(&self) -> Option<(BigRational, BigRational)> {
+        match self {
+            Distribution::Uniform { low, high } | Distribution::Beta { low, high, .. } => {
+                Some((low.clone(), high.clone()))
+            }
+            Distribution::Discrete { values, .. } => {
+                let lo = values.iter().min()?.clone();
+                let hi = values.iter().max()?.clone();
+                Some((lo, hi))
+            }
+            Distribution::Normal { mean, std } if std.is_zero() => Some((mean.clone(), mean.clone())),
+            _ => None,
+        }
+    }
+
     /// Checks the parameters of the family; for `discrete`, renormalises the
     /// weights exactly when they sum to 1 within [`WEIGHT_SUM_TOLERANCE`].
     pub fn validated(self) -> Result<Self, MomentError> {

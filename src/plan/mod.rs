@@ -43,7 +43,7 @@ pub use rrt::{
 pub use crate::motion::{dist, CheckCounter, Motion, MotionChecker, Termination};
 
 use crate::certify::scene::{Method, SceneKernel};
-use crate::contour::RiskLevel;
+use crate::contour::{BoundChoice, RiskLevel};
 use crate::scene::{PlannerBlock, Scene};
 use std::fmt;
 use std::str::FromStr;
@@ -329,6 +329,8 @@ pub struct PlanOptions {
     pub certifier: Method,
     /// What Δ bounds.
     pub risk_mode: RiskMode,
+    /// Which risk bounds may prove an edge (docs/design.md §5.13).
+    pub bounds: BoundChoice,
 }
 
 /// Checks start and goal: inside the workspace and strictly inside every Δ-contour;

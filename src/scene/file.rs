@@ -176,6 +176,10 @@ pub struct PlannerBlock {
     /// Acceleration limit used when smoothing corners, > 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_accel: Option<f64>,
+    /// Which risk bounds may prove safety when a request does not say: `auto` (the
+    /// tightest sound one, the default) or `cantelli` (the paper's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bound: Option<crate::contour::BoundChoice>,
     /// The paper's RRT-SOS parameters (read by `rrt-sos-paper`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rrt_sos: Option<RrtSosBlock>,

@@ -208,6 +208,8 @@ impl Scene {
         let layout = Layout { dim };
         let polys = parse_obstacles(&file, &vars, dim)?;
         let moments = needed_moments(&polys, &params)?;
+        let supports: Vec<(Var, BigRational, BigRational)> =
+            params.iter().filter_map(|p| p.dist.support().map(|(lo, hi)| (p.var, lo, hi))).collect();
         let name = |v: Var| vars.name(v);
         let mut obstacles = Vec::with_capacity(polys.len());
         for (i, (o, poly)) in file.obstacles.iter().zip(polys).enumerate() {
@@ -217,7 +219,8 @@ impl Scene {
                 None => {
                     let lookup = |v: Var, k: u32| moments.get(&v).and_then(|m| m.get(k as usize)).cloned();
                     let c = RiskContour::new(layout, &poly, &lookup, &name)
-                        .map_err(|e| SceneError { path: format!("obstacles[{i}].poly"), kind: e.into() })?;
+                        .map_err(|e| SceneError { path: format!("obstacles[{i}].poly"), kind: e.into() })?
+                        .with_support(&supports);
                     cache.insert(key, Arc::new(c))
                 }
             };
@@ -348,7 +351,9 @@ impl ContourCache {
                 )
             })
             .collect();
-        format!("{dim}|{text}|{}", used.join(";"))
+        // the contour holds the moment bounds' central moments up to this order: a change of
+        // the order is a different contour
+        format!("{dim}|{text}|orders<={}|{}", crate::contour::bounds::MAX_MOMENT_ORDER, used.join(";"))
     }
 
     fn get(&self, key: &str) -> Option<Arc<RiskContour>> {
@@ -538,10 +543,26 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
 fn needed_moments(polys: &[QPoly], params: &[Param]) -> Result<BTreeMap<Var, Vec<BigRational>>, SceneError> {
     let mut out = BTreeMap::new();
     for p in params {
-        let k = 2 * polys.iter().map(|q| q.degree_in(p.var)).max().unwrap_or(0);
-        let m = p.dist.raw_moments(k).map_err(|e| moment_err(&format!("params.{}", p.name), e))?;
+        let deg = polys.iter().map(|q| q.degree_in(p.var)).max().unwrap_or(0);
+        let k = 2 * deg;
+        let mut m = p.dist.raw_moments(k).map_err(|e| moment_err(&format!("params.{}", p.name), e))?;
         if m.iter().skip(2).step_by(2).any(|x| x.is_negative()) {
             return Err(err(format!("params.{}", p.name), "even moments must be ≥ 0"));
+        }
+        // the higher orders of the moment bounds (docs/design.md §3.8), as far as they are
+        // known: a moment list supports the orders it lists, and only if they are still a
+        // moment sequence (Hankel check); the Cantelli contour needs only the first 2·deg
+        let top = crate::contour::bounds::MAX_MOMENT_ORDER * deg;
+        let known = match &p.dist {
+            crate::moments::Distribution::Moments { raw } => (raw.len() as u32).min(top),
+            _ => top,
+        };
+        if known > k {
+            if let Ok(more) = p.dist.raw_moments(known) {
+                if !more.iter().skip(2).step_by(2).any(|x| x.is_negative()) {
+                    m = more;
+                }
+            }
         }
         out.insert(p.var, m);
     }

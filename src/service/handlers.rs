@@ -8,7 +8,7 @@ use super::proto::{
 };
 use super::registry::{Entry, Registry};
 use crate::app::{self, PlannerKind};
-use crate::contour::RiskLevel;
+use crate::contour::{BoundChoice, BoundKind, RiskLevel};
 use crate::scene::{Piece, Trajectory, TRAJECTORY_FORMAT};
 use crate::verify::{verify_until, Method};
 use std::collections::BTreeMap;
@@ -18,6 +18,10 @@ use std::time::{Duration, Instant};
 
 fn delta_of(d: Option<f64>) -> Result<Option<RiskLevel>, ServiceError> {
     d.map(|d| RiskLevel::from_f64(d).map_err(|e| invalid("delta", e.to_string()))).transpose()
+}
+
+fn bound_of(b: &str) -> Result<BoundChoice, ServiceError> {
+    b.parse().map_err(|e: crate::contour::UnknownBound| invalid("bound", e.to_string()))
 }
 
 fn method_of(m: Option<&str>, field: &str) -> Result<Method, ServiceError> {
@@ -59,6 +63,7 @@ fn plan_request(req: &PlanRequest, cap: Duration) -> Result<app::PlanRequest, Se
             Some(m) => m.parse().map_err(|e: app::UnknownName| invalid("risk_mode", e.to_string()))?,
             None => app::RiskMode::PerObstacle,
         },
+        bound: req.bound.as_deref().map(bound_of).transpose()?,
     })
 }
 
@@ -150,14 +155,17 @@ pub fn verify_request(entry: &Entry, req: &VerifyRequest, deadline: Instant) -> 
     })?;
     let delta = delta_of(req.delta)?.unwrap_or_else(|| scene.risk.clone());
     let method = method_of(req.method.as_deref(), "method")?;
-    let r = verify_until(&entry.kernel, &traj, &delta, method, &Default::default(), &|| Instant::now() >= deadline)
+    let bound = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
+    let r = verify_until(&entry.kernel, &traj, &delta, method, &Default::default(), bound, &|| {
+        Instant::now() >= deadline
+    })
         .map_err(|_| ServiceError::DeadlineExceeded(format!("verifying {} pieces", traj.pieces.len())))?;
     let pieces = if req.summary.unwrap_or(false) {
         r.pieces.into_iter().filter(|p| !p.safe).take(1).collect()
     } else {
         r.pieces
     };
-    Ok(VerifyReply { safe: r.safe, method: r.method, risk: r.risk, pieces, revision: entry.revision })
+    Ok(VerifyReply { safe: r.safe, method: r.method, risk: r.risk, bound: bound.to_string(), pieces, revision: entry.revision })
 }
 
 /// Cantelli bounds at points or on a grid (floating point, for displays).
@@ -211,24 +219,42 @@ pub fn risk(entry: &Entry, req: &RiskRequest, deadline: Instant) -> Result<RiskR
         }
         _ => return Err(invalid("points", "give exactly one of points and grid")),
     };
+    let bound = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
     let mut per: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    let mut by_bound: BTreeMap<String, BTreeMap<String, Vec<f64>>> = BTreeMap::new();
     let mut bounds = vec![0.0f64; points.len()];
     for o in &scene.obstacles {
-        if Instant::now() >= deadline {
-            return Err(ServiceError::DeadlineExceeded(format!("risk at {} points", points.len())));
+        let mut all: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+        let mut best = Vec::with_capacity(points.len());
+        for p in &points {
+            if Instant::now() >= deadline {
+                return Err(ServiceError::DeadlineExceeded(format!("risk at {} points", points.len())));
+            }
+            let mut xt = p.clone();
+            xt.push(t);
+            let each = crate::certify::bounds::point_bounds_f64(&o.contour, &xt);
+            let mut b = 1.0f64;
+            for (kind, v) in &each {
+                all.entry(kind.as_str().to_string()).or_default().push(*v);
+                if bound.beyond_cantelli() || *kind == BoundKind::Cantelli {
+                    b = b.min(*v);
+                }
+            }
+            best.push(b);
         }
-        let v: Vec<f64> = points
-            .iter()
-            .map(|p| {
-                let mut xt = p.clone();
-                xt.push(t);
-                o.contour.bound_f64(&xt)
-            })
-            .collect();
-        for (b, x) in bounds.iter_mut().zip(&v) {
+        for (b, x) in bounds.iter_mut().zip(&best) {
             *b = b.max(*x);
         }
-        per.insert(o.id.clone(), v);
+        per.insert(o.id.clone(), best);
+        by_bound.insert(o.id.clone(), all);
     }
-    Ok(RiskReply { revision: entry.revision, time: t, points, bounds, obstacles: per })
+    Ok(RiskReply {
+        revision: entry.revision,
+        time: t,
+        points,
+        bounds,
+        obstacles: per,
+        by_bound,
+        bound: bound.to_string(),
+    })
 }

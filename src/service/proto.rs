@@ -151,6 +151,10 @@ pub struct PlanRequest {
     /// `per-obstacle` (default), `joint` or `joint-weighted`.
     #[serde(default)]
     pub risk_mode: Option<String>,
+    /// Which risk bounds may prove safety: `auto` (the tightest sound one) or `cantelli`
+    /// (the paper's). Default: the scene's `planner.bound`, else `auto`.
+    #[serde(default)]
+    pub bound: Option<String>,
 }
 
 /// `plan_reply`: a trajectory in format v1 with its provenance.
@@ -206,6 +210,9 @@ pub struct VerifyRequest {
     /// Δ (default: the scene's).
     #[serde(default)]
     pub delta: Option<f64>,
+    /// `auto` (default) or `cantelli`: which bounds may prove a piece.
+    #[serde(default)]
+    pub bound: Option<String>,
     /// `true`: the reply's `pieces` holds only the first piece that is not safe (none
     /// when the trajectory is safe), not a report of every piece.
     #[serde(default)]
@@ -226,6 +233,9 @@ pub struct VerifyReply {
     pub method: String,
     /// Δ.
     pub risk: f64,
+    /// The bounds allowed (`auto` or `cantelli`).
+    #[serde(default)]
+    pub bound: String,
     /// Per piece.
     pub pieces: Vec<PieceReport>,
     /// Scene revision used.
@@ -257,6 +267,10 @@ pub struct RiskRequest {
     /// Time (default: horizon start).
     #[serde(default)]
     pub time: Option<f64>,
+    /// `auto` (default): `bounds` and `obstacles` hold the best bound of each point;
+    /// `cantelli`: Cantelli's.
+    #[serde(default)]
+    pub bound: Option<String>,
     /// How long the server may take, in milliseconds from the request's arrival,
     /// queue time included (default and cap: the server's `--max-job-seconds`). Past it
     /// the reply is the error `deadline_exceeded`.
@@ -273,10 +287,18 @@ pub struct RiskReply {
     pub time: f64,
     /// The points.
     pub points: Vec<Vec<f64>>,
-    /// Max over obstacles of the Cantelli bound.
+    /// Max over obstacles of the best bound allowed (`bound`).
     pub bounds: Vec<f64>,
-    /// Per obstacle.
+    /// Per obstacle, the best bound allowed.
     pub obstacles: BTreeMap<String, Vec<f64>>,
+    /// Per obstacle, every bound (`cantelli`, `support`, `moment4`, `moment6`, `moment8`;
+    /// `support` is 0 where zero risk is proven, 1 elsewhere; a bound an obstacle does not
+    /// have is absent).
+    #[serde(default)]
+    pub by_bound: BTreeMap<String, BTreeMap<String, Vec<f64>>>,
+    /// The bounds allowed.
+    #[serde(default)]
+    pub bound: String,
 }
 
 /// `scene_reply`.

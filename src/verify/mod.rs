@@ -16,7 +16,8 @@ use crate::certify::fast::CompiledContour;
 use crate::certify::scene::{combine, decide_obstacle, piece_passes_verify_path, worst};
 use crate::certify::sos;
 use crate::certify::{PieceRef, Undecided, Verdict};
-use crate::contour::RiskLevel;
+use crate::certify::bounds::{CoverFailure, PieceBounds};
+use crate::contour::{BoundChoice, BoundKind, RiskLevel};
 use crate::scene::{Obstacle, Trajectory};
 use serde::{Deserialize, Serialize};
 
@@ -68,6 +69,26 @@ pub struct ObstacleReport {
     pub status: Status,
     /// `mean` then `cantelli`.
     pub constraints: Vec<ConstraintReport>,
+    /// Which bound proved which part of the piece (absolute times), when it is safe:
+    /// one `cantelli` part when Cantelli's constraints hold on the whole piece, else the
+    /// sub-intervals of the cover (docs/design.md §5.13). Empty when not safe.
+    #[serde(default)]
+    pub bounds: Vec<BoundPartReport>,
+    /// Why no bound proves the piece, when it is not safe and bounds beyond Cantelli were
+    /// allowed (with the absolute time where the search stopped).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub not_covered: Option<String>,
+}
+
+/// One part of a piece proven by one bound.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BoundPartReport {
+    /// Start (absolute time).
+    pub t0: f64,
+    /// End (absolute time).
+    pub t1: f64,
+    /// `cantelli`, `support`, `moment4`, `moment6` or `moment8`.
+    pub bound: BoundKind,
 }
 
 /// One piece.
@@ -94,6 +115,9 @@ pub struct VerifyReport {
     pub method: String,
     /// Δ used.
     pub risk: f64,
+    /// The bounds allowed (`auto` or `cantelli`).
+    #[serde(default)]
+    pub bound: BoundChoice,
     /// Per piece.
     pub pieces: Vec<PieceReport>,
 }
@@ -134,7 +158,7 @@ pub fn verify_obstacle(
     method: Method,
     settings: &sos::SosSettings,
 ) -> ObstacleReport {
-    verify_obstacle_with(o, None, piece, delta, method, settings)
+    verify_obstacle_with(o, None, piece, delta, method, settings, BoundChoice::Auto)
 }
 
 /// [`verify_obstacle`] with the obstacle's compiled contour (the fast restriction).
@@ -145,6 +169,7 @@ pub fn verify_obstacle_with(
     delta: &RiskLevel,
     method: Method,
     settings: &sos::SosSettings,
+    bounds: BoundChoice,
 ) -> ObstacleReport {
     let mut constraints = Vec::with_capacity(2);
     let mut status = Status::Safe;
@@ -172,7 +197,40 @@ pub fn verify_obstacle_with(
         });
         true
     });
-    ObstacleReport { id: o.id.clone(), status, constraints }
+    let at = |tau: f64| piece.t0 + (piece.t1 - piece.t0) * tau;
+    let mut report = ObstacleReport { id: o.id.clone(), status, constraints, bounds: Vec::new(), not_covered: None };
+    if status == Status::Safe {
+        report.bounds.push(BoundPartReport { t0: piece.t0, t1: piece.t1, bound: BoundKind::Cantelli });
+        return report;
+    }
+    let mean_unsafe = report.constraints.first().is_some_and(|c| c.name == "mean" && c.status == Status::Unsafe);
+    if !bounds.beyond_cantelli() {
+        return report;
+    }
+    if mean_unsafe {
+        report.not_covered = Some("E[P] >= 0 on the piece: no bound applies".into());
+        return report;
+    }
+    let hint = report.constraints.iter().find_map(|c| c.witness.map(|w| (w.t - piece.t0) / (piece.t1 - piece.t0)));
+    match PieceBounds::for_piece(&o.contour, piece, delta.rational()).cover(hint.filter(|h| h.is_finite())) {
+        Ok(parts) => {
+            report.status = Status::Safe;
+            report.bounds =
+                parts.iter().map(|p| BoundPartReport { t0: at(p.tau0), t1: at(p.tau1), bound: p.bound }).collect();
+        }
+        Err(f) => {
+            report.not_covered = Some(match f {
+                CoverFailure::MeanNotNegative { tau } => format!("E[P] >= 0 at t = {}: no bound applies", at(tau)),
+                CoverFailure::AboveDelta { tau, best } => {
+                    format!("every bound is above the risk level at t = {} (smallest {best:.3e})", at(tau))
+                }
+                CoverFailure::Budget { tau } => {
+                    format!("no bound proves the piece near t = {} within the search limits", at(tau))
+                }
+            })
+        }
+    }
+    report
 }
 
 /// Verifies a trajectory against a scene (or its [`SceneKernel`], to reuse its
@@ -186,12 +244,15 @@ pub fn verify(
 ) -> VerifyReport {
     // `stop` never says yes, so this is never interrupted; were it, the answer would
     // be "not safe" with no pieces, never a false "safe".
-    verify_until(&scene.into(), traj, delta, method, settings, &|| false).unwrap_or_else(|Interrupted| VerifyReport {
-        safe: false,
-        method: method.as_str().to_string(),
-        risk: delta.to_f64(),
-        pieces: Vec::new(),
-    })
+    verify_until(&scene.into(), traj, delta, method, settings, BoundChoice::Auto, &|| false).unwrap_or_else(
+        |Interrupted| VerifyReport {
+            safe: false,
+            method: method.as_str().to_string(),
+            risk: delta.to_f64(),
+            bound: BoundChoice::Auto,
+            pieces: Vec::new(),
+        },
+    )
 }
 
 /// [`verify`] that asks `stop` before each piece and obstacle and gives up with
@@ -203,6 +264,7 @@ pub fn verify_until(
     delta: &RiskLevel,
     method: Method,
     settings: &sos::SosSettings,
+    bounds: BoundChoice,
     stop: &dyn Fn() -> bool,
 ) -> Result<VerifyReport, Interrupted> {
     let scene = kernel.scene();
@@ -216,7 +278,7 @@ pub fn verify_until(
             if stop() {
                 return Err(Interrupted);
             }
-            obstacles.push(verify_obstacle_with(o, Some(c), pr, delta, method, settings));
+            obstacles.push(verify_obstacle_with(o, Some(c), pr, delta, method, settings, bounds));
         }
         let safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
         pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
@@ -225,6 +287,7 @@ pub fn verify_until(
         safe: pieces.iter().all(|p| p.safe),
         method: method.as_str().to_string(),
         risk: delta.to_f64(),
+        bound: bounds,
         pieces,
     })
 }
@@ -266,6 +329,7 @@ pub fn final_check(
     traj: &Trajectory,
     endpoints: (&[f64], &[f64]),
     deltas: &[RiskLevel],
+    bounds: BoundChoice,
     stop: &dyn Fn() -> bool,
 ) -> Result<FinalCheck, Interrupted> {
     let scene = kernel.scene();
@@ -296,7 +360,7 @@ pub fn final_check(
             return Err(Interrupted);
         }
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
-        if !piece_passes_verify_path(scene, &framed, near, pr, deltas) {
+        if !piece_passes_verify_path(scene, &framed, near, pr, deltas, bounds) {
             return Ok(done(Some(FinalFailure::NotProven(i))));
         }
     }

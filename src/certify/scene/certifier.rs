@@ -1,18 +1,18 @@
 //! The scene certifier: the continuous-time certifier as a planner's motion checker
 //! (docs/design.md §5.9, §5.10).
 
-use super::decide::{combine, decide_obstacle, point_status, Method, PointStatus, Status};
+use super::decide::{combine, decide_obstacle, point_obstacle_safe, point_status, Method, PointStatus, Status};
 use super::framed::piece_passes_verify_path;
 use super::index::{piece_bbox, SceneIndex};
 use super::kernel::SceneKernel;
 use super::workspace::check_workspace;
 use crate::certify::fast::{CompiledContour, Substitution};
+use crate::certify::bounds::PieceBounds;
 use crate::certify::{bernstein, restrict_exact, sos, PieceRef, Verdict};
-use crate::contour::RiskLevel;
+use crate::contour::{BoundChoice, RiskLevel};
 use crate::motion::{Motion, MotionChecker, Termination};
 use crate::scene::{Piece, Scene};
 use num_rational::BigRational;
-use num_traits::Signed;
 use std::sync::{Arc, OnceLock};
 
 /// The continuous-time certifier as a planner's motion checker: a piece is accepted
@@ -40,6 +40,8 @@ pub struct SceneCertifier {
     /// Whether the fast path (covers, compiled restriction) is used; without it every
     /// obstacle is decided on every piece by the verify path (the final check's).
     fast: bool,
+    /// Which bounds may prove a piece (docs/design.md §5.13).
+    bounds: BoundChoice,
 }
 
 impl SceneCertifier {
@@ -75,7 +77,19 @@ impl SceneCertifier {
             compiled,
             index: OnceLock::new(),
             fast: true,
+            bounds: BoundChoice::default(),
         }
+    }
+
+    /// The same certifier with another choice of bounds (`auto` by default).
+    pub fn with_bounds(mut self, bounds: BoundChoice) -> Self {
+        self.bounds = bounds;
+        self
+    }
+
+    /// The bounds it may use.
+    pub fn bounds(&self) -> BoundChoice {
+        self.bounds
     }
 
     /// The same certifier without the fast path: every obstacle on every piece by the
@@ -112,41 +126,66 @@ impl SceneCertifier {
     }
 
     /// Whether obstacle `i` is proven safe on a piece (Exact method, fast path; `subs`:
-    /// the piece's centred coordinates, shared by all obstacles).
+    /// the piece's centred coordinates, shared by all obstacles). When Cantelli's
+    /// constraints fail only in g₁ and the bounds are `auto`, the piece may still be
+    /// covered by sub-intervals proven by other bounds (docs/design.md §5.13).
     fn obstacle_safe(&self, i: usize, pr: PieceRef<'_>, subs: Option<&Substitution>) -> bool {
         let o = &self.scene.obstacles[i];
         let delta = self.deltas[i].rational();
-        if self.method == Method::Exact {
-            let fast = subs.and_then(|subs| {
-                self.compiled[i].with_constraints(subs, self.one_minus[i], |g2, g1| {
-                    for g in [g2, g1] {
-                        match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
-                            Verdict::Safe { .. } => {}
-                            Verdict::Unsafe(_) => return Some(false),
-                            Verdict::Undecided(_) => return None,
+        // Cantelli: Ok(()) proven; Err(None) g₂ fails (E[P] ≥ 0 somewhere: no bound can
+        // help); Err(Some(hint)) only g₁ fails or is undecided (hint: a local time, if known)
+        let cantelli: Result<(), Option<Option<f64>>> = 'cantelli: {
+            if self.method == Method::Exact {
+                let fast = subs.and_then(|subs| {
+                    self.compiled[i].with_constraints(subs, self.one_minus[i], |g2, g1| {
+                        for (k, g) in [g2, g1].into_iter().enumerate() {
+                            match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
+                                Verdict::Safe { .. } => {}
+                                Verdict::Unsafe(_) if k == 0 => return Some(Err(None)),
+                                Verdict::Unsafe(w) => return Some(Err(Some(Some(w.tau)))),
+                                Verdict::Undecided(_) => return None,
+                            }
                         }
+                        Some(Ok(()))
+                    })
+                });
+                match fast {
+                    Some(Some(v)) => break 'cantelli v,
+                    Some(None) => {
+                        // undecided in floats: the exact rational check decides both constraints
+                        let r = restrict_exact(&o.contour, pr, delta);
+                        break 'cantelli match bernstein::check_exact(&r.mean, bernstein::DEFAULT_MAX_DEPTH) {
+                            Verdict::Safe { .. } => match bernstein::check_exact(&r.cantelli, bernstein::DEFAULT_MAX_DEPTH) {
+                                Verdict::Safe { .. } => Ok(()),
+                                Verdict::Unsafe(w) => Err(Some(Some(w.tau))),
+                                Verdict::Undecided(_) => Err(Some(None)),
+                            },
+                            _ => Err(None),
+                        };
                     }
-                    Some(true)
-                })
-            });
-            match fast {
-                Some(Some(v)) => return v,
-                Some(None) => {
-                    // undecided in floats: the exact rational check decides both constraints
-                    let r = restrict_exact(&o.contour, pr, delta);
-                    return [&r.mean, &r.cantelli]
-                        .iter()
-                        .all(|p| bernstein::check_exact(p, bernstein::DEFAULT_MAX_DEPTH).is_safe());
+                    None => {}
                 }
-                None => {}
             }
+            let mut result = Ok(());
+            decide_obstacle(o, Some(&self.compiled[i]), pr, delta, self.method, &self.settings, |name, vs| {
+                match combine(&vs) {
+                    Status::Safe => true,
+                    st => {
+                        let hint = vs.iter().find_map(|(_, v)| if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None });
+                        result = if name == "mean" && st == Status::Unsafe { Err(None) } else { Err(Some(hint)) };
+                        false
+                    }
+                }
+            });
+            result
+        };
+        match cantelli {
+            Ok(()) => true,
+            Err(Some(hint)) if self.bounds.beyond_cantelli() => {
+                PieceBounds::for_piece(&o.contour, pr, delta).cover(hint).is_ok()
+            }
+            Err(_) => false,
         }
-        let mut safe = true;
-        decide_obstacle(o, Some(&self.compiled[i]), pr, delta, self.method, &self.settings, |_, vs| {
-            safe = combine(&vs) == Status::Safe;
-            safe
-        });
-        safe
     }
 }
 
@@ -191,7 +230,7 @@ impl MotionChecker for SceneCertifier {
             return Motion::Rejected;
         }
         if !self.fast {
-            return if piece_passes_verify_path(&self.scene, &self.kernel.framed(), None, pr, &self.deltas) {
+            return if piece_passes_verify_path(&self.scene, &self.kernel.framed(), None, pr, &self.deltas, self.bounds) {
                 Motion::Accepted
             } else {
                 Motion::Rejected
@@ -222,7 +261,7 @@ impl MotionChecker for SceneCertifier {
     }
 
     fn blocking_obstacle(&self, x: &[f64], t: f64) -> Option<String> {
-        match point_status(&self.scene, x, t, &self.deltas) {
+        match point_status(&self.scene, x, t, &self.deltas, self.bounds) {
             PointStatus::InContour(i) => Some(self.scene.obstacles[i].id.clone()),
             _ => None,
         }
@@ -247,10 +286,7 @@ impl MotionChecker for SceneCertifier {
         let Some(tq) = BigRational::from_float(t) else { return Motion::Rejected };
         xt.push(tq);
         for i in cands {
-            let one_minus = BigRational::from_integer(1.into()) - self.deltas[i].rational();
-            let r = self.scene.obstacles[i].contour.risk_at(&xt);
-            let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
-            if !(r.mean.is_negative() && g1.is_positive()) {
+            if !point_obstacle_safe(&self.scene.obstacles[i], &xt, &self.deltas[i], self.bounds) {
                 return Motion::Rejected;
             }
         }

@@ -3,7 +3,8 @@
 
 use crate::certify::fast::CompiledContour;
 use crate::certify::{bernstein, restrict_exact, restrict_interval, sos, PieceRef, Verdict};
-use crate::contour::RiskLevel;
+use crate::certify::bounds::PieceBounds;
+use crate::contour::{BoundChoice, RiskLevel};
 use crate::poly::{Interval, UPoly};
 use crate::scene::{Obstacle, Scene};
 use num_rational::BigRational;
@@ -143,7 +144,8 @@ pub fn decide_obstacle(
 pub struct Interrupted;
 
 /// Whether `x` at time `t` is strictly inside every Δ-contour (g1 > 0 and g2 > 0,
-/// exactly) and inside the workspace.
+/// exactly) or proven safe by another bound (`auto`, docs/design.md §3.10), and inside the
+/// workspace.
 pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &RiskLevel) -> bool {
     point_safe_with(scene, x, t, &vec![delta.clone(); scene.obstacles.len()])
 }
@@ -151,16 +153,30 @@ pub fn point_safe(scene: &Scene, x: &[f64], t: f64, delta: &RiskLevel) -> bool {
 /// Where a point stands at one instant (docs/design.md §3.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PointStatus {
-    /// Inside the workspace and strictly inside every Δᵢ-contour, exactly.
+    /// Inside the workspace and proven below every Δᵢ.
     Safe,
     /// Outside the workspace box, or not finite.
     OutsideWorkspace,
-    /// On or outside the Δᵢ-contour of obstacle `i` (the first such obstacle).
+    /// Not proven below Δᵢ for obstacle `i` (the first such obstacle): on or outside its
+    /// Δᵢ-contour for every bound allowed.
     InContour(usize),
 }
 
-/// The status of `x` at time `t` with one risk level per obstacle, exactly.
-pub fn point_status(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> PointStatus {
+/// Whether one obstacle's risk at the exact point `xt` = (x, t) is proven below `delta`:
+/// Cantelli's constraints strictly positive (exactly), or, with `auto`, zero risk from the
+/// support or a shifted moment bound (interval proofs at the point, §3.10).
+pub fn point_obstacle_safe(o: &Obstacle, xt: &[BigRational], delta: &RiskLevel, bounds: BoundChoice) -> bool {
+    let one_minus = BigRational::from_integer(1.into()) - delta.rational();
+    let r = o.contour.risk_at(xt);
+    let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
+    if r.mean.is_negative() && g1.is_positive() {
+        return true;
+    }
+    bounds.beyond_cantelli() && PieceBounds::for_point(&o.contour, xt, delta.rational()).cover(None).is_ok()
+}
+
+/// The status of `x` at time `t` with one risk level per obstacle and a choice of bounds.
+pub fn point_status(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel], bounds: BoundChoice) -> PointStatus {
     if !scene.workspace.contains(x) {
         return PointStatus::OutsideWorkspace;
     }
@@ -169,16 +185,11 @@ pub fn point_status(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> P
     };
     let Some(tq) = BigRational::from_float(t) else { return PointStatus::OutsideWorkspace };
     xt.push(tq);
-    let bad = scene.obstacles.iter().zip(deltas).position(|(o, d)| {
-        let one_minus = BigRational::from_integer(1.into()) - d.rational();
-        let r = o.contour.risk_at(&xt);
-        let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
-        !(r.mean.is_negative() && g1.is_positive())
-    });
+    let bad = scene.obstacles.iter().zip(deltas).position(|(o, d)| !point_obstacle_safe(o, &xt, d, bounds));
     bad.map_or(PointStatus::Safe, PointStatus::InContour)
 }
 
-/// [`point_safe`] with one risk level per obstacle.
+/// [`point_safe`] with one risk level per obstacle (all bounds: `auto`).
 pub fn point_safe_with(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> bool {
-    point_status(scene, x, t, deltas) == PointStatus::Safe
+    point_status(scene, x, t, deltas, BoundChoice::Auto) == PointStatus::Safe
 }

@@ -3,8 +3,9 @@
 use super::decide::Interrupted;
 use super::workspace::{check_workspace, interval_hull};
 use super::Status;
-use crate::certify::{bernstein, restrict_exact, PieceRef};
-use crate::contour::RiskLevel;
+use crate::certify::bounds::PieceBounds;
+use crate::certify::{bernstein, restrict_exact, PieceRef, Verdict};
+use crate::contour::{BoundChoice, RiskLevel};
 use crate::poly::{Interval, UPoly};
 use crate::scene::{Obstacle, Scene};
 use num_rational::BigRational;
@@ -211,6 +212,7 @@ pub(crate) fn piece_passes_verify_path(
     near: Option<NearTests<'_>>,
     pr: PieceRef<'_>,
     deltas: &[RiskLevel],
+    bounds: BoundChoice,
 ) -> bool {
     if !pr.is_finite() || check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe {
         return false;
@@ -228,7 +230,18 @@ pub(crate) fn piece_passes_verify_path(
         let (cantelli, mean) = framed.restrict(i, o, pr, omd);
         let exact = std::cell::OnceCell::new();
         let exact = || exact.get_or_init(|| restrict_exact(&o.contour, pr, d.rational()));
-        bernstein::check(&mean, || exact().mean.clone()).is_safe()
-            && bernstein::check(&cantelli, || exact().cantelli.clone()).is_safe()
+        if !bernstein::check(&mean, || exact().mean.clone()).is_safe() {
+            return false;
+        }
+        match bernstein::check(&cantelli, || exact().cantelli.clone()) {
+            Verdict::Safe { .. } => true,
+            // the other bounds, on sub-intervals (docs/design.md §5.13); their proofs are
+            // interval computations on the general composition, not the compiled path
+            v if bounds.beyond_cantelli() => {
+                let hint = if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None };
+                PieceBounds::for_piece(&o.contour, pr, d.rational()).cover(hint).is_ok()
+            }
+            _ => false,
+        }
     })
 }

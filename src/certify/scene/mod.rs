@@ -17,7 +17,7 @@ mod workspace;
 pub use certifier::SceneCertifier;
 pub(crate) use decide::{combine, worst};
 pub use decide::{
-    decide, decide_obstacle, point_safe, point_safe_with, point_status, Interrupted, Method, PointStatus, Status,
+    decide, decide_obstacle, point_obstacle_safe, point_safe, point_safe_with, point_status, Interrupted, Method, PointStatus, Status,
     WitnessReport,
 };
 pub(crate) use framed::piece_passes_verify_path;

@@ -48,7 +48,7 @@ pub static PAPER: PlannerSpec = PlannerSpec {
 fn build(s: &Setup<'_>, paper: bool) -> Result<Built, PlanError> {
     Ok(Built {
         planner: rrt_planner(s.problem, paper, s.options)?,
-        checker: Box::new(SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier)),
+        checker: Box::new(SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier).with_bounds(s.options.bounds)),
     })
 }
 

@@ -213,7 +213,7 @@ fn build_planner(s: &Setup<'_>, form: MomentForm) -> Result<Built, PlanError> {
     Ok(Built {
         planner: Box::new(MomentPlanner { params, deltas: Some(s.deltas.to_vec()) }),
         checker: Box::new(
-            SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier).without_index_build(),
+            SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier).with_bounds(s.options.bounds).without_index_build(),
         ),
     })
 }

@@ -240,7 +240,7 @@ pub static SPEC: PlannerSpec = PlannerSpec {
         Ok(Built {
             planner: Box::new(TvSos { params, deltas: Some(s.deltas.to_vec()) }),
             checker: Box::new(
-                SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier).without_index_build(),
+                SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier).with_bounds(s.options.bounds).without_index_build(),
             ),
         })
     },

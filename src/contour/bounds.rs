@@ -1,0 +1,519 @@
+//! Risk bounds tighter than Cantelli's (docs/design.md §3.7–§3.10) — beyond the paper.
+//!
+//! At a point (x, t) let z = P(x, ω, t), μ = E\[z\] and cⱼ = E\[(z − μ)ʲ\] (central moments,
+//! polynomials in (x, t) built exactly from the parameters' moments). Three families bound
+//! Prob(z ≥ 0):
+//!
+//! - **Cantelli** (eq. (10), (12), §3.1): σ²/(σ² + μ²) where μ < 0.
+//! - **Zero risk from bounded support** (§3.7): if every parameter of the obstacle has a
+//!   bounded support B and P(x, ω, t) < 0 for every ω ∈ B, the risk is exactly 0.
+//! - **Shifted even-moment Markov bounds** (§3.8): for an even order 2k, a constant b < 1 and
+//!   μ < 0, with c = (1 − b)·(−μ) > 0,
+//!
+//!   ```text
+//!   Prob(z ≥ 0) ≤ E[(z + c)^2k] / c^2k = Σⱼ C(2k, j)·(bμ)^(2k−j)·cⱼ / ((1 − b)μ)^2k
+//!   ```
+//!
+//!   (b = 0 is the Markov bound on the 2k-th central moment). Multiplied out,
+//!   `H = (Δ(1−b)^2k − b^2k)·μ^2k − Σ_{j≥2} C(2k,j)·b^(2k−j)·μ^(2k−j)·cⱼ > 0` together with
+//!   μ < 0 proves risk < Δ; H is a polynomial in (x, t), so it is certified continuously in
+//!   time like eq. (15). Any b < 1 is sound: b is chosen per sub-interval of a piece
+//!   (by [`best_shift`]) and fixed exactly before the proof.
+//!
+//! This module holds the exact moment polynomials, the support form of P, the choice of
+//! bounds ([`BoundChoice`]) and the bounds at a point; certification over pieces is in
+//! `certify::bounds`.
+
+use super::{cantelli_bound, RiskContour};
+use crate::poly::{rational_to_f64, Interval, Monomial, Poly, QPoly, Var};
+use num_bigint::BigInt;
+use num_rational::BigRational;
+use num_traits::{One, Signed, Zero};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// The highest moment order used by the shifted Markov bounds. E\[(P − μ)⁸\] has degree
+/// 8·deg P in (x, t); order 8 closes most of the gap to the true contour on the families
+/// measured in docs/design.md §3.9 while keeping the restricted constraint's degree
+/// (≤ 8·deg P·deg piece) within what interval Bernstein enclosures handle.
+pub const MAX_MOMENT_ORDER: u32 = 8;
+
+/// The orders of the shifted Markov bounds tried by `bound: auto`, lowest first.
+pub const MOMENT_ORDERS: [u32; 3] = [4, 6, 8];
+
+/// Budget of exact term products for the central moments of one obstacle (Σ over
+/// orders of terms(Zʲ⁻¹)·terms(Z)); at about 2 µs a product this is at most about half a
+/// second, once per obstacle. Orders whose expansion would exceed it are not built (the
+/// obstacle then has fewer moment bounds, stated in `risk` and in [`HigherMoments::limit`]).
+pub const MAX_HIGHER_MOMENT_WORK: usize = 250_000;
+
+/// Which bounds may prove a piece or a point safe.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BoundChoice {
+    /// The tightest sound one: Cantelli first (cheapest), then zero risk from bounded
+    /// support and the shifted moment bounds of orders 4, 6 and 8, on sub-intervals.
+    #[default]
+    Auto,
+    /// Cantelli's bound only: the paper's eq. (10), (12) (the reproduction uses it).
+    Cantelli,
+}
+
+/// A bound name that is not one of `auto`, `cantelli`.
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+#[error("unknown bound '{0}' (expected auto or cantelli)")]
+pub struct UnknownBound(pub String);
+
+impl BoundChoice {
+    /// Every choice.
+    pub const ALL: [BoundChoice; 2] = [BoundChoice::Auto, BoundChoice::Cantelli];
+
+    /// The name in requests, scene files and reports.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            BoundChoice::Auto => "auto",
+            BoundChoice::Cantelli => "cantelli",
+        }
+    }
+
+    /// Whether bounds beyond Cantelli's may be used.
+    pub fn beyond_cantelli(&self) -> bool {
+        *self == BoundChoice::Auto
+    }
+}
+
+impl std::str::FromStr for BoundChoice {
+    type Err = UnknownBound;
+    fn from_str(s: &str) -> Result<Self, UnknownBound> {
+        BoundChoice::ALL.into_iter().find(|b| b.as_str() == s).ok_or_else(|| UnknownBound(s.to_string()))
+    }
+}
+
+impl std::fmt::Display for BoundChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// The bound that proved a piece (or part of one) or a point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BoundKind {
+    /// Cantelli (eq. (10), (12)).
+    Cantelli,
+    /// Zero risk: P < 0 for every parameter value in the bounded support (§3.7).
+    Support,
+    /// The shifted Markov bound on the moment of this even order (§3.8).
+    Moment(u32),
+}
+
+impl BoundKind {
+    /// `cantelli`, `support`, `moment4`, `moment6`, `moment8` (`moment` for other orders).
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            BoundKind::Cantelli => "cantelli",
+            BoundKind::Support => "support",
+            BoundKind::Moment(4) => "moment4",
+            BoundKind::Moment(6) => "moment6",
+            BoundKind::Moment(8) => "moment8",
+            BoundKind::Moment(_) => "moment",
+        }
+    }
+}
+
+impl std::fmt::Display for BoundKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl Serialize for BoundKind {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+impl<'de> Deserialize<'de> for BoundKind {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        match s.as_str() {
+            "cantelli" => Ok(BoundKind::Cantelli),
+            "support" => Ok(BoundKind::Support),
+            "moment4" => Ok(BoundKind::Moment(4)),
+            "moment6" => Ok(BoundKind::Moment(6)),
+            "moment8" => Ok(BoundKind::Moment(8)),
+            other => Err(serde::de::Error::custom(format!("unknown bound kind '{other}'"))),
+        }
+    }
+}
+
+/// Why an obstacle has fewer moment bounds than [`MAX_MOMENT_ORDER`].
+#[derive(Clone, Debug, Error, PartialEq, Eq)]
+pub enum HigherLimit {
+    /// A parameter's moment of this order is not known (a moment list that stops early).
+    #[error("the moment E[{param}^{order}] is not available")]
+    MissingMoment {
+        /// Parameter name.
+        param: String,
+        /// Moment order.
+        order: u32,
+    },
+    /// Expanding the next power of P − E\[P\] would exceed [`MAX_HIGHER_MOMENT_WORK`].
+    #[error("E[(P - E[P])^{order}] needs {needed} exact term products, over the limit {limit}")]
+    Work {
+        /// The order not built.
+        order: u32,
+        /// Term products it would need in all.
+        needed: usize,
+        /// [`MAX_HIGHER_MOMENT_WORK`].
+        limit: usize,
+    },
+}
+
+/// The central moments cⱼ = E\[(P − E\[P\])ʲ\] of an obstacle as polynomials in (x, t), exactly
+/// (with interval and `f64` copies), for j = 0 … `max_order` (c₀ = 1, c₁ = 0).
+#[derive(Clone, Debug)]
+pub struct HigherMoments {
+    /// `central[j]`, exact.
+    pub central: Vec<QPoly>,
+    central_i: Vec<Poly<Interval>>,
+    central_f: Vec<Poly<f64>>,
+    /// Why orders above `max_order()` are missing (`None` when all of
+    /// [`MAX_MOMENT_ORDER`] are there).
+    pub limit: Option<HigherLimit>,
+}
+
+impl HigherMoments {
+    /// The highest even order available (≥ 2).
+    pub fn max_order(&self) -> u32 {
+        let top = self.central.len().saturating_sub(1) as u32;
+        top - top % 2
+    }
+
+    /// The orders of [`MOMENT_ORDERS`] available for this obstacle.
+    pub fn orders(&self) -> impl Iterator<Item = u32> + '_ {
+        MOMENT_ORDERS.into_iter().filter(move |&o| o <= self.max_order())
+    }
+
+    /// The interval copies (each coefficient encloses the exact one).
+    pub fn interval(&self) -> &[Poly<Interval>] {
+        &self.central_i
+    }
+
+    /// The central moments at `vals` (x, t, padded) in floating point (for choosing shifts
+    /// and for displays, never for decisions).
+    pub fn eval_f64(&self, vals: &[f64]) -> Vec<f64> {
+        self.central_f.iter().map(|c| c.eval(vals)).collect()
+    }
+}
+
+/// Builds the central moments up to [`MAX_MOMENT_ORDER`] within [`MAX_HIGHER_MOMENT_WORK`].
+pub(super) fn build_higher(c: &RiskContour) -> HigherMoments {
+    let layout = c.layout();
+    let is_param = |v: Var| layout.is_param(v);
+    // Z = P − E[P]: the centred obstacle polynomial (its powers' expectations are the
+    // central moments; centring first keeps the large mean out of every power)
+    let z = c.poly.sub(&c.mean);
+    let mut central = vec![QPoly::constant(BigRational::one()), QPoly::zero()];
+    let mut limit = None;
+    let mut power = z.clone();
+    let mut work = 0usize;
+    for j in 2..=MAX_MOMENT_ORDER {
+        work += power.len() * z.len();
+        if work > MAX_HIGHER_MOMENT_WORK {
+            limit = Some(HigherLimit::Work { order: j, needed: work, limit: MAX_HIGHER_MOMENT_WORK });
+            break;
+        }
+        power = power.mul(&z);
+        match power.expect(is_param, |v, k| c.raw_moment(v, k)) {
+            Ok(m) => central.push(m),
+            Err((v, k)) => {
+                limit = Some(HigherLimit::MissingMoment { param: c.param_name(v), order: k });
+                break;
+            }
+        }
+    }
+    // an odd top order is of no use to the even bounds
+    if central.len() % 2 == 0 {
+        central.pop();
+    }
+    HigherMoments {
+        central_i: central.iter().map(|p| p.map_coeffs(Interval::enclose_rational)).collect(),
+        central_f: central.iter().map(|p| p.map_coeffs(rational_to_f64)).collect(),
+        central,
+        limit,
+    }
+}
+
+/// P split by its parameter monomials, P = Σ_β a_β(x, t)·ω^β, with the bounded support of
+/// every parameter (docs/design.md §3.7).
+#[derive(Clone, Debug)]
+pub struct SupportForm {
+    /// (ω^β as (parameter, exponent) pairs, a_β exact, a_β with interval coefficients).
+    pub terms: Vec<(Vec<(Var, u32)>, QPoly, Poly<Interval>)>,
+    /// The parameters' supports, exactly: (parameter, lo, hi).
+    pub support: Vec<(Var, BigRational, BigRational)>,
+}
+
+impl SupportForm {
+    /// The form of `p`, when every parameter of `p` has a support in `support`.
+    pub fn new(p: &QPoly, is_param: impl Fn(Var) -> bool, support: &[(Var, BigRational, BigRational)]) -> Option<Self> {
+        let mut parts: std::collections::BTreeMap<Monomial, QPoly> = std::collections::BTreeMap::new();
+        for (m, c) in p.terms() {
+            let (params, rest) = m.split(&is_param);
+            if params.pairs().iter().any(|(v, _)| !support.iter().any(|s| s.0 == *v)) {
+                return None;
+            }
+            parts.entry(params).or_insert_with(QPoly::zero).add_term(rest, c.clone());
+        }
+        let used: Vec<Var> = p.vars().into_iter().filter(|&v| is_param(v)).collect();
+        Some(SupportForm {
+            terms: parts
+                .into_iter()
+                .map(|(m, a)| {
+                    let ai = a.map_coeffs(Interval::enclose_rational);
+                    (m.pairs().to_vec(), a, ai)
+                })
+                .collect(),
+            support: support.iter().filter(|s| used.contains(&s.0)).cloned().collect(),
+        })
+    }
+}
+
+/// The range of `w^e` for `w` in `[lo, hi]`, enclosed (outward-rounded).
+pub fn power_range(w: Interval, e: u32) -> Interval {
+    if e == 0 {
+        return Interval::point(1.0);
+    }
+    let mut acc = w;
+    for _ in 1..e {
+        acc = acc * w;
+    }
+    if e % 2 == 0 {
+        // an even power of an interval that contains 0 has minimum 0 (the repeated
+        // product would also allow negative values)
+        if w.lo <= 0.0 && w.hi >= 0.0 {
+            return Interval::new(0.0, acc.hi.max(0.0));
+        }
+        return Interval::new(acc.lo.max(0.0), acc.hi);
+    }
+    acc
+}
+
+/// The range of the monomial ω^β over a box of parameter ranges (independent variables:
+/// the product of the ranges of the powers is the exact range, enclosed).
+pub fn monomial_range(beta: &[(Var, u32)], range_of: impl Fn(Var) -> Interval) -> Interval {
+    beta.iter().fold(Interval::point(1.0), |acc, &(v, e)| acc * power_range(range_of(v), e))
+}
+
+/// `C(n, k)` as a float (exact for the small orders used here).
+pub fn binomial_f64(n: u32, k: u32) -> f64 {
+    (0..k).fold(1.0, |acc, i| acc * f64::from(n - i) / f64::from(i + 1))
+}
+
+fn binomial_q(n: u32, k: u32) -> BigRational {
+    let mut c = BigInt::one();
+    for i in 0..k {
+        c = c * BigInt::from(n - i) / BigInt::from(i + 1);
+    }
+    BigRational::from_integer(c)
+}
+
+/// The shifted Markov bound of order `2k` with shift `b` (< 1) from μ < 0 and the central
+/// moments `c[j]`, in floating point: Σⱼ C(2k,j)·(−b)^(2k−j)·κⱼ / (1 − b)^2k with
+/// κⱼ = cⱼ/(−μ)ʲ (docs/design.md §3.8). For choosing shifts and displays only.
+pub fn moment_bound_f64(mu: f64, c: &[f64], order: u32, b: f64) -> f64 {
+    let m = -mu;
+    if !(m > 0.0) || !(b < 1.0) || c.len() <= order as usize {
+        return f64::INFINITY;
+    }
+    let mut sum = (-b).powi(order as i32); // j = 0: c₀ = 1
+    let mut inv = 1.0;
+    for j in 1..=order {
+        inv /= m;
+        if j == 1 {
+            continue;
+        }
+        sum += binomial_f64(order, j) * (-b).powi((order - j) as i32) * c[j as usize] * inv;
+    }
+    let v = sum / (1.0 - b).powi(order as i32);
+    if v.is_nan() {
+        f64::INFINITY
+    } else {
+        v
+    }
+}
+
+/// Range searched for the shift b (docs/design.md §3.8): the optimum is near −κ₂ (Cantelli's
+/// for order 2), negative and small when the bound is small; −4 … 0.9 leaves room on both sides.
+pub const SHIFT_RANGE: (f64, f64) = (-4.0, 0.9);
+
+/// The shift b minimising [`moment_bound_f64`] (a grid then golden-section refinement; a
+/// heuristic — any b < 1 gives a sound bound) and its value. `None` when μ ≥ 0.
+pub fn best_shift(mu: f64, c: &[f64], order: u32) -> Option<(f64, f64)> {
+    if !(mu < 0.0) || c.len() <= order as usize {
+        return None;
+    }
+    let f = |b: f64| moment_bound_f64(mu, c, order, b);
+    let (lo, hi) = SHIFT_RANGE;
+    let n = 48;
+    let grid = |i: usize| lo + (hi - lo) * i as f64 / n as f64;
+    let (mut best_i, mut best) = (0, f64::INFINITY);
+    for i in 0..=n {
+        let v = f(grid(i));
+        if v < best {
+            best = v;
+            best_i = i;
+        }
+    }
+    let (mut a, mut b) = (grid(best_i.saturating_sub(1)), grid((best_i + 1).min(n)));
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..40 {
+        let x1 = b - g * (b - a);
+        let x2 = a + g * (b - a);
+        if f(x1) < f(x2) {
+            b = x2;
+        } else {
+            a = x1;
+        }
+    }
+    let bm = 0.5 * (a + b);
+    let vm = f(bm);
+    let (b, v) = if vm < best { (bm, vm) } else { (grid(best_i), best) };
+    v.is_finite().then_some((b, v))
+}
+
+/// The shifted Markov bound at a point, exactly: `Σⱼ C(2k,j)(bμ)^(2k−j)cⱼ / ((1−b)μ)^2k`,
+/// or 1 when μ ≥ 0 or b ≥ 1 (no bound).
+pub fn moment_bound_exact(mu: &BigRational, c: &[BigRational], order: u32, b: &BigRational) -> BigRational {
+    let one = BigRational::one();
+    if !mu.is_negative() || b >= &one || c.len() <= order as usize {
+        return one;
+    }
+    let bm = b * mu;
+    let mut num = BigRational::zero();
+    for j in 0..=order {
+        if j == 1 {
+            continue;
+        }
+        let cj = if j == 0 { one.clone() } else { c[j as usize].clone() };
+        num += binomial_q(order, j) * pow_q(&bm, order - j) * cj;
+    }
+    let den = pow_q(&((&one - b) * mu), order);
+    let v = num / den;
+    if v > one {
+        one
+    } else {
+        v
+    }
+}
+
+fn pow_q(x: &BigRational, e: u32) -> BigRational {
+    (0..e).fold(BigRational::one(), |acc, _| acc * x)
+}
+
+/// One shifted Markov bound at a point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MomentAtPoint {
+    /// Its order 2k.
+    pub order: u32,
+    /// The shift b used (the minimiser found by [`best_shift`], exact as a float).
+    pub shift: f64,
+    /// The bound, exact.
+    pub value: BigRational,
+}
+
+/// Every bound at one point (docs/design.md §3.10), exact.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointBounds {
+    /// Cantelli's (1 where E\[P\] > 0).
+    pub cantelli: BigRational,
+    /// `Some(true)`: P < 0 for every parameter in the bounded support, proven (risk 0);
+    /// `Some(false)`: not proven; `None`: some parameter's support is unbounded.
+    pub support_zero: Option<bool>,
+    /// The shifted Markov bounds of each available order.
+    pub moments: Vec<MomentAtPoint>,
+    /// Why orders are missing, if they are.
+    pub moment_limit: Option<HigherLimit>,
+}
+
+impl PointBounds {
+    /// The smallest bound and its kind.
+    pub fn best(&self) -> (BoundKind, BigRational) {
+        if self.support_zero == Some(true) {
+            return (BoundKind::Support, BigRational::zero());
+        }
+        let mut best = (BoundKind::Cantelli, self.cantelli.clone());
+        for m in &self.moments {
+            if m.value < best.1 {
+                best = (BoundKind::Moment(m.order), m.value.clone());
+            }
+        }
+        best
+    }
+}
+
+/// Every bound at `xt` (x1..xn, t), exactly; the support test is the interval branch and
+/// bound of `support_negative` (sound: `Some(true)` only when proven).
+pub fn point_bounds(c: &RiskContour, xt: &[BigRational], support_negative: Option<bool>) -> PointBounds {
+    let r = c.risk_at(xt);
+    let cantelli = cantelli_bound(&r.mean, &r.second_moment);
+    let hm = c.higher();
+    let mut moments = Vec::new();
+    if r.mean.is_negative() {
+        let mut vals = xt.to_vec();
+        vals.resize(c.layout().xt_len(), BigRational::zero());
+        let exact: Vec<BigRational> = hm.central.iter().map(|p| p.eval(&vals)).collect();
+        let fl: Vec<f64> = exact.iter().map(rational_to_f64).collect();
+        let mu = rational_to_f64(&r.mean);
+        for order in hm.orders() {
+            let Some((b, _)) = best_shift(mu, &fl, order) else { continue };
+            let Some(bq) = BigRational::from_float(b) else { continue };
+            moments.push(MomentAtPoint { order, shift: b, value: moment_bound_exact(&r.mean, &exact, order, &bq) });
+        }
+    }
+    PointBounds { cantelli, support_zero: support_negative, moments, moment_limit: hm.limit.clone() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Order 2 with the optimal shift b = −σ²/μ² is Cantelli's bound (docs/design.md §3.8).
+    #[test]
+    fn order_two_with_the_optimal_shift_is_cantelli() {
+        let (mu, var) = (-1.5f64, 0.7f64);
+        let c = [1.0, 0.0, var];
+        let b = -var / (mu * mu);
+        let v = moment_bound_f64(mu, &c, 2, b);
+        assert!((v - var / (var + mu * mu)).abs() < 1e-15);
+        let (_, best) = best_shift(mu, &c, 2).unwrap();
+        assert!((best - var / (var + mu * mu)).abs() < 1e-9, "{best}");
+    }
+
+    /// The exact bound equals the float one and the central-moment Markov bound at b = 0.
+    #[test]
+    fn exact_bound_matches_its_formula() {
+        let q = |n: i64, d: i64| BigRational::new(n.into(), d.into());
+        let mu = q(-3, 2);
+        let c = vec![q(1, 1), q(0, 1), q(1, 2), q(1, 10), q(3, 4), q(0, 1), q(2, 1), q(0, 1), q(9, 1)];
+        assert_eq!(moment_bound_exact(&mu, &c, 4, &q(0, 1)), q(3, 4) / pow_q(&mu, 4));
+        assert_eq!(moment_bound_exact(&mu, &c, 8, &q(0, 1)), q(9, 1) / pow_q(&mu, 8));
+        let b = q(-1, 8);
+        let fl: Vec<f64> = c.iter().map(rational_to_f64).collect();
+        let e = rational_to_f64(&moment_bound_exact(&mu, &c, 6, &b));
+        assert!((e - moment_bound_f64(-1.5, &fl, 6, -0.125)).abs() < 1e-14 * e.max(1.0));
+        // μ ≥ 0: no bound
+        assert_eq!(moment_bound_exact(&q(0, 1), &c, 4, &b), q(1, 1));
+    }
+
+    #[test]
+    fn power_and_monomial_ranges() {
+        let w = Interval::new(-0.5, 2.0);
+        let r2 = power_range(w, 2);
+        assert!(r2.lo == 0.0 && r2.hi >= 4.0 && r2.hi < 4.0 + 1e-12);
+        let r3 = power_range(w, 3);
+        assert!(r3.lo <= -0.125 && r3.hi >= 8.0);
+        let m = monomial_range(&[(3, 2), (4, 1)], |v| if v == 3 { Interval::new(1.0, 2.0) } else { Interval::new(-1.0, 1.0) });
+        assert!(m.lo <= -4.0 && m.hi >= 4.0 && m.lo > -4.0 - 1e-12);
+    }
+}
