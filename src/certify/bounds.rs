@@ -18,7 +18,7 @@
 
 use super::bernstein::bernstein_hull;
 use super::compose::{interval_substitutions, PieceRef};
-use crate::contour::bounds::{best_shift, binomial_f64, monomial_range, MOMENT_ORDERS};
+use crate::contour::bounds::{best_shift, binomial_f64, moment_bound_f64, monomial_range, MOMENT_ORDERS};
 use crate::contour::{cantelli_bound_f64, BoundKind, RiskContour};
 use crate::poly::{rational_to_f64, Interval, UPoly, Var};
 use num_rational::BigRational;
@@ -30,7 +30,11 @@ use std::cell::OnceCell;
 pub const COVER_MAX_DEPTH: u32 = 12;
 
 /// Most sub-intervals examined per piece and obstacle (bounds the work of a grazing piece).
-pub const COVER_MAX_NODES: usize = 256;
+pub const COVER_MAX_NODES: usize = 128;
+
+/// Evenly spaced local times (besides a hint) at which a piece is checked for hopelessness
+/// before any sub-interval proof: 1/16 of the piece apart.
+pub const HOPELESS_PROBES: usize = 16;
 
 /// Most parameter boxes examined by one zero-risk proof on one sub-interval.
 pub const SUPPORT_MAX_BOXES: usize = 48;
@@ -312,10 +316,24 @@ impl<'a> PieceBounds<'a> {
         if mu >= 0.0 {
             return Some(CoverFailure::MeanNotNegative { tau });
         }
+        let limit = self.delta_f * HOPELESS_FACTOR;
         let mut best = cantelli_bound_f64(mu, second);
-        for o in MOMENT_ORDERS {
+        if best <= limit {
+            return None;
+        }
+        // the central-moment Markov bounds (shift 0) first: one evaluation each
+        for o in MOMENT_ORDERS.into_iter().rev() {
+            best = best.min(moment_bound_f64(mu, &central, o, 0.0));
+            if best <= limit {
+                return None;
+            }
+        }
+        for o in MOMENT_ORDERS.into_iter().rev() {
             if let Some((_, v)) = best_shift(mu, &central, o) {
                 best = best.min(v);
+                if best <= limit {
+                    return None;
+                }
             }
         }
         // zero risk from the support at the point itself (a zero-width sub-interval)
@@ -356,8 +374,16 @@ impl<'a> PieceBounds<'a> {
     /// Covers [0, 1] by sub-intervals each proven by one bound (§5.13), or says where it
     /// could not. `hint`: a local time where Cantelli failed (checked first for hopelessness).
     pub fn cover(&self, hint: Option<f64>) -> Result<Vec<BoundPart>, CoverFailure> {
-        if let Some(f) = hint.and_then(|t| if self.piece.is_some() { self.hopeless_at(t) } else { None }) {
-            return Err(f);
+        if self.piece.is_some() {
+            // cheap rejection first: the hint, then evenly spaced points (a piece that fails
+            // somewhere usually fails at one of them; the float checks cost microseconds,
+            // a sub-interval proof tens)
+            let probes = hint.into_iter().chain((0..=HOPELESS_PROBES).map(|k| k as f64 / HOPELESS_PROBES as f64));
+            for t in probes {
+                if let Some(f) = self.hopeless_at(t) {
+                    return Err(f);
+                }
+            }
         }
         let max_depth = if self.piece.is_some() { COVER_MAX_DEPTH } else { 0 };
         let mut parts: Vec<BoundPart> = Vec::new();
@@ -382,7 +408,7 @@ impl<'a> PieceBounds<'a> {
             if depth >= max_depth {
                 return Err(self.failure_at(mid));
             }
-            if depth >= 2 {
+            if depth >= 1 {
                 if let Some(f) = (self.piece.is_some()).then(|| self.hopeless_at(mid)).flatten() {
                     return Err(f);
                 }
