@@ -101,8 +101,11 @@ pub struct PieceBounds<'a> {
     mu: OnceCell<UPoly<Interval>>,
     g1: OnceCell<UPoly<Interval>>,
     central: OnceCell<Option<Scaled>>,
-    support: OnceCell<Option<Vec<(Vec<(Var, u32)>, UPoly<Interval>)>>>,
+    support: OnceCell<Option<SupportTerms>>,
 }
+
+/// The support form's coefficients a_β restricted to the piece, with their ω^β.
+type SupportTerms = Vec<(Vec<(Var, u32)>, UPoly<Interval>)>;
 
 /// μ and the central moments scaled by a power of two s (μ/s, cⱼ/sʲ), so that the moment
 /// constraint's numbers stay near 1 at any scene scale, with the products it needs.
@@ -208,7 +211,7 @@ impl<'a> PieceBounds<'a> {
             .as_ref()
     }
 
-    fn support_terms(&self) -> Option<&Vec<(Vec<(Var, u32)>, UPoly<Interval>)>> {
+    fn support_terms(&self) -> Option<&SupportTerms> {
         self.support
             .get_or_init(|| {
                 let sf = self.contour.support()?;
@@ -395,15 +398,12 @@ impl<'a> PieceBounds<'a> {
             if nodes > COVER_MAX_NODES {
                 return Err(CoverFailure::Budget { tau: mid });
             }
-            match self.node(a, w) {
-                Some(kind) => {
-                    match parts.last_mut() {
-                        Some(last) if last.bound == kind && last.tau1 == a => last.tau1 = a + w,
-                        _ => parts.push(BoundPart { tau0: a, tau1: a + w, bound: kind }),
-                    }
-                    continue;
+            if let Some(kind) = self.node(a, w) {
+                match parts.last_mut() {
+                    Some(last) if last.bound == kind && last.tau1 == a => last.tau1 = a + w,
+                    _ => parts.push(BoundPart { tau0: a, tau1: a + w, bound: kind }),
                 }
-                None => {}
+                continue;
             }
             if depth >= max_depth {
                 return Err(self.failure_at(mid));

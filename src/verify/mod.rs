@@ -158,7 +158,7 @@ pub fn verify_obstacle(
     method: Method,
     settings: &sos::SosSettings,
 ) -> ObstacleReport {
-    verify_obstacle_with(o, None, piece, delta, method, settings, BoundChoice::Auto)
+    verify_obstacle_with(o, None, piece, delta, method, settings, BoundChoice::default())
 }
 
 /// [`verify_obstacle`] with the obstacle's compiled contour (the fast restriction).
@@ -244,12 +244,12 @@ pub fn verify(
 ) -> VerifyReport {
     // `stop` never says yes, so this is never interrupted; were it, the answer would
     // be "not safe" with no pieces, never a false "safe".
-    verify_until(&scene.into(), traj, delta, method, settings, BoundChoice::Auto, &|| false).unwrap_or_else(
+    verify_until(&scene.into(), traj, delta, method, settings, BoundChoice::default(), &|| false).unwrap_or_else(
         |Interrupted| VerifyReport {
             safe: false,
             method: method.as_str().to_string(),
             risk: delta.to_f64(),
-            bound: BoundChoice::Auto,
+            bound: BoundChoice::default(),
             pieces: Vec::new(),
         },
     )

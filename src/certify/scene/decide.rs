@@ -191,5 +191,5 @@ pub fn point_status(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel], boun
 
 /// [`point_safe`] with one risk level per obstacle (all bounds: `auto`).
 pub fn point_safe_with(scene: &Scene, x: &[f64], t: f64, deltas: &[RiskLevel]) -> bool {
-    point_status(scene, x, t, deltas, BoundChoice::Auto) == PointStatus::Safe
+    point_status(scene, x, t, deltas, BoundChoice::default()) == PointStatus::Safe
 }

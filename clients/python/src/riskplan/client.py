@@ -348,13 +348,17 @@ class Client:
     def verify(self, name: str, trajectory: Union[None, Json, Trajectory] = None,
                segment: Union[None, Json, Sequence] = None, method: Optional[str] = None,
                delta: Optional[float] = None, *, summary: Optional[bool] = None,
-               deadline_ms: Optional[int] = None, timeout: Optional[float] = None) -> Json:
+               deadline_ms: Optional[int] = None, timeout: Optional[float] = None,
+               bound: Optional[str] = None) -> Json:
         """Verifies a trajectory (a :class:`Plan`, a plan_reply dict or a trajectory v1
         dict) or one straight segment (``{"from", "to", "t0"?, "t1"?}`` or a tuple
         ``(from, to[, t0, t1])``) against scene ``name``. Returns the ``verify_reply``
         (``{"safe", "method", "risk", "pieces", "revision"}``). ``summary=True``: ``pieces``
         holds only the first piece that is not safe (none when safe). ``deadline_ms``: the
-        server answers ``deadline_exceeded`` rather than work past it."""
+        server answers ``deadline_exceeded`` rather than work past it. ``bound``: ``"auto"``
+        (Cantelli, zero risk from bounded support, shifted moment bounds on sub-intervals;
+        each obstacle report's ``bounds`` says which bound proved which part) or
+        ``"cantelli"`` (the default for now)."""
         if (trajectory is None) == (segment is None):
             raise ValueError("verify needs exactly one of trajectory= and segment=")
         request: Json = {}
@@ -384,6 +388,8 @@ class Client:
             request["segment"] = seg
         if method is not None:
             request["method"] = method
+        if bound is not None:
+            request["bound"] = bound
         if delta is not None:
             request["delta"] = float(delta)
         if summary is not None:
@@ -401,15 +407,19 @@ class Client:
         return self.query(scene_key(name, "risk"), request, timeout=timeout)
 
     def risk(self, name: str, points: Union[np.ndarray, Sequence], time: Optional[float] = None,
-             *, timeout: Optional[float] = None) -> np.ndarray:
-        """Cantelli bounds (max over obstacles) at ``points`` (an ``(n, dim)`` array, or
-        one point) at ``time`` (default: the horizon's start): an ``(n,)`` array."""
+             *, timeout: Optional[float] = None, bound: Optional[str] = None) -> np.ndarray:
+        """Risk bounds (max over obstacles) at ``points`` (an ``(n, dim)`` array, or
+        one point) at ``time`` (default: the horizon's start): an ``(n,)`` array.
+        ``bound="auto"``: the best proven bound at each point; ``"cantelli"`` (default for
+        now): Cantelli's. ``risk_query`` returns every bound per obstacle (``by_bound``)."""
         pts = np.asarray(points, dtype=float)
         if pts.ndim == 1:
             pts = pts.reshape(1, -1)
         request: Json = {"points": pts.tolist()}
         if time is not None:
             request["time"] = float(time)
+        if bound is not None:
+            request["bound"] = bound
         reply = self.risk_query(name, request, timeout=timeout)
         return np.asarray(reply["bounds"], dtype=float)
 
