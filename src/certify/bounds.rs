@@ -18,7 +18,7 @@
 
 use super::bernstein::bernstein_hull;
 use super::compose::{interval_substitutions, PieceRef};
-use crate::contour::bounds::{best_shift, binomial_f64, moment_bound_f64, monomial_range, MOMENT_ORDERS};
+use crate::contour::bounds::{best_shift, binomial_f64, interval_pow as pow, moment_bound_f64, monomial_range, MOMENT_ORDERS};
 use crate::contour::{cantelli_bound_f64, BoundKind, RiskContour};
 use crate::poly::{rational_to_f64, Interval, UPoly, Var};
 use num_rational::BigRational;
@@ -89,6 +89,25 @@ impl CoverFailure {
     }
 }
 
+/// A risk level Δ as the cover search uses it: an enclosure for the proofs and the nearest
+/// float for the choices. Built once per certifier and obstacle (converting the exact
+/// rational costs big-integer work that an edge check should not repeat).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Level {
+    interval: Interval,
+    nearest: f64,
+}
+
+impl Level {
+    /// The level Δ = `delta`.
+    pub fn new(delta: &BigRational) -> Self {
+        Level { interval: Interval::enclose_rational(delta), nearest: rational_to_f64(delta) }
+    }
+
+    /// A placeholder level for questions that do not depend on Δ (the support proof).
+    const ANY: Level = Level { interval: Interval { lo: 0.5, hi: 0.5 }, nearest: 0.5 };
+}
+
 /// The restrictions of one obstacle's bound polynomials to one piece (or one point), built
 /// as needed, and the cover search over them.
 pub struct PieceBounds<'a> {
@@ -130,32 +149,32 @@ fn hull_on(p: &UPoly<Interval>, a: f64, w: f64) -> Option<Interval> {
 }
 
 impl<'a> PieceBounds<'a> {
-    /// For a piece at risk level `delta`.
-    pub fn for_piece(contour: &'a RiskContour, piece: PieceRef<'a>, delta: &BigRational) -> Self {
+    /// For a piece at risk level `level`.
+    pub fn for_piece(contour: &'a RiskContour, piece: PieceRef<'a>, level: Level) -> Self {
         let subs = interval_substitutions(piece, contour.layout().dim);
-        Self::from_subs(contour, subs, Some(piece), delta)
+        Self::from_subs(contour, subs, Some(piece), level)
     }
 
     /// For one point `xt` = (x1..xn, t), exactly.
-    pub fn for_point(contour: &'a RiskContour, xt: &[BigRational], delta: &BigRational) -> Self {
+    pub fn for_point(contour: &'a RiskContour, xt: &[BigRational], level: Level) -> Self {
         let mut subs: Vec<UPoly<Interval>> =
             xt.iter().map(|v| UPoly::constant(Interval::enclose_rational(v))).collect();
         subs.resize(contour.layout().xt_len(), UPoly::zero());
-        Self::from_subs(contour, subs, None, delta)
+        Self::from_subs(contour, subs, None, level)
     }
 
     fn from_subs(
         contour: &'a RiskContour,
         subs: Vec<UPoly<Interval>>,
         piece: Option<PieceRef<'a>>,
-        delta: &BigRational,
+        level: Level,
     ) -> Self {
         PieceBounds {
             contour,
             subs,
             piece,
-            delta: Interval::enclose_rational(delta),
-            delta_f: rational_to_f64(delta),
+            delta: level.interval,
+            delta_f: level.nearest,
             mu: OnceCell::new(),
             g1: OnceCell::new(),
             central: OnceCell::new(),
@@ -234,6 +253,11 @@ impl<'a> PieceBounds<'a> {
         let vars: Vec<Var> = sf.support.iter().map(|s| s.0).collect();
         let mid_tau = a + 0.5 * w;
         let at_mid: Vec<Interval> = terms.iter().map(|(_, p)| p.eval(&Interval::point(mid_tau))).collect();
+        // Σ_β coefficient_β · range of ω^β over the box `bx` (`at`: map a box side to the values used)
+        let sum = |coeffs: &[Interval], bx: &[Interval], at: &dyn Fn(Interval) -> Interval| {
+            let range_of = |v: Var| vars.iter().position(|&u| u == v).map_or(Interval::ENTIRE, |i| at(bx[i]));
+            terms.iter().zip(coeffs).fold(Interval::point(0.0), |acc, ((beta, _), r)| acc + *r * monomial_range(beta, range_of))
+        };
         let mut stack = vec![root];
         let mut boxes = 0;
         while let Some(bx) = stack.pop() {
@@ -241,21 +265,11 @@ impl<'a> PieceBounds<'a> {
             if boxes > SUPPORT_MAX_BOXES {
                 return false;
             }
-            let range_of = |v: Var| vars.iter().position(|&u| u == v).map_or(Interval::ENTIRE, |i| bx[i]);
-            let upper = terms
-                .iter()
-                .zip(&ranges)
-                .fold(Interval::point(0.0), |acc, ((beta, _), r)| acc + *r * monomial_range(beta, range_of));
-            if upper.hi < 0.0 {
+            if sum(&ranges, &bx, &|side| side).hi < 0.0 {
                 continue;
             }
             // P ≥ 0 at the box's centre and the sub-interval's middle: no proof possible
-            let centre = |v: Var| vars.iter().position(|&u| u == v).map_or(Interval::ENTIRE, |i| Interval::point(bx[i].mid()));
-            let at = terms
-                .iter()
-                .zip(&at_mid)
-                .fold(Interval::point(0.0), |acc, ((beta, _), r)| acc + *r * monomial_range(beta, centre));
-            if at.lo >= 0.0 {
+            if sum(&at_mid, &bx, &|side| Interval::point(side.mid())).lo >= 0.0 {
                 return false;
             }
             // split the widest parameter range
@@ -287,7 +301,6 @@ impl<'a> PieceBounds<'a> {
     fn moment_constraint(&self, s: &'a Scaled, order: u32, b: f64) -> UPoly<Interval> {
         let prods = self.products(s, order);
         let bi = Interval::point(b);
-        let pow = |x: Interval, e: u32| (0..e).fold(Interval::point(1.0), |acc, _| acc * x);
         let omb = Interval::point(1.0) - bi;
         let lead = self.delta * pow(omb, order) - pow(bi, order);
         let mut h = prods[0].scale(&lead);
@@ -458,12 +471,16 @@ impl<'a> PieceBounds<'a> {
     }
 }
 
-/// Every bound at the exact point `xt` (docs/design.md §3.10): Cantelli's and the moment
-/// bounds exactly, and zero risk when the support proof holds there.
+/// Whether zero risk from the support is proven at the exact point `xt` (`None` without
+/// bounded support).
+fn support_zero_at(contour: &RiskContour, xt: &[BigRational]) -> Option<bool> {
+    contour.support().map(|_| PieceBounds::for_point(contour, xt, Level::ANY).support_proves(0.0, 1.0))
+}
+
+/// Every bound at the exact point `xt` (docs/design.md §3.10): Cantelli's exactly, proven
+/// upper bounds of the moment bounds, and zero risk when the support proof holds there.
 pub fn point_bounds_proven(contour: &RiskContour, xt: &[BigRational]) -> crate::contour::PointBounds {
-    let half = BigRational::new(1.into(), 2.into());
-    let support = contour.support().map(|_| PieceBounds::for_point(contour, xt, &half).support_proves(0.0, 1.0));
-    crate::contour::bounds::point_bounds(contour, xt, support)
+    crate::contour::bounds::point_bounds(contour, xt, support_zero_at(contour, xt))
 }
 
 /// Every bound at `xt` (x1..xn, t) in floating point, clamped to [0, 1] (for `risk`
@@ -477,8 +494,7 @@ pub fn point_bounds_f64(contour: &RiskContour, xt: &[f64]) -> Vec<(BoundKind, f6
     let mut out = vec![(BoundKind::Cantelli, cantelli_bound_f64(mu, second))];
     if contour.support().is_some() {
         let exact: Option<Vec<BigRational>> = vals.iter().map(|&v| BigRational::from_float(v)).collect();
-        let half = BigRational::new(1.into(), 2.into());
-        let zero = exact.is_some_and(|x| PieceBounds::for_point(contour, &x, &half).support_proves(0.0, 1.0));
+        let zero = exact.is_some_and(|x| support_zero_at(contour, &x) == Some(true));
         out.push((BoundKind::Support, if zero { 0.0 } else { 1.0 }));
     }
     if mu < 0.0 {

@@ -26,7 +26,6 @@
 
 use super::{cantelli_bound, RiskContour};
 use crate::poly::{rational_to_f64, Interval, Monomial, Poly, QPoly, Var};
-use num_bigint::BigInt;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use serde::{Deserialize, Serialize};
@@ -254,7 +253,7 @@ fn central_moments<C: crate::poly::Ring>(
 /// keeps the large mean out of every power).
 pub(super) fn build_higher(c: &RiskContour) -> HigherMoments {
     let layout = c.layout();
-    let z = c.poly.map_coeffs(Interval::enclose_rational).sub(&c.interval_polys().0.clone());
+    let z = c.poly.map_coeffs(Interval::enclose_rational).sub(c.interval_polys().0);
     let (central_i, limit) = central_moments(
         &z,
         |v| layout.is_param(v),
@@ -337,17 +336,14 @@ pub fn monomial_range(beta: &[(Var, u32)], range_of: impl Fn(Var) -> Interval) -
     beta.iter().fold(Interval::point(1.0), |acc, &(v, e)| acc * power_range(range_of(v), e))
 }
 
+/// `x^e` by repeated outward-rounded products (an enclosure; for the small orders here).
+pub fn interval_pow(x: Interval, e: u32) -> Interval {
+    (0..e).fold(Interval::point(1.0), |acc, _| acc * x)
+}
+
 /// `C(n, k)` as a float (exact for the small orders used here).
 pub fn binomial_f64(n: u32, k: u32) -> f64 {
     (0..k).fold(1.0, |acc, i| acc * f64::from(n - i) / f64::from(i + 1))
-}
-
-fn binomial_q(n: u32, k: u32) -> BigRational {
-    let mut c = BigInt::one();
-    for i in 0..k {
-        c = c * BigInt::from(n - i) / BigInt::from(i + 1);
-    }
-    BigRational::from_integer(c)
 }
 
 /// The shifted Markov bound of order `2k` with shift `b` (< 1) from μ < 0 and the central
@@ -428,7 +424,7 @@ pub fn moment_bound_exact(mu: &BigRational, c: &[BigRational], order: u32, b: &B
             continue;
         }
         let cj = if j == 0 { one.clone() } else { c[j as usize].clone() };
-        num += binomial_q(order, j) * pow_q(&bm, order - j) * cj;
+        num += crate::moments::binomial(order, j) * pow_q(&bm, order - j) * cj;
     }
     let den = pow_q(&((&one - b) * mu), order);
     let v = num / den;
@@ -492,7 +488,7 @@ pub fn moment_bound_upper(mu: Interval, c: &[Interval], order: u32, b: f64) -> O
     if mu.hi.is_nan() || mu.hi >= 0.0 || b.is_nan() || b >= 1.0 || c.len() <= order as usize {
         return None;
     }
-    let pow = |x: Interval, e: u32| (0..e).fold(Interval::point(1.0), |acc, _| acc * x);
+    let pow = interval_pow;
     let bm = Interval::point(b) * mu;
     let mut num = pow(bm, order);
     for (j, cj) in c.iter().enumerate().take(order as usize + 1).skip(2) {

@@ -121,7 +121,8 @@ fn invalid(field: &'static str, message: String) -> MomentError {
     MomentError::InvalidParameter { field, message }
 }
 
-fn binomial(n: u32, k: u32) -> BigRational {
+/// `C(n, k)` exactly.
+pub(crate) fn binomial(n: u32, k: u32) -> BigRational {
     let mut c = BigInt::one();
     for i in 0..k {
         c = c * BigInt::from(n - i) / BigInt::from(i + 1);

@@ -16,7 +16,7 @@ use crate::certify::fast::CompiledContour;
 use crate::certify::scene::{combine, decide_obstacle, piece_passes_verify_path, worst};
 use crate::certify::sos;
 use crate::certify::{PieceRef, Undecided, Verdict};
-use crate::certify::bounds::{CoverFailure, PieceBounds};
+use crate::certify::bounds::{CoverFailure, Level, PieceBounds};
 use crate::contour::{BoundChoice, BoundKind, RiskLevel};
 use crate::scene::{Obstacle, Trajectory};
 use serde::{Deserialize, Serialize};
@@ -212,7 +212,7 @@ pub fn verify_obstacle_with(
         return report;
     }
     let hint = report.constraints.iter().find_map(|c| c.witness.map(|w| (w.t - piece.t0) / (piece.t1 - piece.t0)));
-    match PieceBounds::for_piece(&o.contour, piece, delta.rational()).cover(hint.filter(|h| h.is_finite())) {
+    match PieceBounds::for_piece(&o.contour, piece, Level::new(delta.rational())).cover(hint.filter(|h| h.is_finite())) {
         Ok(parts) => {
             report.status = Status::Safe;
             report.bounds =

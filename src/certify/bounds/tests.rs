@@ -34,7 +34,7 @@ pub(crate) fn gaussian_disk() -> RiskContour {
 
 fn point(c: &RiskContour, x: f64, y: f64, delta: &str) -> Result<Vec<BoundPart>, CoverFailure> {
     let xt = [x, y, 0.0].map(|v| BigRational::from_float(v).unwrap());
-    PieceBounds::for_point(c, &xt, &q(delta)).cover(None)
+    PieceBounds::for_point(c, &xt, Level::new(&q(delta))).cover(None)
 }
 
 /// Illustrative-1 at Δ = 10⁻³: beyond the largest radius 0.4 the risk is 0 and the support
@@ -71,7 +71,7 @@ fn pieces_are_covered_by_sub_intervals() {
     let c = uniform_disk();
     let coeffs = vec![vec![-1.0, 2.0], vec![0.42, 0.0]];
     let piece = PieceRef { t0: 0.0, t1: 1.0, coeffs: &coeffs };
-    let parts = PieceBounds::for_piece(&c, piece, &q("0.001")).cover(None).unwrap();
+    let parts = PieceBounds::for_piece(&c, piece, Level::new(&q("0.001"))).cover(None).unwrap();
     assert!(parts.iter().any(|p| p.bound == BoundKind::Support), "{parts:?}");
     assert_eq!(parts.first().unwrap().tau0, 0.0);
     assert_eq!(parts.last().unwrap().tau1, 1.0);
@@ -80,7 +80,7 @@ fn pieces_are_covered_by_sub_intervals() {
     }
     let through = vec![vec![-1.0, 2.0], vec![0.0, 0.0]];
     let piece = PieceRef { t0: 0.0, t1: 1.0, coeffs: &through };
-    let f = PieceBounds::for_piece(&c, piece, &q("0.001")).cover(Some(0.5)).unwrap_err();
+    let f = PieceBounds::for_piece(&c, piece, Level::new(&q("0.001"))).cover(Some(0.5)).unwrap_err();
     assert!(matches!(f, CoverFailure::MeanNotNegative { .. }), "{f:?}");
 }
 
@@ -90,9 +90,9 @@ fn gaussian_piece_is_covered_by_moment_bounds() {
     let c = gaussian_disk();
     let coeffs = vec![vec![-2.0, 4.0], vec![0.7, 0.0]];
     let piece = PieceRef { t0: 0.0, t1: 1.0, coeffs: &coeffs };
-    let parts = PieceBounds::for_piece(&c, piece, &q("0.001")).cover(None).unwrap();
+    let parts = PieceBounds::for_piece(&c, piece, Level::new(&q("0.001"))).cover(None).unwrap();
     assert!(parts.iter().any(|p| matches!(p.bound, BoundKind::Moment(_))), "{parts:?}");
     let near = vec![vec![-2.0, 4.0], vec![0.4, 0.0]];
     let piece = PieceRef { t0: 0.0, t1: 1.0, coeffs: &near };
-    assert!(PieceBounds::for_piece(&c, piece, &q("0.001")).cover(None).is_err());
+    assert!(PieceBounds::for_piece(&c, piece, Level::new(&q("0.001"))).cover(None).is_err());
 }

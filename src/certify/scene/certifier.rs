@@ -7,7 +7,7 @@ use super::index::{piece_bbox, SceneIndex};
 use super::kernel::SceneKernel;
 use super::workspace::check_workspace;
 use crate::certify::fast::{CompiledContour, Substitution};
-use crate::certify::bounds::PieceBounds;
+use crate::certify::bounds::{Level, PieceBounds};
 use crate::certify::{bernstein, restrict_exact, sos, PieceRef, Verdict};
 use crate::contour::{BoundChoice, RiskLevel};
 use crate::motion::{Motion, MotionChecker, Termination};
@@ -42,6 +42,8 @@ pub struct SceneCertifier {
     fast: bool,
     /// Which bounds may prove a piece (docs/design.md §5.13).
     bounds: BoundChoice,
+    /// Each obstacle's Δᵢ as the cover search uses it, converted once.
+    levels: Vec<Level>,
 }
 
 impl SceneCertifier {
@@ -67,6 +69,7 @@ impl SceneCertifier {
             })
             .collect();
         let compiled = kernel.compiled();
+        let levels = deltas.iter().map(|d| Level::new(d.rational())).collect();
         SceneCertifier {
             kernel,
             scene,
@@ -78,6 +81,7 @@ impl SceneCertifier {
             index: OnceLock::new(),
             fast: true,
             bounds: BoundChoice::default(),
+            levels,
         }
     }
 
@@ -182,7 +186,7 @@ impl SceneCertifier {
         match cantelli {
             Ok(()) => true,
             Err(Some(hint)) if self.bounds.beyond_cantelli() => {
-                PieceBounds::for_piece(&o.contour, pr, delta).cover(hint).is_ok()
+                PieceBounds::for_piece(&o.contour, pr, self.levels[i]).cover(hint).is_ok()
             }
             Err(_) => false,
         }

@@ -3,7 +3,7 @@
 
 use crate::certify::fast::CompiledContour;
 use crate::certify::{bernstein, restrict_exact, restrict_interval, sos, PieceRef, Verdict};
-use crate::certify::bounds::PieceBounds;
+use crate::certify::bounds::{Level, PieceBounds};
 use crate::contour::{BoundChoice, RiskLevel};
 use crate::poly::{Interval, UPoly};
 use crate::scene::{Obstacle, Scene};
@@ -172,7 +172,7 @@ pub fn point_obstacle_safe(o: &Obstacle, xt: &[BigRational], delta: &RiskLevel, 
     if r.mean.is_negative() && g1.is_positive() {
         return true;
     }
-    bounds.beyond_cantelli() && PieceBounds::for_point(&o.contour, xt, delta.rational()).cover(None).is_ok()
+    bounds.beyond_cantelli() && PieceBounds::for_point(&o.contour, xt, Level::new(delta.rational())).cover(None).is_ok()
 }
 
 /// The status of `x` at time `t` with one risk level per obstacle and a choice of bounds.

@@ -3,7 +3,7 @@
 use super::decide::Interrupted;
 use super::workspace::{check_workspace, interval_hull};
 use super::Status;
-use crate::certify::bounds::PieceBounds;
+use crate::certify::bounds::{Level, PieceBounds};
 use crate::certify::{bernstein, restrict_exact, PieceRef, Verdict};
 use crate::contour::{BoundChoice, RiskLevel};
 use crate::poly::{Interval, UPoly};
@@ -239,7 +239,7 @@ pub(crate) fn piece_passes_verify_path(
             // interval computations on the general composition, not the compiled path
             v if bounds.beyond_cantelli() => {
                 let hint = if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None };
-                PieceBounds::for_piece(&o.contour, pr, d.rational()).cover(hint).is_ok()
+                PieceBounds::for_piece(&o.contour, pr, Level::new(d.rational())).cover(hint).is_ok()
             }
             _ => false,
         }
