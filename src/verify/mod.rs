@@ -75,8 +75,10 @@ pub struct ObstacleReport {
     #[serde(default)]
     pub bounds: Vec<BoundPartReport>,
     /// Why no bound proves the piece, when it is not safe and bounds beyond Cantelli were
-    /// allowed (with the absolute time where the search stopped).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// allowed (with the absolute time where the search stopped). Always serialized
+    /// (`null` when absent): bincode is not self-describing, so a skipped field would
+    /// make the reply undecodable.
+    #[serde(default)]
     pub not_covered: Option<String>,
 }
 
