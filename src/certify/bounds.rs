@@ -18,6 +18,7 @@
 
 use super::bernstein::bernstein_hull;
 use super::compose::{interval_substitutions, PieceRef};
+use super::fast::{CompiledContour, FPoly, CAPACITY};
 use crate::contour::bounds::{best_shift, binomial_f64, interval_pow as pow, moment_bound_f64, monomial_range, MOMENT_ORDERS};
 use crate::contour::{cantelli_bound_f64, BoundKind, RiskContour};
 use crate::poly::{rational_to_f64, Interval, UPoly, Var};
@@ -117,10 +118,26 @@ pub struct PieceBounds<'a> {
     piece: Option<PieceRef<'a>>,
     delta: Interval,
     delta_f: f64,
+    /// The compiled restriction (frame coordinates of the piece), when the caller has one:
+    /// cheaper than the general composition (§5.13).
+    fast: Option<Fast<'a>>,
     mu: OnceCell<UPoly<Interval>>,
     g1: OnceCell<UPoly<Interval>>,
     central: OnceCell<Option<Scaled>>,
     support: OnceCell<Option<SupportTerms>>,
+}
+
+/// A piece's coordinates in a compiled contour's frame.
+struct Fast<'a> {
+    compiled: &'a CompiledContour,
+    subs: [FPoly<CAPACITY>; 9],
+    nv: usize,
+}
+
+impl Fast<'_> {
+    fn subs(&self) -> &[FPoly<CAPACITY>] {
+        &self.subs[..self.nv]
+    }
 }
 
 /// The support form's coefficients a_β restricted to the piece, with their ω^β.
@@ -155,6 +172,39 @@ impl<'a> PieceBounds<'a> {
         Self::from_subs(contour, subs, Some(piece), level)
     }
 
+    /// For a piece, with the obstacle's compiled contour (the certifier's fast path): the
+    /// restrictions are composed in the compiled frame where the degrees allow, generally
+    /// elsewhere.
+    pub fn for_piece_compiled(
+        contour: &'a RiskContour,
+        compiled: &'a CompiledContour,
+        piece: PieceRef<'a>,
+        level: Level,
+    ) -> Self {
+        let mut pb = Self::for_piece(contour, piece, level);
+        pb.fast = compiled.substitutions::<CAPACITY>(piece).map(|subs| Fast { compiled, subs, nv: compiled.frame().len() });
+        pb
+    }
+
+    /// For one point, with the obstacle's compiled contour: `x` its floats (the frame
+    /// coordinates are enclosed from them) and `xt` the same point exactly.
+    pub fn for_point_compiled(
+        contour: &'a RiskContour,
+        compiled: &'a CompiledContour,
+        x: &[f64],
+        xt: &[BigRational],
+        level: Level,
+    ) -> Self {
+        let mut pb = Self::for_point(contour, xt, level);
+        let z = compiled.frame().point_coords(x);
+        let mut subs = [FPoly::zero(); 9];
+        for (s, v) in subs.iter_mut().zip(&z) {
+            *s = FPoly::constant(*v);
+        }
+        pb.fast = (z.len() == compiled.frame().len() && z.len() <= 9).then_some(Fast { compiled, subs, nv: z.len() });
+        pb
+    }
+
     /// For one point `xt` = (x1..xn, t), exactly.
     pub fn for_point(contour: &'a RiskContour, xt: &[BigRational], level: Level) -> Self {
         let mut subs: Vec<UPoly<Interval>> =
@@ -175,6 +225,7 @@ impl<'a> PieceBounds<'a> {
             piece,
             delta: level.interval,
             delta_f: level.nearest,
+            fast: None,
             mu: OnceCell::new(),
             g1: OnceCell::new(),
             central: OnceCell::new(),
@@ -183,13 +234,22 @@ impl<'a> PieceBounds<'a> {
     }
 
     fn mu(&self) -> &UPoly<Interval> {
-        self.mu.get_or_init(|| self.contour.interval_polys().0.compose_univariate(&self.subs))
+        self.mu.get_or_init(|| {
+            self.fast
+                .as_ref()
+                .and_then(|f| f.compiled.mean_on(f.subs()))
+                .unwrap_or_else(|| self.contour.interval_polys().0.compose_univariate(&self.subs))
+        })
     }
 
     fn g1(&self) -> &UPoly<Interval> {
         self.g1.get_or_init(|| {
             let e1 = self.mu();
-            let e2 = self.contour.interval_polys().1.compose_univariate(&self.subs);
+            let e2 = self
+                .fast
+                .as_ref()
+                .and_then(|f| f.compiled.second_on(f.subs()))
+                .unwrap_or_else(|| self.contour.interval_polys().1.compose_univariate(&self.subs));
             let omd = Interval::point(1.0) - self.delta;
             e1.mul(e1).sub(&e2.scale(&omd))
         })
@@ -198,8 +258,20 @@ impl<'a> PieceBounds<'a> {
     fn scaled(&self) -> Option<&Scaled> {
         self.central
             .get_or_init(|| {
-                let hm = self.contour.higher();
-                if hm.max_order() < MOMENT_ORDERS[0] {
+                // the central moments restricted: compiled in the frame, else generally
+                let restricted: Vec<UPoly<Interval>> = match self
+                    .fast
+                    .as_ref()
+                    .and_then(|f| f.compiled.bounds(self.contour).central_on(f.subs()))
+                {
+                    Some(c) => c,
+                    None => {
+                        let hm = self.contour.higher();
+                        let top = hm.max_order() as usize;
+                        hm.interval().iter().take(top + 1).map(|c| c.compose_univariate(&self.subs)).collect()
+                    }
+                };
+                if restricted.len() <= MOMENT_ORDERS[0] as usize {
                     return None;
                 }
                 let mu = self.mu();
@@ -214,10 +286,10 @@ impl<'a> PieceBounds<'a> {
                     (f.is_finite() && f > 0.0 && f.is_normal()).then_some(Interval::point(f))
                 };
                 let mu_s = mu.scale(&inv(1)?);
-                let top = hm.max_order() as usize;
+                let top = restricted.len() - 1;
                 let mut central = Vec::with_capacity(top + 1);
-                for (j, c) in hm.interval().iter().enumerate().take(top + 1) {
-                    central.push(c.compose_univariate(&self.subs).scale(&inv(j as i32)?));
+                for (j, c) in restricted.iter().enumerate() {
+                    central.push(c.scale(&inv(j as i32)?));
                 }
                 let mut mu_pow = vec![UPoly::constant(Interval::point(1.0))];
                 for i in 1..=top {
@@ -234,6 +306,11 @@ impl<'a> PieceBounds<'a> {
         self.support
             .get_or_init(|| {
                 let sf = self.contour.support()?;
+                if let Some(terms) =
+                    self.fast.as_ref().and_then(|f| f.compiled.bounds(self.contour).support_on(f.subs()))
+                {
+                    return Some(terms);
+                }
                 Some(sf.terms.iter().map(|(beta, _, ai)| (beta.clone(), ai.compose_univariate(&self.subs))).collect())
             })
             .as_ref()
@@ -328,7 +405,7 @@ impl<'a> PieceBounds<'a> {
     /// Whether no bound can prove any sub-interval containing local time `tau`, judged at the
     /// point in floating point (cheap; only ever used to give up).
     pub fn hopeless_at(&self, tau: f64) -> Option<CoverFailure> {
-        let (mu, second, central) = self.point_values(tau)?;
+        let (mu, second, xt) = self.point_values(tau)?;
         if mu >= 0.0 {
             return Some(CoverFailure::MeanNotNegative { tau });
         }
@@ -337,6 +414,7 @@ impl<'a> PieceBounds<'a> {
         if best <= limit {
             return None;
         }
+        let central = self.central_at(&xt);
         // the central-moment Markov bounds (shift 0) first: one evaluation each
         for o in MOMENT_ORDERS.into_iter().rev() {
             best = best.min(moment_bound_f64(mu, &central, o, 0.0));
@@ -359,8 +437,8 @@ impl<'a> PieceBounds<'a> {
         Some(CoverFailure::AboveDelta { tau, best })
     }
 
-    /// μ, E\[P²\] and the central moments at local time `tau` of the piece (from the piece's
-    /// coordinates and the contour's `f64` copies).
+    /// μ and E\[P²\] at local time `tau` of the piece (from the piece's coordinates and
+    /// the contour's `f64` copies), with the point (x, t).
     fn point_values(&self, tau: f64) -> Option<(f64, f64, Vec<f64>)> {
         let dim = self.contour.layout().dim;
         let mut xt = vec![0.0; dim + 1];
@@ -382,23 +460,34 @@ impl<'a> PieceBounds<'a> {
             return None;
         }
         let (mu, second) = self.contour.moments_f64(&xt);
-        let hm = self.contour.higher();
-        let central = if hm.max_order() >= MOMENT_ORDERS[0] { hm.eval_f64(&xt) } else { Vec::new() };
-        Some((mu, second, central))
+        Some((mu, second, xt))
+    }
+
+    /// The central moments at the point (x, t) in floating point (empty below the lowest
+    /// order of [`MOMENT_ORDERS`]): from the compiled frame when there is one.
+    fn central_at(&self, xt: &[f64]) -> Vec<f64> {
+        let central = match &self.fast {
+            Some(f) => f.compiled.bounds(self.contour).central_at(&f.compiled.frame().point_coords_f64(xt)),
+            None => self.contour.higher().eval_f64(xt),
+        };
+        if central.len() > MOMENT_ORDERS[0] as usize {
+            central
+        } else {
+            Vec::new()
+        }
     }
 
     /// Covers [0, 1] by sub-intervals each proven by one bound (§5.13), or says where it
     /// could not. `hint`: a local time where Cantelli failed (checked first for hopelessness).
     pub fn cover(&self, hint: Option<f64>) -> Result<Vec<BoundPart>, CoverFailure> {
-        if self.piece.is_some() {
-            // cheap rejection first: the hint, then evenly spaced points (a piece that fails
-            // somewhere usually fails at one of them; the float checks cost microseconds,
-            // a sub-interval proof tens)
-            let probes = hint.into_iter().chain((0..=HOPELESS_PROBES).map(|k| k as f64 / HOPELESS_PROBES as f64));
-            for t in probes {
-                if let Some(f) = self.hopeless_at(t) {
-                    return Err(f);
-                }
+        // cheap rejection first: the hint, then evenly spaced points (a piece that fails
+        // somewhere usually fails at one of them; the float checks cost microseconds,
+        // a sub-interval proof tens); a point is probed once
+        let spaced = if self.piece.is_some() { HOPELESS_PROBES } else { 0 };
+        let probes = hint.into_iter().chain((0..=spaced).map(|k| k as f64 / spaced.max(1) as f64));
+        for t in probes {
+            if let Some(f) = self.hopeless_at(t) {
+                return Err(f);
             }
         }
         let max_depth = if self.piece.is_some() { COVER_MAX_DEPTH } else { 0 };

@@ -17,10 +17,13 @@
 //! lose as many digits; in centred variables the coefficients stay at the scale of the
 //! obstacle.
 
+mod bounds;
+pub use bounds::{restricted, CompiledBounds};
+
 use super::bernstein::MAX_DEGREE;
 use super::compose::PieceRef;
 use crate::contour::RiskContour;
-use crate::poly::{Interval, Poly, QPoly};
+use crate::poly::{Interval, Poly, QPoly, UPoly};
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 
@@ -357,6 +360,20 @@ impl Frame {
         self.center.is_empty()
     }
 
+    /// The compiled coordinates `(x − c)·2^(−e)` of a point (space, then time), enclosed.
+    pub fn point_coords(&self, xt: &[f64]) -> Vec<Interval> {
+        xt.iter()
+            .enumerate()
+            .take(self.len())
+            .map(|(v, &x)| (Interval::point(x) - Interval::point(self.center[v])) * Interval::point(self.inv_scale(v)))
+            .collect()
+    }
+
+    /// [`Frame::point_coords`] in plain floating point (an estimate, for choices).
+    pub fn point_coords_f64(&self, xt: &[f64]) -> Vec<f64> {
+        xt.iter().enumerate().take(self.len()).map(|(v, &x)| (x - self.center[v]) * self.inv_scale(v)).collect()
+    }
+
     /// `2^(−e_v)`, the factor from centred to compiled coordinates.
     fn inv_scale(&self, v: usize) -> f64 {
         pow2(-self.exponents[v])
@@ -509,59 +526,78 @@ pub struct Compiled {
     in_model: bool,
 }
 
-/// Builds the Horner tree of `terms` from variable `var` on; `in_model` is cleared when
-/// a coefficient's nearest float is outside the running error model's range
-/// ([`round_for_model`]).
-fn build(terms: &mut [(Vec<u32>, BigRational)], var: usize, nvars: usize, in_model: &mut bool) -> Node {
+/// Builds the Horner tree of `terms` from variable `var` on; `leaf` turns the terms that
+/// differ only beyond the last variable into one constant node (summing their
+/// coefficients).
+fn build<C>(terms: &mut [(Vec<u32>, C)], var: usize, nvars: usize, leaf: &mut dyn FnMut(&[(Vec<u32>, C)]) -> Node) -> Node {
     if terms.is_empty() {
         return Node::Zero;
     }
     if var == nvars {
-        let mut acc = BigRational::zero();
-        for (_, c) in terms.iter() {
-            acc += c;
-        }
-        let (near, k) = round_for_model(&acc).unwrap_or_else(|| {
-            *in_model = false;
-            (crate::poly::rational_to_f64(&acc), 1)
-        });
-        return Node::Const(Interval::enclose_rational(&acc), near, k);
+        return leaf(terms);
     }
     let top = terms.iter().map(|(e, _)| e[var]).max().unwrap_or(0) as usize;
     if top == 0 {
-        return build(terms, var + 1, nvars, in_model);
+        return build(terms, var + 1, nvars, leaf);
     }
     terms.sort_by_key(|(e, _)| e[var]);
     let mut coeffs = Vec::with_capacity(top + 1);
     let mut i = 0;
     for k in 0..=top as u32 {
         let j = i + terms[i..].iter().take_while(|(e, _)| e[var] == k).count();
-        coeffs.push(build(&mut terms[i..j], var + 1, nvars, in_model));
+        coeffs.push(build(&mut terms[i..j], var + 1, nvars, leaf));
         i = j;
     }
     Node::Horner { var, coeffs }
+}
+
+/// The exponent vectors (variables `0..nvars`) and coefficients of `p`'s terms.
+fn exponent_terms<C: crate::poly::Ring>(p: &Poly<C>, nvars: usize) -> Vec<(Vec<u32>, C)> {
+    p.terms()
+        .map(|(m, c)| {
+            let mut e = vec![0u32; nvars];
+            for &(v, k) in m.pairs() {
+                if (v as usize) < nvars {
+                    e[v as usize] = k;
+                }
+            }
+            (e, c.clone())
+        })
+        .collect()
 }
 
 impl Compiled {
     /// Compiles `p` (variables `0..nvars`; any other variable must not occur) with
     /// every coefficient enclosed.
     pub fn new(p: &QPoly, nvars: usize) -> Self {
-        let mut terms: Vec<(Vec<u32>, BigRational)> = p
-            .terms()
-            .map(|(m, c)| {
-                let mut e = vec![0u32; nvars];
-                for &(v, k) in m.pairs() {
-                    if (v as usize) < nvars {
-                        e[v as usize] = k;
-                    }
-                }
-                (e, c.clone())
-            })
-            .collect();
+        let mut terms = exponent_terms(p, nvars);
         let degree = terms.iter().map(|(e, _)| e.iter().sum::<u32>() as usize).max().unwrap_or(0);
         let mut in_model = true;
-        let root = build(&mut terms, 0, nvars, &mut in_model);
+        let root = build(&mut terms, 0, nvars, &mut |ts: &[(Vec<u32>, BigRational)]| {
+            let mut acc = BigRational::zero();
+            for (_, c) in ts {
+                acc += c;
+            }
+            let (near, k) = round_for_model(&acc).unwrap_or_else(|| {
+                in_model = false;
+                (crate::poly::rational_to_f64(&acc), 1)
+            });
+            Node::Const(Interval::enclose_rational(&acc), near, k)
+        });
         Compiled { root, nvars, degree, in_model }
+    }
+
+    /// Compiles a polynomial whose coefficients are enclosures already (the central
+    /// moments of §3.8): usable with [`Compiled::compose`] only (interval arithmetic;
+    /// the `f64` model path [`Compiled::compose_e`] refuses it).
+    pub fn from_intervals(p: &Poly<Interval>, nvars: usize) -> Self {
+        let mut terms = exponent_terms(p, nvars);
+        let degree = terms.iter().map(|(e, _)| e.iter().sum::<u32>() as usize).max().unwrap_or(0);
+        let root = build(&mut terms, 0, nvars, &mut |ts: &[(Vec<u32>, Interval)]| {
+            let acc = ts.iter().fold(ZERO, |acc, (_, c)| acc + *c);
+            Node::Const(acc, acc.mid(), 1)
+        });
+        Compiled { root, nvars, degree, in_model: false }
     }
 
     /// Total degree.
@@ -626,6 +662,26 @@ impl Compiled {
         go(&self.root, subs)
     }
 
+    /// The value at `vals` in plain floating point from the coefficients' nearest floats
+    /// (an estimate, for choices; never for proofs).
+    pub fn eval_f64(&self, vals: &[f64]) -> f64 {
+        fn go(n: &Node, vals: &[f64]) -> f64 {
+            match n {
+                Node::Zero => 0.0,
+                Node::Const(_, f, _) => *f,
+                Node::Horner { var, coeffs } => {
+                    let x = vals[*var];
+                    let mut acc = go(&coeffs[coeffs.len() - 1], vals);
+                    for c in coeffs[..coeffs.len() - 1].iter().rev() {
+                        acc = acc * x + go(c, vals);
+                    }
+                    acc
+                }
+            }
+        }
+        go(&self.root, vals)
+    }
+
     /// An enclosure of the polynomial's range over the box `vals` (naive interval
     /// Horner evaluation).
     pub fn eval_box(&self, vals: &[Interval]) -> Interval {
@@ -685,6 +741,8 @@ pub struct CompiledContour {
     frame: Frame,
     mean: Compiled,
     second: Compiled,
+    /// The bounds beyond Cantelli in the same frame, compiled on first use (§5.13).
+    bounds: std::sync::OnceLock<std::sync::Arc<CompiledBounds>>,
 }
 
 /// The two restricted moment polynomials of one obstacle on one piece.
@@ -714,7 +772,25 @@ impl CompiledContour {
             frame: frame.clone(),
             mean: Compiled::new(&to_frame(&contour.mean, frame), nv),
             second: Compiled::new(&to_frame(&contour.second, frame), nv),
+            bounds: std::sync::OnceLock::new(),
         }
+    }
+
+    /// The compiled bounds beyond Cantelli of `contour` (the contour this was compiled
+    /// from), built on first use.
+    pub fn bounds(&self, contour: &RiskContour) -> &CompiledBounds {
+        self.bounds.get_or_init(|| std::sync::Arc::new(CompiledBounds::new(contour, &self.frame)))
+    }
+
+    /// E\[P\] restricted to a piece (`subs`: its coordinates from
+    /// [`CompiledContour::substitutions`]), enclosed.
+    pub fn mean_on(&self, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {
+        restricted(&self.mean, subs)
+    }
+
+    /// E\[P²\] restricted to a piece, enclosed.
+    pub fn second_on(&self, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {
+        restricted(&self.second, subs)
     }
 
     /// The frame of the compiled variables.

@@ -252,12 +252,26 @@ fn central_moments<C: crate::poly::Ring>(
 /// Builds the enclosures of the central moments up to [`MAX_MOMENT_ORDER`] (centring first
 /// keeps the large mean out of every power).
 pub(super) fn build_higher(c: &RiskContour) -> HigherMoments {
+    build_higher_of(c, &c.poly, &c.mean)
+}
+
+/// [`build_higher`] for P and E\[P\] given in other coordinates of (x, t) (the parameters
+/// untouched): the central moments of the same obstacle, in those coordinates (the
+/// compiled fast path's centred frame, docs/design.md §5.13). Z = P − E\[P\] is formed
+/// exactly before it is enclosed: its terms free of parameters cancel to nothing, where
+/// enclosures of the two would leave rounding residues that every power multiplies out.
+pub fn build_higher_of(c: &RiskContour, poly: &QPoly, mean: &QPoly) -> HigherMoments {
     let layout = c.layout();
-    let z = c.poly.map_coeffs(Interval::enclose_rational).sub(c.interval_polys().0);
+    let z = poly.sub(mean).map_coeffs(Interval::enclose_rational);
+    // each raw moment is enclosed once (its big-integer conversion dominated the build)
+    let memo: std::cell::RefCell<std::collections::HashMap<(Var, u32), Option<Interval>>> = Default::default();
+    let moment = |v: Var, k: u32| {
+        *memo.borrow_mut().entry((v, k)).or_insert_with(|| c.raw_moment(v, k).map(|m| Interval::enclose_rational(&m)))
+    };
     let (central_i, limit) = central_moments(
         &z,
         |v| layout.is_param(v),
-        |v, k| c.raw_moment(v, k).map(|m| Interval::enclose_rational(&m)),
+        &moment,
         |v| c.param_name(v),
     );
     HigherMoments { central_f: central_i.iter().map(|p| p.map_coeffs(|i| i.mid())).collect(), central_i, limit }
@@ -381,7 +395,31 @@ pub fn best_shift(mu: f64, c: &[f64], order: u32) -> Option<(f64, f64)> {
     if mu.is_nan() || mu >= 0.0 || c.len() <= order as usize {
         return None;
     }
-    let f = |b: f64| moment_bound_f64(mu, c, order, b);
+    // the bound as a polynomial in u = −b over (1 + u)^2k: Σⱼ C(2k,j)·κⱼ·u^(2k−j) with
+    // κⱼ = cⱼ/(−μ)^j (κ₀ = 1, κ₁ = 0), evaluated by Horner (the same value as
+    // [`moment_bound_f64`], a few flops per shift)
+    let m = -mu;
+    let mut coef = [0.0f64; MAX_MOMENT_ORDER as usize + 1]; // coef[i]: factor of u^i
+    let mut inv = 1.0;
+    for j in 0..=order {
+        if j > 0 {
+            inv /= m;
+        }
+        if j != 1 {
+            coef[(order - j) as usize] = binomial_f64(order, j) * c[j as usize] * inv;
+        }
+    }
+    coef[order as usize] = 1.0;
+    let f = |b: f64| {
+        let u = -b;
+        let num = coef[..=order as usize].iter().rev().fold(0.0, |acc, &a| acc * u + a);
+        let v = num / (1.0 - b).powi(order as i32);
+        if v.is_nan() {
+            f64::INFINITY
+        } else {
+            v
+        }
+    };
     let (lo, hi) = SHIFT_RANGE;
     let n = 24;
     let grid = |i: usize| lo + (hi - lo) * i as f64 / n as f64;
@@ -393,15 +431,25 @@ pub fn best_shift(mu: f64, c: &[f64], order: u32) -> Option<(f64, f64)> {
             best_i = i;
         }
     }
+    // golden-section search between the grid neighbours of the best grid point, one new
+    // evaluation per step
     let (mut a, mut b) = (grid(best_i.saturating_sub(1)), grid((best_i + 1).min(n)));
     let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
+    let (mut f1, mut f2) = (f(x1), f(x2));
     for _ in 0..24 {
-        let x1 = b - g * (b - a);
-        let x2 = a + g * (b - a);
-        if f(x1) < f(x2) {
+        if f1 < f2 {
             b = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = b - g * (b - a);
+            f1 = f(x1);
         } else {
             a = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = a + g * (b - a);
+            f2 = f(x2);
         }
     }
     let bm = 0.5 * (a + b);
@@ -540,6 +588,24 @@ mod tests {
         assert!((v - var / (var + mu * mu)).abs() < 1e-15);
         let (_, best) = best_shift(mu, &c, 2).unwrap();
         assert!((best - var / (var + mu * mu)).abs() < 1e-9, "{best}");
+    }
+
+    /// The Horner form that [`best_shift`] minimises is [`moment_bound_f64`]: its value at
+    /// the shift it returns agrees, and no grid shift is lower.
+    #[test]
+    fn best_shift_value_is_the_formula_at_its_shift() {
+        let c = [1.0, 0.0, 0.3, -0.05, 0.4, 0.02, 0.9, 0.1, 3.0];
+        for mu in [-0.4f64, -1.5, -7.0] {
+            for order in [4, 6, 8] {
+                let (b, v) = best_shift(mu, &c, order).unwrap();
+                let direct = moment_bound_f64(mu, &c, order, b);
+                assert!((v - direct).abs() <= 1e-12 * direct.abs(), "{mu} {order}: {v} vs {direct}");
+                for i in 0..=200 {
+                    let g = SHIFT_RANGE.0 + (SHIFT_RANGE.1 - SHIFT_RANGE.0) * i as f64 / 200.0;
+                    assert!(v <= moment_bound_f64(mu, &c, order, g) * (1.0 + 1e-9), "{mu} {order} at {g}");
+                }
+            }
+        }
     }
 
     /// The exact bound equals the float one and the central-moment Markov bound at b = 0.

@@ -137,6 +137,13 @@ pub enum Dist {
         /// The distribution the moments come from.
         truth: Box<Dist>,
     },
+    /// Raw moments E(w), E(w²), … as read from a scene's `moments` distribution
+    /// ([`Dist::from_scene_json`]): no underlying distribution is known, so it cannot be
+    /// sampled ([`Dist::sample`] gives NaN).
+    RawMoments {
+        /// E[w^k], k = 1….
+        raw: Vec<f64>,
+    },
 }
 
 /// The eight families, in the order the generator cycles through them.
@@ -162,7 +169,7 @@ impl Dist {
             Dist::Exponential { .. } => "exponential",
             Dist::Laplace { .. } => "laplace",
             Dist::Discrete { .. } => "discrete",
-            Dist::Moments { .. } => "moments",
+            Dist::Moments { .. } | Dist::RawMoments { .. } => "moments",
         }
     }
 
@@ -206,6 +213,11 @@ impl Dist {
                 (m, v.sqrt())
             }
             Dist::Moments { truth, .. } => truth.mean_sd(),
+            Dist::RawMoments { raw } => {
+                let m1 = raw.first().copied().unwrap_or(f64::NAN);
+                let m2 = raw.get(1).copied().unwrap_or(f64::NAN);
+                (m1, (m2 - m1 * m1).sqrt())
+            }
         }
     }
 
@@ -241,6 +253,7 @@ impl Dist {
                 *values.last().unwrap_or(&f64::NAN)
             }
             Dist::Moments { truth, .. } => truth.sample(rng),
+            Dist::RawMoments { .. } => f64::NAN,
         }
     }
 
@@ -250,6 +263,7 @@ impl Dist {
             Dist::Moments { raw, .. } => {
                 json!({"dist": "moments", "raw": raw.iter().map(|(p, q)| format!("{p}/{q}")).collect::<Vec<_>>()})
             }
+            Dist::RawMoments { raw } => json!({"dist": "moments", "raw": raw}),
             d => serde_json::to_value(d).unwrap_or(Value::Null),
         }
     }

@@ -7,6 +7,14 @@
 //! testkit's `robustness` binary
 //! (`cargo run --release -p riskplan-testkit --bin robustness`).
 //!
+//! Beside it, an independent oracle for the product's risk **bounds** at a point
+//! ([`bounds`]): scenes read from their JSON ([`SceneBounds`], with the oracle's own
+//! polynomial-text parser and evaluator [`expr`] and distribution reader [`scene_json`]),
+//! E[P^j] for j ≤ 8 by tensor-product Gauss rules of any order
+//! ([`quadrature::rule_with_nodes`]), the Cantelli and shifted moment bounds computed
+//! from node values, support-grid evidence, Monte Carlo counts and binomial confidence
+//! limits.
+//!
 //! The generator covers 2-D and 3-D scenes, workspaces 1–100 units wide anywhere within
 //! ±1000, horizons with t₀ ≠ 0, Δ in [0.01, 0.2], disks/balls, ellipses/ellipsoids and
 //! nonconvex quartics, static, linearly and quadratically moving obstacles, every
@@ -21,12 +29,21 @@
 //! [`quadrature::QuadratureError`]) or a NaN, never a panic.
 #![warn(missing_docs)]
 
+pub mod bounds;
+pub mod expr;
 pub mod generate;
 pub mod oracle;
 pub mod quadrature;
+pub mod scene_json;
 
+pub use bounds::{
+    binomial_lower_limit, binomial_upper_limit, BoundsError, ObstacleBounds, ParamRule, PointMoments, SceneBounds,
+};
+pub use expr::{Bound, Expr, ExprError};
 pub use generate::{generate, GeneratedScene};
 pub use oracle::{judge, Judgement, OracleError, OracleOptions, OracleReport};
+pub use quadrature::{rule_exact_to, rule_with_nodes, QuadratureError, Rule};
+pub use scene_json::SceneJsonError;
 
 #[cfg(test)]
 mod tests {

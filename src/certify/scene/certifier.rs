@@ -1,7 +1,7 @@
 //! The scene certifier: the continuous-time certifier as a planner's motion checker
 //! (docs/design.md §5.9, §5.10).
 
-use super::decide::{combine, decide_obstacle, point_obstacle_safe, point_status, Method, PointStatus, Status};
+use super::decide::{combine, decide_obstacle, point_obstacle_safe_at, point_status, Method, PointStatus, Status};
 use super::framed::piece_passes_verify_path;
 use super::index::{piece_bbox, SceneIndex};
 use super::kernel::SceneKernel;
@@ -186,7 +186,12 @@ impl SceneCertifier {
         match cantelli {
             Ok(()) => true,
             Err(Some(hint)) if self.bounds.beyond_cantelli() => {
-                PieceBounds::for_piece(&o.contour, pr, self.levels[i]).cover(hint).is_ok()
+                let pb = if self.fast {
+                    PieceBounds::for_piece_compiled(&o.contour, &self.compiled[i], pr, self.levels[i])
+                } else {
+                    PieceBounds::for_piece(&o.contour, pr, self.levels[i])
+                };
+                pb.cover(hint).is_ok()
             }
             Err(_) => false,
         }
@@ -289,8 +294,12 @@ impl MotionChecker for SceneCertifier {
         };
         let Some(tq) = BigRational::from_float(t) else { return Motion::Rejected };
         xt.push(tq);
+        let mut xf = x.to_vec();
+        xf.push(t);
         for i in cands {
-            if !point_obstacle_safe(&self.scene.obstacles[i], &xt, &self.deltas[i], self.bounds) {
+            let compiled = self.fast.then(|| (&self.compiled[i], &xf[..]));
+            if !point_obstacle_safe_at(&self.scene.obstacles[i], &xt, &self.deltas[i], Some(self.levels[i]), compiled, self.bounds)
+            {
                 return Motion::Rejected;
             }
         }

@@ -166,13 +166,35 @@ pub enum PointStatus {
 /// Cantelli's constraints strictly positive (exactly), or, with `auto`, zero risk from the
 /// support or a shifted moment bound (interval proofs at the point, §3.10).
 pub fn point_obstacle_safe(o: &Obstacle, xt: &[BigRational], delta: &RiskLevel, bounds: BoundChoice) -> bool {
+    point_obstacle_safe_at(o, xt, delta, None, None, bounds)
+}
+
+/// [`point_obstacle_safe`] with the level already converted (`level`: Δ as [`Level`], as a
+/// certifier keeps it per obstacle) and, optionally, the obstacle's compiled contour with
+/// the point's floats (the bounds beyond Cantelli are then restricted in its frame).
+pub fn point_obstacle_safe_at(
+    o: &Obstacle,
+    xt: &[BigRational],
+    delta: &RiskLevel,
+    level: Option<Level>,
+    compiled: Option<(&CompiledContour, &[f64])>,
+    bounds: BoundChoice,
+) -> bool {
     let one_minus = BigRational::from_integer(1.into()) - delta.rational();
     let r = o.contour.risk_at(xt);
     let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
     if r.mean.is_negative() && g1.is_positive() {
         return true;
     }
-    bounds.beyond_cantelli() && PieceBounds::for_point(&o.contour, xt, Level::new(delta.rational())).cover(None).is_ok()
+    if !bounds.beyond_cantelli() {
+        return false;
+    }
+    let level = level.unwrap_or_else(|| Level::new(delta.rational()));
+    let pb = match compiled {
+        Some((c, x)) => PieceBounds::for_point_compiled(&o.contour, c, x, xt, level),
+        None => PieceBounds::for_point(&o.contour, xt, level),
+    };
+    pb.cover(None).is_ok()
 }
 
 /// The status of `x` at time `t` with one risk level per obstacle and a choice of bounds.
