@@ -550,6 +550,48 @@ pub fn moment_bound_upper(mu: Interval, c: &[Interval], order: u32, b: f64) -> O
     up.is_finite().then_some(up)
 }
 
+/// Enclosures of the central moments c₀ … c_top at the point `xt`, formed without the
+/// dependency problem of evaluating the expanded cⱼ(x, t): P = Σ_β a_β(x, t)·ω^β is split by
+/// its parameter monomials, each a_β is evaluated exactly at the point, and
+/// Z = Σ_{β≠0} a_β·(ω^β − E\[ω^β\]) (its parameter-free part cancels exactly) is raised to
+/// powers in the parameters alone, in interval arithmetic, within the same work budget.
+/// `None` when the orders stop before 4.
+pub fn central_at_point(c: &RiskContour, xt: &[BigRational]) -> Option<Vec<Interval>> {
+    let layout = c.layout();
+    let vals = c.pad(xt, BigRational::zero());
+    let mut parts: std::collections::BTreeMap<Monomial, BigRational> = std::collections::BTreeMap::new();
+    for (m, coef) in c.poly.terms() {
+        let (params, rest) = m.split(|v| layout.is_param(v));
+        if params.pairs().is_empty() {
+            continue;
+        }
+        let mut v = coef.clone();
+        for &(var, e) in rest.pairs() {
+            v *= num_traits::Pow::pow(&vals[var as usize], e);
+        }
+        *parts.entry(params).or_insert_with(BigRational::zero) += v;
+    }
+    let memo: std::cell::RefCell<std::collections::HashMap<(Var, u32), Option<Interval>>> = Default::default();
+    let moment = |v: Var, k: u32| {
+        *memo.borrow_mut().entry((v, k)).or_insert_with(|| c.raw_moment(v, k).map(|m| Interval::enclose_rational(&m)))
+    };
+    let mut z: Poly<Interval> = Poly::zero();
+    let mut shift = Interval::point(0.0);
+    for (m, a) in &parts {
+        let ai = Interval::enclose_rational(a);
+        let mut mom = Interval::point(1.0);
+        for &(v, e) in m.pairs() {
+            mom = mom * moment(v, e)?;
+        }
+        z.add_term(m.clone(), ai);
+        shift = shift + ai * mom;
+    }
+    z.add_term(Monomial::one(), -shift);
+    let (central, _) = central_moments(&z, |v| layout.is_param(v), &moment, |v| c.param_name(v));
+    let out: Vec<Interval> = central.iter().map(|p| p.eval(&[])).collect();
+    (out.len() > MOMENT_ORDERS[0] as usize).then_some(out)
+}
+
 /// Every bound at `xt` (x1..xn, t): Cantelli's exactly, the moment bounds as proven upper
 /// bounds from the enclosures, and `support_negative` (the support proof at the point,
 /// done by the caller).
@@ -559,9 +601,12 @@ pub fn point_bounds(c: &RiskContour, xt: &[BigRational], support_negative: Optio
     let hm = c.higher();
     let mut moments = Vec::new();
     if r.mean.is_negative() && hm.max_order() >= MOMENT_ORDERS[0] {
-        let mut vals: Vec<Interval> = xt.iter().map(Interval::enclose_rational).collect();
-        vals.resize(c.layout().xt_len(), Interval::point(0.0));
-        let enc: Vec<Interval> = hm.interval().iter().map(|p| p.eval(&vals)).collect();
+        // at the point first (tight), else the expanded enclosures evaluated there
+        let enc: Vec<Interval> = central_at_point(c, xt).unwrap_or_else(|| {
+            let mut vals: Vec<Interval> = xt.iter().map(Interval::enclose_rational).collect();
+            vals.resize(c.layout().xt_len(), Interval::point(0.0));
+            hm.interval().iter().map(|p| p.eval(&vals)).collect()
+        });
         let mid: Vec<f64> = enc.iter().map(|i| i.mid()).collect();
         let mu = Interval::enclose_rational(&r.mean);
         for order in hm.orders() {

@@ -7,6 +7,7 @@
 mod common;
 
 mod architecture;
+mod bounds_oracle;
 mod certify_differential;
 mod certify_exact;
 mod certify_scenes;
