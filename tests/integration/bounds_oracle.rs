@@ -74,7 +74,7 @@ struct Tally {
 
 #[test]
 fn every_bound_against_the_independent_oracle() {
-    let n_points = size("BOUND_ORACLE_POINTS", 600, 10_000);
+    let n_points = size("BOUND_ORACLE_POINTS", 200, 10_000);
     let n_mc = size("BOUND_ORACLE_MC", 300, 1000);
     let mut failures: Vec<String> = Vec::new();
     for path in scenes() {
@@ -134,12 +134,18 @@ fn every_bound_against_the_independent_oracle() {
                     tally.moment_checks += 1;
                     let f = pm.shifted(m.order, m.shift).min(1.0);
                     if v < f * (1.0 - FORMULA_BELOW_REL) - FORMULA_ABS {
-                        failures.push(format!("{at}: moment{} at b = {}: proven {v} < oracle formula {f}", m.order, m.shift));
+                        failures.push(format!(
+                            "{at}: moment{} at b = {}: proven {v} < oracle formula {f}",
+                            m.order, m.shift
+                        ));
                     }
                     if (TIGHT_FROM..1.0).contains(&f) {
                         tally.max_above = tally.max_above.max(v / f - 1.0);
                         if v > f * (1.0 + FORMULA_ABOVE_REL) {
-                            failures.push(format!("{at}: moment{} at b = {}: proven {v} ≫ oracle formula {f}", m.order, m.shift));
+                            failures.push(format!(
+                                "{at}: moment{} at b = {}: proven {v} ≫ oracle formula {f}",
+                                m.order, m.shift
+                            ));
                         }
                     }
                 }

@@ -10,12 +10,17 @@
 //! decides where its sign is beyond doubt (|g| above `F64_TRUST` times the sum of the
 //! absolute values of the terms); everywhere else the values are computed exactly in
 //! rational arithmetic.
+//!
+//! Pieces certified with `bound: auto` (the default) may be proven by other bounds where
+//! Cantelli's fail (docs/design.md §5.13): there the times are judged by the independent
+//! bound oracle of `riskplan_oracle::bounds` instead ([`check_piece_with`]).
 
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use riskplan::contour::RiskLevel;
 use riskplan::poly::QPoly;
 use riskplan::scene::{Piece, Scene};
+use riskplan_testkit::riskplan_oracle::bounds::{ObstacleBounds, SceneBounds};
 
 /// The floating-point sign of a polynomial value is trusted when the value exceeds
 /// this share of the sum of its terms' absolute values. The rounding error of a
@@ -38,6 +43,9 @@ pub struct OracleStats {
     pub evaluations: u64,
     /// Of those, decided in exact arithmetic.
     pub exact: u64,
+    /// Of those, where Cantelli's constraints failed and the bound oracle's best bound was
+    /// below Δ.
+    pub other_bounds: u64,
 }
 
 /// Smallest magnitude of a floating-point term (and of a coefficient) that the fast
@@ -84,9 +92,51 @@ fn exact(v: f64) -> BigRational {
     BigRational::from_float(v).expect("finite")
 }
 
+/// The independent bound oracle of a scene (`riskplan_oracle::bounds`: its own parser,
+/// quadrature and shift search; no code shared with the crate's moments or contours), from
+/// the scene's file.
+pub fn bound_oracle(scene: &Scene) -> SceneBounds {
+    let json = serde_json::to_value(&scene.file).expect("scene file serializes");
+    SceneBounds::from_scene_json(&json).unwrap_or_else(|e| panic!("{}: bound oracle: {e}", scene.name))
+}
+
+/// Relative slack of the bound oracle's best bound over Δ: the oracle's shift search and
+/// quadrature round at ~10⁻¹², and the certifier proves its bound strictly below Δ.
+const BOUND_ORACLE_SLACK: f64 = 1e-9;
+
+/// Where Cantelli's constraints fail at a time, the risk may still be proven below Δ by
+/// the other bounds of `bound: auto` (docs/design.md §5.13). The oracle's best bound at the
+/// point: Cantelli's, every shifted moment bound at its best shift, and 0 where P < 0 on a
+/// grid of the bounded support (evidence, not proof — this is an oracle). `Err` when the
+/// oracle's E\[P\] disagrees with the contour's (a stale scene file).
+fn best_bound(ob: &ObstacleBounds, x: &[f64], t: f64, crate_mean: f64) -> Result<f64, String> {
+    let pm = ob.moments_at(x, t);
+    if (pm.mu - crate_mean).abs() > 1e-6 * (pm.mu.abs() + crate_mean.abs()) + 1e-12 {
+        return Err(format!("bound oracle's E[P] = {} but the contour's is {crate_mean}: stale scene file?", pm.mu));
+    }
+    if ob.max_on_support_grid(x, t, 9).is_some_and(|g| g < 0.0) {
+        return Ok(0.0);
+    }
+    let mut best = pm.cantelli();
+    let mut order = 4;
+    while order <= pm.max_order() {
+        best = best.min(pm.best_shifted(order).1);
+        order += 2;
+    }
+    Ok(best)
+}
+
 /// Checks `piece` against every obstacle of `scene` at `n` times; `Err` names the
-/// first obstacle and time where a constraint is not strictly positive.
-pub fn check_piece(scene: &Scene, piece: &Piece, delta: &RiskLevel, n: usize) -> Result<OracleStats, String> {
+/// first obstacle and time where a constraint is not strictly positive and (with
+/// `bounds`, for pieces certified with `bound: auto`) the independent bound oracle's best
+/// bound is above Δ.
+pub fn check_piece_with(
+    scene: &Scene,
+    piece: &Piece,
+    delta: &RiskLevel,
+    n: usize,
+    bounds: Option<&SceneBounds>,
+) -> Result<OracleStats, String> {
     let one_minus = 1.0 - delta.to_f64();
     let one_minus_q = BigRational::one() - delta.rational();
     let mut st = OracleStats::default();
@@ -123,6 +173,21 @@ pub fn check_piece(scene: &Scene, piece: &Piece, delta: &RiskLevel, n: usize) ->
                 let g1 = &m * &m - &one_minus_q * &s;
                 (m.is_negative(), g1.is_positive())
             };
+            if mean_neg && !g1_pos {
+                if let Some(ob) = bounds.and_then(|b| b.obstacle(&o.id)) {
+                    let best = best_bound(ob, &xt[..xt.len() - 1], t, m)?;
+                    if best <= delta.to_f64() * (1.0 + BOUND_ORACLE_SLACK) {
+                        st.other_bounds += 1;
+                        continue;
+                    }
+                    return Err(format!(
+                        "{}: obstacle {} at t = {t} (x = {:?}): Cantelli fails and the bound oracle's best bound is {best:e} > Δ",
+                        scene.name,
+                        o.id,
+                        &xt[..xt.len() - 1]
+                    ));
+                }
+            }
             if !(mean_neg && g1_pos) {
                 return Err(format!(
                     "{}: obstacle {} at t = {t} (x = {:?}): E[P] = {m:e}, E[P]² − (1−Δ)E[P²] = {g1:e} (must be < 0 and > 0)",
@@ -136,13 +201,26 @@ pub fn check_piece(scene: &Scene, piece: &Piece, delta: &RiskLevel, n: usize) ->
     Ok(st)
 }
 
+/// [`check_piece_with`] with every bound of `bound: auto` (the default).
+pub fn check_piece(scene: &Scene, piece: &Piece, delta: &RiskLevel, n: usize) -> Result<OracleStats, String> {
+    check_piece_with(scene, piece, delta, n, Some(&bound_oracle(scene)))
+}
+
+/// [`check_piece_with`] with Cantelli's constraints only (pieces certified with
+/// `bound: cantelli`).
+pub fn check_piece_cantelli(scene: &Scene, piece: &Piece, delta: &RiskLevel, n: usize) -> Result<OracleStats, String> {
+    check_piece_with(scene, piece, delta, n, None)
+}
+
 /// [`check_piece`] on every piece of a trajectory, at [`times_per_piece`] times.
 pub fn check_trajectory(scene: &Scene, pieces: &[Piece], delta: &RiskLevel) -> Result<OracleStats, String> {
+    let bounds = bound_oracle(scene);
     let mut total = OracleStats::default();
     for pc in pieces {
-        let s = check_piece(scene, pc, delta, times_per_piece())?;
+        let s = check_piece_with(scene, pc, delta, times_per_piece(), Some(&bounds))?;
         total.evaluations += s.evaluations;
         total.exact += s.exact;
+        total.other_bounds += s.other_bounds;
     }
     Ok(total)
 }
