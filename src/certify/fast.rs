@@ -526,10 +526,13 @@ pub struct Compiled {
     in_model: bool,
 }
 
+/// A term as its exponent vector and coefficient.
+type ExpTerm<C> = (Vec<u32>, C);
+
 /// Builds the Horner tree of `terms` from variable `var` on; `leaf` turns the terms that
 /// differ only beyond the last variable into one constant node (summing their
 /// coefficients).
-fn build<C>(terms: &mut [(Vec<u32>, C)], var: usize, nvars: usize, leaf: &mut dyn FnMut(&[(Vec<u32>, C)]) -> Node) -> Node {
+fn build<C>(terms: &mut [ExpTerm<C>], var: usize, nvars: usize, leaf: &mut dyn FnMut(&[ExpTerm<C>]) -> Node) -> Node {
     if terms.is_empty() {
         return Node::Zero;
     }

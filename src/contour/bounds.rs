@@ -273,7 +273,7 @@ pub fn build_higher_of(c: &RiskContour, poly: &QPoly, mean: &QPoly) -> HigherMom
     let (central_i, limit) = central_moments(
         &z,
         |v| layout.is_param(v),
-        &moment,
+        moment,
         |v| c.param_name(v),
     );
     HigherMoments { central_f: central_i.iter().map(|p| p.map_coeffs(|i| i.mid())).collect(), central_i, limit }
@@ -589,7 +589,7 @@ pub fn central_at_point(c: &RiskContour, xt: &[BigRational]) -> Option<Vec<Inter
         shift = shift + ai * mom;
     }
     z.add_term(Monomial::one(), -shift);
-    let (central, _) = central_moments(&z, |v| layout.is_param(v), &moment, |v| c.param_name(v));
+    let (central, _) = central_moments(&z, |v| layout.is_param(v), moment, |v| c.param_name(v));
     let out: Vec<Interval> = central.iter().map(|p| p.eval(&[])).collect();
     (out.len() > MOMENT_ORDERS[0] as usize).then_some(out)
 }

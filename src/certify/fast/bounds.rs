@@ -14,6 +14,9 @@ use crate::contour::bounds::build_higher_of;
 use crate::contour::{RiskContour, SupportForm};
 use crate::poly::{Interval, UPoly, Var};
 
+/// A support-form term: ω^β as (parameter, exponent) pairs, and its coefficient a_β in some form.
+pub type SupportPart<T> = (Vec<(Var, u32)>, T);
+
 /// One obstacle's higher-moment and support polynomials, compiled in a frame.
 #[derive(Clone, Debug)]
 pub struct CompiledBounds {
@@ -21,7 +24,7 @@ pub struct CompiledBounds {
     central: Vec<Compiled>,
     /// The support form's terms: ω^β as (parameter, exponent) pairs and a_β compiled;
     /// `None` without bounded support.
-    support: Option<Vec<(Vec<(Var, u32)>, Compiled)>>,
+    support: Option<Vec<SupportPart<Compiled>>>,
 }
 
 impl CompiledBounds {
@@ -62,7 +65,7 @@ impl CompiledBounds {
 
     /// The support terms restricted to a piece; `None` without bounded support or beyond
     /// the capacity.
-    pub fn support_on(&self, subs: &[FPoly<CAPACITY>]) -> Option<Vec<(Vec<(Var, u32)>, UPoly<Interval>)>> {
+    pub fn support_on(&self, subs: &[FPoly<CAPACITY>]) -> Option<Vec<SupportPart<UPoly<Interval>>>> {
         self.support.as_ref()?.iter().map(|(beta, a)| Some((beta.clone(), restricted(a, subs)?))).collect()
     }
 }
