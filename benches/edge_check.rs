@@ -5,10 +5,14 @@
 //! - `edges/<scene>`: 256 seeded random edges of the planner's length; the time is per
 //!   batch, divide by 256 for an edge and by the obstacle count for an obstacle;
 //! - `growth/disks-<n>`: the same on the constant-density disk family (8 … 512 disks);
-//! - `first_plan/disks-<n>`: the default planner's first certified plan on that family.
+//! - `first_plan/disks-<n>`: the default planner's first certified plan on that family;
+//! - `bounds/*` (issue 19): the same random edges with `bound: cantelli` and `auto`, and on
+//!   a disk of radius 0.3 with a Gaussian centre (σ = 0.05) at Δ = 10⁻³ one edge that
+//!   Cantelli proves (3.5 from the centre) and one that only the moment bounds prove (0.7).
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
+use riskplan::contour::BoundChoice;
 use riskplan::plan::MotionChecker;
 use riskplan::scene::{Piece, Scene};
 use riskplan::verify::{Method, SceneCertifier};
@@ -32,8 +36,12 @@ fn edges(s: &Scene, len: f64, n: usize, seed: u64) -> Vec<Piece> {
 }
 
 fn certifier(s: Scene) -> SceneCertifier {
+    certifier_with(s, BoundChoice::default())
+}
+
+fn certifier_with(s: Scene, bound: BoundChoice) -> SceneCertifier {
     let delta = s.risk.clone();
-    let c = SceneCertifier::new(Arc::new(s), delta, Method::Exact);
+    let c = SceneCertifier::new(Arc::new(s), delta, Method::Exact).with_bounds(bound);
     let _ = c.index(); // build the covers outside the measurement
     c
 }
@@ -54,6 +62,29 @@ fn bench(c: &mut Criterion) {
         g.bench_function(stem, |b| {
             b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count())
         });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("bounds");
+    for (stem, len) in [("illustrative-3", 1.0), ("example-d1-cluttered-2d", 1.0)] {
+        for bound in [BoundChoice::Cantelli, BoundChoice::Auto] {
+            let s = common::reference_scene(stem);
+            let es = edges(&s, len, 256, 1);
+            let cert = certifier_with(s, bound);
+            // warm: the compiled bounds are built by the first check that needs them
+            let _ = es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count();
+            g.bench_function(format!("{stem}-{bound}"), |b| {
+                b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count())
+            });
+        }
+    }
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/scenes/bounds/gaussian-centre-disk.json");
+    let gauss = Scene::from_json(&std::fs::read_to_string(path).expect("scene")).expect("scene");
+    let cert = certifier_with(gauss, BoundChoice::Auto);
+    for (name, y) in [("gaussian-disk-cantelli-edge", 3.5), ("gaussian-disk-moment-edge", 0.7)] {
+        let e = Piece::segment(&[-1.0, y], &[1.0, y], 0.0, 1.0);
+        assert_eq!(cert.check(&e), riskplan::plan::Motion::Accepted, "{name}");
+        g.bench_function(name, |b| b.iter(|| cert.check(black_box(&e))));
     }
     g.finish();
 

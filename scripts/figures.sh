@@ -11,6 +11,17 @@ mkdir -p docs/figures
 "${RP[@]}" contour --scene "$S/example-a1-2d.json" --mc 5000 --out docs/figures/example-a1-2d-contours.svg
 "${RP[@]}" contour --scene "$S/illustrative-2.json" --time 0 0.5 1 --mc 5000 --out docs/figures/illustrative-2-contours.svg
 "${RP[@]}" contour --scene "$S/example-a2-3d.json" --slice x3=0 --mc 5000 --out docs/figures/example-a2-3d-slice-x3-0.svg
+# the Δ-contours of every bound (issue 19): illustrative-1 at three Δ, a disk with a Gaussian
+# centre, a pedestrian with velocity error at three instants
+mkdir -p docs/figures/bounds
+for d in 0.1 0.01 0.001; do
+  "${RP[@]}" contour --scene "$S/illustrative-1.json" --delta "$d" --bound each --mc 20000 --grid 200 --mc-grid 80 \
+    --window -1 1 -1 1 --out "docs/figures/bounds/illustrative-1-delta-$d.svg"
+done
+"${RP[@]}" contour --scene tests/scenes/bounds/gaussian-centre-disk.json --delta 0.001 --bound each --mc 20000 \
+  --grid 200 --mc-grid 80 --window -3.6 3.6 -3.6 3.6 --out docs/figures/bounds/gaussian-centre-disk-delta-0.001.svg
+"${RP[@]}" contour --scene tests/scenes/bounds/pedestrian.json --delta 0.01 --time 0 4 8 --bound auto --mc 5000 \
+  --grid 200 --mc-grid 70 --out docs/figures/bounds/pedestrian-delta-0.01.svg
 # plans: the default rrt-sos on every planning scene (seed 1); the paper's RRT-SOS with improve
 "${RP[@]}" plan --scene "$S/illustrative-3.json" --planner rrt-sos-paper --improve --out /dev/null \
   --figure docs/figures/plan-illustrative-3-paper-improve.svg

@@ -55,7 +55,7 @@ pub struct PlanRequest {
     pub risk_mode: RiskMode,
     /// Which risk bounds may prove safety: `auto` (the tightest sound one) or `cantelli`
     /// (the paper's; docs/design.md §3.7–§3.10, §5.13). `None`: the scene's
-    /// `planner.bound`, else `cantelli` (for now; see [`BoundChoice`]).
+    /// `planner.bound`, else `auto` ([`BoundChoice`]).
     pub bound: Option<BoundChoice>,
 }
 
@@ -203,7 +203,7 @@ impl PlanRequest {
     }
 
     /// The bounds this request uses on `scene`: its own, else the scene's
-    /// `planner.bound`, else the default (`cantelli` for now).
+    /// `planner.bound`, else the default (`auto`).
     pub fn bound_on(&self, scene: &Scene) -> BoundChoice {
         self.bound.or_else(|| scene.file.planner.as_ref().and_then(|b| b.bound)).unwrap_or_default()
     }

@@ -46,6 +46,12 @@ pub struct ContourArgs {
     /// Output file, .svg or .png.
     #[arg(long)]
     out: PathBuf,
+    /// Which bounds' Δ-contours to draw: cantelli (the paper's figures), auto (the best
+    /// bound at each point, what `bound: auto` certifies, beside Cantelli's) or each (every
+    /// bound — Cantelli, zero risk from the support, moment bounds of orders 4, 6, 8 — and
+    /// the best, one colour each; use one Δ per figure).
+    #[arg(long, default_value = "cantelli", value_parser = ["cantelli", "auto", "each"])]
+    bound: String,
 }
 
 fn parse_slice(s: &str) -> Result<(usize, f64), CliError> {
@@ -84,6 +90,22 @@ pub fn run(a: ContourArgs) -> Result<i32, CliError> {
             [x0, x1, y0, y1] if x0 < x1 && y0 < y1 => Some((x0, x1, y0, y1)),
             [] => None,
             _ => return Err(CliError("--window: expected X0 X1 Y0 Y1 with X0 < X1 and Y0 < Y1".into())),
+        },
+        curves: {
+            use crate::contour::BoundKind;
+            use viz::BoundCurve;
+            match a.bound.as_str() {
+                "auto" => vec![BoundCurve::Kind(BoundKind::Cantelli), BoundCurve::Best],
+                "each" => vec![
+                    BoundCurve::Kind(BoundKind::Cantelli),
+                    BoundCurve::Kind(BoundKind::Moment(4)),
+                    BoundCurve::Kind(BoundKind::Moment(6)),
+                    BoundCurve::Kind(BoundKind::Moment(8)),
+                    BoundCurve::Kind(BoundKind::Support),
+                    BoundCurve::Best,
+                ],
+                _ => vec![],
+            }
         },
     };
     viz::draw(&scene, &opts, &[], &a.out).map_err(|e| CliError(e.to_string()))?;

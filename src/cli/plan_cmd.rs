@@ -83,7 +83,7 @@ pub struct PlanArgs {
     /// What Δ bounds: per-obstacle (the paper's), joint (any obstacle; Δ split evenly) or joint-weighted (more of Δ to obstacles near the start–goal line).
     #[arg(long, default_value = "per-obstacle")]
     risk_mode: crate::app::RiskMode,
-    /// Which risk bounds may prove safety: auto (the tightest sound one: Cantelli, zero risk from bounded support, shifted moment bounds of orders 4–8, on sub-intervals) or cantelli (the paper's). Default: the scene's planner.bound, else cantelli (auto becomes the default when issue 19 is done).
+    /// Which risk bounds may prove safety: auto (the tightest sound one: Cantelli, zero risk from bounded support, shifted moment bounds of orders 4–8, on sub-intervals) or cantelli (the paper's). Default: the scene's planner.bound, else auto.
     #[arg(long)]
     bound: Option<crate::contour::BoundChoice>,
     /// Time limit in seconds.

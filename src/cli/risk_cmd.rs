@@ -40,7 +40,7 @@ pub struct RiskArgs {
     #[arg(long)]
     delta: Option<String>,
     /// Which bound `bound` reports: auto (the smallest proven one: Cantelli, zero risk from bounded support, shifted moment bounds of orders 4–8) or cantelli. Every bound is listed under `bounds` either way.
-    #[arg(long, default_value = "cantelli")]
+    #[arg(long, default_value = "auto")]
     bound: crate::contour::BoundChoice,
 }
 

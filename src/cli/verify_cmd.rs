@@ -32,7 +32,7 @@ pub struct VerifyArgs {
     #[arg(long)]
     delta: Option<String>,
     /// Which risk bounds may prove a piece: auto (Cantelli, then zero risk from bounded support and shifted moment bounds of orders 4–8 on sub-intervals; the report names the bound of each part) or cantelli (the paper's).
-    #[arg(long, default_value = "cantelli")]
+    #[arg(long, default_value = "auto")]
     bound: crate::contour::BoundChoice,
     /// Print the report on one line instead of pretty-printed.
     #[arg(long)]

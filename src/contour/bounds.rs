@@ -50,17 +50,12 @@ pub const MAX_HIGHER_MOMENT_WORK: usize = 250_000;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum BoundChoice {
-    /// The tightest sound one: Cantelli first (cheapest), then zero risk from bounded
-    /// support and the shifted moment bounds of orders 4, 6 and 8, on sub-intervals
-    /// (docs/design.md §5.13).
+    /// The tightest sound one (the default): Cantelli first (cheapest), then zero risk
+    /// from bounded support and the shifted moment bounds of orders 4, 6 and 8, on
+    /// sub-intervals (docs/design.md §5.13).
+    #[default]
     Auto,
     /// Cantelli's bound only: the paper's eq. (10), (12) (the reproduction uses it).
-    ///
-    /// Still the default while issue 19 is open: with `auto` as the default, the final
-    /// check (general composition, no frame) disagrees with the compiled fast path at
-    /// extreme time scales, and a few planner tests time out or fail
-    /// (docs/design.md §5.13, "State"). `auto` becomes the default once those are fixed.
-    #[default]
     Cantelli,
 }
 

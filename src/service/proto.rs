@@ -152,7 +152,7 @@ pub struct PlanRequest {
     #[serde(default)]
     pub risk_mode: Option<String>,
     /// Which risk bounds may prove safety: `auto` (the tightest sound one) or `cantelli`
-    /// (the paper's). Default: the scene's `planner.bound`, else `cantelli` (for now).
+    /// (the paper's). Default: the scene's `planner.bound`, else `auto`.
     #[serde(default)]
     pub bound: Option<String>,
 }
@@ -210,7 +210,7 @@ pub struct VerifyRequest {
     /// Δ (default: the scene's).
     #[serde(default)]
     pub delta: Option<f64>,
-    /// `auto` or `cantelli` (default, for now): which bounds may prove a piece.
+    /// `auto` (default) or `cantelli`: which bounds may prove a piece.
     #[serde(default)]
     pub bound: Option<String>,
     /// `true`: the reply's `pieces` holds only the first piece that is not safe (none
@@ -268,7 +268,7 @@ pub struct RiskRequest {
     #[serde(default)]
     pub time: Option<f64>,
     /// `auto`: `bounds` and `obstacles` hold the best bound of each point;
-    /// `cantelli` (the default, for now): Cantelli's.
+    /// `cantelli`: Cantelli's. Default `auto`.
     #[serde(default)]
     pub bound: Option<String>,
     /// How long the server may take, in milliseconds from the request's arrival,

@@ -214,7 +214,16 @@ pub fn verify_obstacle_with(
         return report;
     }
     let hint = report.constraints.iter().find_map(|c| c.witness.map(|w| (w.t - piece.t0) / (piece.t1 - piece.t0)));
-    match PieceBounds::for_piece(&o.contour, piece, Level::new(delta.rational())).cover(hint.filter(|h| h.is_finite())) {
+    let hint = hint.filter(|h| h.is_finite());
+    let level = Level::new(delta.rational());
+    // the general composition first, then the compiled one in the scene's frame (which keeps
+    // its digits at extreme scales), as the final check does (docs/design.md §5.13)
+    let general = PieceBounds::for_piece(&o.contour, piece, level).cover(hint);
+    let cover = match (general, compiled) {
+        (Err(_), Some(c)) => PieceBounds::for_piece_compiled(&o.contour, c, piece, level).cover(hint),
+        (r, _) => r,
+    };
+    match cover {
         Ok(parts) => {
             report.status = Status::Safe;
             report.bounds =
@@ -323,9 +332,12 @@ pub struct FinalCheck {
 /// and from `start` to `goal` (within the same continuity tolerance); then each piece
 /// through the verify path — the workspace exactly, every obstacle (no covers) by
 /// general interval composition with the exact fallback — at the plan's per-obstacle
-/// risk levels. It shares no code with the compiled fast path of the planners'
-/// checker beyond the contour polynomials and the Bernstein decision. Asks `stop`
-/// before each piece.
+/// risk levels. Its Cantelli path shares no code with the compiled fast path of the
+/// planners' checker beyond the contour polynomials and the Bernstein decision; with
+/// `bound: auto`, a piece the general composition of the other bounds cannot cover is
+/// tried once more with their compiled restriction (docs/design.md §5.13: at extreme
+/// scales only the frame keeps the digits), so there the final check is not independent
+/// of the fast path — the bound oracle tests are. Asks `stop` before each piece.
 pub fn final_check(
     kernel: &SceneKernel,
     traj: &Trajectory,
@@ -353,6 +365,7 @@ pub fn final_check(
         return Ok(done(Some(FinalFailure::Invalid("one risk level per obstacle is needed".into()))));
     }
     let framed = kernel.framed();
+    let compiled = bounds.beyond_cantelli().then(|| kernel.compiled());
     let near = framed.near(scene, stop)?;
     // each obstacle's Cantelli polynomial for the box tests, formed on first use
     let cantelli: Vec<std::cell::OnceCell<_>> = scene.obstacles.iter().map(|_| std::cell::OnceCell::new()).collect();
@@ -362,7 +375,7 @@ pub fn final_check(
             return Err(Interrupted);
         }
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
-        if !piece_passes_verify_path(scene, &framed, near, pr, deltas, bounds) {
+        if !piece_passes_verify_path(scene, &framed, near, pr, deltas, bounds, compiled.as_deref().map(|c| c.as_slice())) {
             return Ok(done(Some(FinalFailure::NotProven(i))));
         }
     }

@@ -59,6 +59,29 @@ pub struct ContourOptions {
     pub title: Option<String>,
     /// Plot window `(x0, x1, y0, y1)` in the plotted axes; defaults to the workspace.
     pub window: Option<(f64, f64, f64, f64)>,
+    /// The bounds whose Δ-contours are drawn (docs/design.md §3.7–§3.10): empty for
+    /// Cantelli's alone (the paper's figures); otherwise one curve per entry and Δ, each
+    /// in its own colour.
+    pub curves: Vec<BoundCurve>,
+}
+
+/// One bound's Δ-contour in a figure: outside the curve that bound is at most Δ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BoundCurve {
+    /// One bound (Cantelli, zero risk from the support, a moment bound of one order).
+    Kind(crate::contour::BoundKind),
+    /// The smallest of them at each point (what `bound: auto` certifies, up to the
+    /// sub-interval proofs).
+    Best,
+}
+
+impl BoundCurve {
+    fn label(&self) -> String {
+        match self {
+            BoundCurve::Kind(k) => k.as_str().to_string(),
+            BoundCurve::Best => "best (auto)".into(),
+        }
+    }
 }
 
 impl Default for ContourOptions {
@@ -72,6 +95,7 @@ impl Default for ContourOptions {
             mc_grid: 90,
             title: None,
             window: None,
+            curves: vec![],
         }
     }
 }
@@ -216,6 +240,30 @@ fn bound_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64) -> Vec<f64> {
         for i in 0..g.n {
             let p = g.point(ax, i, j, t);
             v.push(scene.obstacles.iter().map(|o| o.contour.bound_f64(&p)).fold(0.0, f64::max));
+        }
+    }
+    v
+}
+
+/// Max over obstacles of one bound (or the best) on the grid at time `t`, in floating point
+/// (`certify::bounds::point_bounds_f64`; a bound an obstacle does not have counts as 1).
+fn curve_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64, curve: BoundCurve) -> Vec<f64> {
+    let mut v = Vec::with_capacity(g.n * g.n);
+    for j in 0..g.n {
+        for i in 0..g.n {
+            let p = g.point(ax, i, j, t);
+            let worst = scene
+                .obstacles
+                .iter()
+                .map(|o| {
+                    let each = crate::certify::bounds::point_bounds_f64(&o.contour, &p);
+                    match curve {
+                        BoundCurve::Kind(k) => each.iter().find(|(kk, _)| *kk == k).map_or(1.0, |x| x.1),
+                        BoundCurve::Best => each.iter().map(|x| x.1).fold(1.0, f64::min),
+                    }
+                })
+                .fold(0.0, f64::max);
+            v.push(worst);
         }
     }
     v
@@ -389,8 +437,30 @@ where
             }
         }
     }
-    // 3. Cantelli Δ-contours (eq. 10/12 inner approximations): the level sets B = Δ.
-    for (ti, &t) in opts.times.iter().enumerate() {
+    // 3. Cantelli Δ-contours (eq. 10/12 inner approximations): the level sets B = Δ; or
+    // the contours of each bound asked for, one colour per bound
+    for (ti, &t) in opts.times.iter().enumerate().filter(|_| !opts.curves.is_empty()) {
+        for (ci, &curve) in opts.curves.iter().enumerate() {
+            let b = curve_grid(scene, ax, &g, t, curve);
+            let color = rgb(PALETTE[ci % PALETTE.len()]);
+            let width = if curve == BoundCurve::Best { 3 } else { 2 };
+            for (di, &d) in opts.deltas.iter().enumerate() {
+                let mut first = ti == 0 && di == 0;
+                for line in g.isolines(&b, d) {
+                    let s = chart
+                        .draw_series(LineSeries::new(line, ShapeStyle::from(color).stroke_width(width)))
+                        .map_err(draw_err)?;
+                    if first {
+                        s.label(format!("{} Δ-contour", curve.label())).legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(color).stroke_width(width))
+                        });
+                        first = false;
+                    }
+                }
+            }
+        }
+    }
+    for (ti, &t) in opts.times.iter().enumerate().filter(|_| opts.curves.is_empty()) {
         let b = bound_grid(scene, ax, &g, t);
         for (di, &d) in opts.deltas.iter().enumerate() {
             let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);

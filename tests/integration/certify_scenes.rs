@@ -70,7 +70,14 @@ fn authors_tv_sos_trajectory_is_rejected_at_0_1_and_certified_at_0_1001() {
     let traj = authors_tv_sos(&s);
     traj.validate(2, s.horizon, 3.0).unwrap();
     for method in [Method::Exact, Method::Sos] {
-        let r = verify(&s, &traj, &dec("0.1"), method, &Default::default());
+        // the paper's bound: the claim is about Cantelli's contour
+        let kernel: riskplan::verify::SceneKernel = (&s).into();
+        let cantelli = riskplan::contour::BoundChoice::Cantelli;
+        let r =
+            riskplan::verify::verify_until(&kernel, &traj, &dec("0.1"), method, &Default::default(), cantelli, &|| {
+                false
+            })
+            .unwrap();
         assert!(!r.safe, "{method:?} certified the authors' trajectory at Δ = 0.1");
         assert!(r.pieces[0].safe, "{method:?}: piece 1 is safe");
         let p2 = &r.pieces[1].obstacles[0];

@@ -26,3 +26,4 @@ mod reference_scenes;
 #[cfg(all(feature = "service", feature = "cli"))]
 mod service_shutdown;
 mod smooth_limits;
+mod tight_bounds;

@@ -400,7 +400,7 @@ MESSAGES = {
             "max_speed": {"type": "number", "exclusiveMinimum": 0, "description": "speed limit, workspace units per time unit (default: the scene's planner.max_speed, else none)"},
             "max_accel": {"type": "number", "exclusiveMinimum": 0, "description": "acceleration limit of the corner blends (default: the scene's planner.max_accel, else none)"},
             "smooth": {"type": "boolean", "description": "shortcut and blend the path into C¹ pieces of degree ≤ 2, each certified (default true; rrt-sos and mc-rrt)"},
-            "bound": {"enum": ["auto", "cantelli"], "description": "which risk bounds may prove safety: auto (Cantelli, then zero risk from bounded support and shifted moment bounds of orders 4, 6, 8 on sub-intervals; docs/design.md §3.7–§3.10, §5.13) or cantelli (the paper's eq. (10), (12)). Default: the scene's planner.bound, else cantelli (auto becomes the default when issue 19 is done)"},
+            "bound": {"enum": ["auto", "cantelli"], "description": "which risk bounds may prove safety: auto (Cantelli, then zero risk from bounded support and shifted moment bounds of orders 4, 6, 8 on sub-intervals; docs/design.md §3.7–§3.10, §5.13) or cantelli (the paper's eq. (10), (12)). Default: the scene's planner.bound, else auto"},
             "risk_mode": {"enum": ["per-obstacle", "joint", "joint-weighted"], "description": "per-obstacle (the paper's: each obstacle ≤ Δ at each instant); joint: any obstacle ≤ Δ at each instant, Δ split evenly (Boole); joint-weighted: split by need at start and goal, then by closeness to the start–goal line. The Δᵢ used are in stats.risk_allocation."},
         },
     },
@@ -465,7 +465,7 @@ MESSAGES = {
             },
             "method": ref("method"),
             "delta": ref("delta"),
-            "bound": {"enum": ["auto", "cantelli"], "description": "which bounds may prove a piece (default cantelli for now); with auto each obstacle report lists under `bounds` which bound proved which part of the piece"},
+            "bound": {"enum": ["auto", "cantelli"], "description": "which bounds may prove a piece (default auto); with auto each obstacle report lists under `bounds` which bound proved which part of the piece"},
             "summary": {"type": "boolean", "description": "true: `pieces` in the reply holds only the first piece that is not safe (none when safe)"},
             "deadline_ms": DEADLINE_MS,
         },
@@ -486,7 +486,7 @@ MESSAGES = {
     },
     "risk_request": {
         "title": "risk_request",
-        "description": "get on riskplan/scenes/<scene>/risk: Cantelli bounds at points, or on an N×N grid over the first two axes (other coordinates at `lower`), at one time (default: the horizon's start)",
+        "description": "get on riskplan/scenes/<scene>/risk: risk bounds at points, or on an N×N grid over the first two axes (other coordinates at `lower`), at one time (default: the horizon's start)",
         "type": "object",
         "additionalProperties": False,
         "properties": {
@@ -502,14 +502,14 @@ MESSAGES = {
                 },
             },
             "time": {"type": "number"},
-            "bound": {"enum": ["auto", "cantelli"], "description": "auto: `bounds` and `obstacles` hold the best bound at each point; cantelli (default for now): Cantelli's. `by_bound` in the reply lists every bound per obstacle either way"},
+            "bound": {"enum": ["auto", "cantelli"], "description": "auto (default): `bounds` and `obstacles` hold the best bound at each point; cantelli: Cantelli's. `by_bound` in the reply lists every bound per obstacle either way"},
             "deadline_ms": DEADLINE_MS,
         },
         "oneOf": [{"required": ["points"]}, {"required": ["grid"]}],
     },
     "risk_reply": {
         "title": "risk_reply",
-        "description": "reply to risk_request. Bounds are the Cantelli bounds (floating point, for displays), one per point; `bounds` is the max over obstacles.",
+        "description": "reply to risk_request. Bounds (floating point, for displays) one per point: the best bound allowed by `bound` per obstacle (`obstacles`), its max over obstacles (`bounds`), and every bound per obstacle (`by_bound`).",
         "type": "object",
         "required": ["revision", "time", "points", "bounds", "obstacles"],
         "properties": {

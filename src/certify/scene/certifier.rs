@@ -239,7 +239,15 @@ impl MotionChecker for SceneCertifier {
             return Motion::Rejected;
         }
         if !self.fast {
-            return if piece_passes_verify_path(&self.scene, &self.kernel.framed(), None, pr, &self.deltas, self.bounds) {
+            return if piece_passes_verify_path(
+                &self.scene,
+                &self.kernel.framed(),
+                None,
+                pr,
+                &self.deltas,
+                self.bounds,
+                Some(&self.compiled),
+            ) {
                 Motion::Accepted
             } else {
                 Motion::Rejected

@@ -1,5 +1,6 @@
 //! The verify path's own frame for the final check (docs/design.md §5.12).
 
+use crate::certify::fast::CompiledContour;
 use super::decide::Interrupted;
 use super::workspace::{check_workspace, interval_hull};
 use super::Status;
@@ -213,6 +214,7 @@ pub(crate) fn piece_passes_verify_path(
     pr: PieceRef<'_>,
     deltas: &[RiskLevel],
     bounds: BoundChoice,
+    compiled: Option<&[CompiledContour]>,
 ) -> bool {
     if !pr.is_finite() || check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe {
         return false;
@@ -235,11 +237,17 @@ pub(crate) fn piece_passes_verify_path(
         }
         match bernstein::check(&cantelli, || exact().cantelli.clone()) {
             Verdict::Safe { .. } => true,
-            // the other bounds, on sub-intervals (docs/design.md §5.13); their proofs are
-            // interval computations on the general composition, not the compiled path
+            // the other bounds, on sub-intervals (docs/design.md §5.13): the general
+            // composition in absolute coordinates first, then (where that loses too much at
+            // extreme scales) the compiled restriction in the scene's frame — either proof
+            // is sound; only the general one is independent of the fast path
             v if bounds.beyond_cantelli() => {
                 let hint = if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None };
-                PieceBounds::for_piece(&o.contour, pr, Level::new(d.rational())).cover(hint).is_ok()
+                let level = Level::new(d.rational());
+                PieceBounds::for_piece(&o.contour, pr, level).cover(hint).is_ok()
+                    || compiled.and_then(|c| c.get(i)).is_some_and(|c| {
+                        PieceBounds::for_piece_compiled(&o.contour, c, pr, level).cover(hint).is_ok()
+                    })
             }
             _ => false,
         }

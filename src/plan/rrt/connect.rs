@@ -94,6 +94,10 @@ pub const CANDIDATE_TIME_FACTOR: u32 = 4;
 /// ... and at least this long.
 pub const MIN_CANDIDATE_TIME: std::time::Duration = std::time::Duration::from_millis(5);
 
+/// Fresh searches tried when the re-check of an unsmoothed path's timed pieces refuses
+/// one of them.
+pub const RAW_PATH_RETRIES: usize = 4;
+
 impl ConnectRrt {
     /// Grows a fresh pair of trees until they connect (the path from start to goal), or
     /// `Err` with the status when `term` or the iteration cap stops it.
@@ -264,7 +268,18 @@ impl Planner for ConnectRrt {
                 out
             } else {
                 stats.path_length = stats.feasible_path_length;
-                accept(straight(&timed, &ws.lower, &ws.upper))
+                let mut raw = accept(straight(&timed, &ws.lower, &ws.upper));
+                // the re-check of the timed pieces can refuse an edge the search accepted
+                // (the same segment parametrized by its own times rounds differently, and a
+                // proof near the contour may not survive that): fresh trees, a few times
+                let mut retries = 0;
+                while raw.is_none() && retries < RAW_PATH_RETRIES && !term.should_stop() {
+                    retries += 1;
+                    let Ok(path) = self.grow(p, step, &ok, &mut rng, term, &mut stats, &mut tree_edges) else { break };
+                    stats.path_length = Some(path.windows(2).map(|w| dist(&w[0], &w[1])).sum());
+                    raw = accept(straight(&time_at_constant_speed(&path, p.horizon), &ws.lower, &ws.upper));
+                }
+                raw
             };
             match pieces {
                 Some(pieces) => {

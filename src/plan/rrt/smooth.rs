@@ -30,7 +30,7 @@
 //! Every returned piece is accepted by the same motion checker as the plan's edges.
 
 use crate::plan::{dist, taylor_shift, within_speed, CheckCounter, Kinematics, Motion, MotionChecker, Termination};
-use crate::scene::Piece;
+use crate::scene::{Piece, CONTINUITY_TOLERANCE};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
@@ -206,6 +206,15 @@ pub fn shortcut(
         let pts: Vec<Vec<f64>> = w.into_iter().map(|p| p.1).collect();
         time_at_constant_speed(&pts, horizon)
     }
+}
+
+/// Whether a blend's ends, evaluated from its expanded coefficients, are within `tol` of the
+/// straight parts it joins (`x − vin·δ` and `x + vout·δ`).
+fn blend_meets(piece: &Piece, x: &[f64], vin: &[f64], vout: &[f64], delta: f64, tol: f64) -> bool {
+    let (a, b) = (piece.at(piece.t0), piece.at(piece.t1));
+    x.iter().enumerate().all(|(d, &xc)| {
+        (a[d] - (xc - vin[d] * delta)).abs() <= tol && (b[d] - (xc + vout[d] * delta)).abs() <= tol
+    })
 }
 
 /// The parabolic blend on `[tc − δ, tc + δ]` at corner `x` between velocities `vin`
@@ -505,6 +514,7 @@ pub fn blend(
 ) -> Option<Vec<Piece>> {
     let n = w.len();
     let (lower, upper) = workspace;
+    let diag = dist(lower, upper);
     let accept = |pc: &Piece| {
         limits.max_speed.is_none_or(|v| within_speed(pc, v)) && counter.check(checker, pc) == Motion::Accepted
     };
@@ -535,6 +545,12 @@ pub fn blend(
         let mut delta = max_delta;
         for _ in 0..=BLEND_HALVINGS {
             let piece = blend_piece(w[i].0, &w[i].1, &vin, &vout, delta);
+            // the expanded coefficients grow like 1/δ: a blend so narrow that its ends no
+            // longer meet the straight parts within a tenth of the continuity tolerance
+            // (rounding) is not tried, and narrower ones would be worse
+            if !blend_meets(&piece, &w[i].1, &vin, &vout, delta, 0.1 * CONTINUITY_TOLERANCE * diag.max(1.0)) {
+                break;
+            }
             if accept(&piece) {
                 corners[i] = Corner::Blend(delta);
                 blends[i] = Some(piece);

@@ -175,7 +175,20 @@ pub fn check_piece_with(
             };
             if mean_neg && !g1_pos {
                 if let Some(ob) = bounds.and_then(|b| b.obstacle(&o.id)) {
-                    let best = best_bound(ob, &xt[..xt.len() - 1], t, m)?;
+                    // the contour's E[P] to compare with, exactly where the float one is
+                    // not trusted (far from the origin its terms cancel)
+                    let crate_mean = if mean_sure {
+                        m
+                    } else {
+                        let mut v: Vec<BigRational> = piece
+                            .coeffs
+                            .iter()
+                            .map(|c| c.iter().rev().fold(BigRational::zero(), |acc, &k| acc * &tq + exact(k)))
+                            .collect();
+                        v.push(tq.clone());
+                        riskplan::poly::rational_to_f64(&exact_terms(&o.contour.mean, &v))
+                    };
+                    let best = best_bound(ob, &xt[..xt.len() - 1], t, crate_mean)?;
                     if best <= delta.to_f64() * (1.0 + BOUND_ORACLE_SLACK) {
                         st.other_bounds += 1;
                         continue;

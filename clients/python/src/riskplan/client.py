@@ -358,7 +358,7 @@ class Client:
         server answers ``deadline_exceeded`` rather than work past it. ``bound``: ``"auto"``
         (Cantelli, zero risk from bounded support, shifted moment bounds on sub-intervals;
         each obstacle report's ``bounds`` says which bound proved which part) or
-        ``"cantelli"`` (the default for now)."""
+        ``"cantelli"`` (default: ``"auto"``)."""
         if (trajectory is None) == (segment is None):
             raise ValueError("verify needs exactly one of trajectory= and segment=")
         request: Json = {}
@@ -410,8 +410,8 @@ class Client:
              *, timeout: Optional[float] = None, bound: Optional[str] = None) -> np.ndarray:
         """Risk bounds (max over obstacles) at ``points`` (an ``(n, dim)`` array, or
         one point) at ``time`` (default: the horizon's start): an ``(n,)`` array.
-        ``bound="auto"``: the best proven bound at each point; ``"cantelli"`` (default for
-        now): Cantelli's. ``risk_query`` returns every bound per obstacle (``by_bound``)."""
+        ``bound="auto"``: the best proven bound at each point; ``"cantelli"``: Cantelli's
+        (default: ``"auto"``). ``risk_query`` returns every bound per obstacle (``by_bound``)."""
         pts = np.asarray(points, dtype=float)
         if pts.ndim == 1:
             pts = pts.reshape(1, -1)
