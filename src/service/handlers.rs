@@ -220,6 +220,7 @@ pub fn risk(entry: &Entry, req: &RiskRequest, deadline: Instant) -> Result<RiskR
         _ => return Err(invalid("points", "give exactly one of points and grid")),
     };
     let bound = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
+    let every = req.every_bound.unwrap_or(false);
     let mut per: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     let mut by_bound: BTreeMap<String, BTreeMap<String, Vec<f64>>> = BTreeMap::new();
     let mut bounds = vec![0.0f64; points.len()];
@@ -232,10 +233,17 @@ pub fn risk(entry: &Entry, req: &RiskRequest, deadline: Instant) -> Result<RiskR
             }
             let mut xt = p.clone();
             xt.push(t);
+            if !bound.beyond_cantelli() && !every {
+                // Cantelli's alone: no other bound to compute
+                best.push(o.contour.bound_f64(&xt));
+                continue;
+            }
             let each = crate::certify::bounds::point_bounds_f64(&o.contour, &xt);
             let mut b = 1.0f64;
             for (kind, v) in &each {
-                all.entry(kind.as_str().to_string()).or_default().push(*v);
+                if every {
+                    all.entry(kind.as_str().to_string()).or_default().push(*v);
+                }
                 if bound.beyond_cantelli() || *kind == BoundKind::Cantelli {
                     b = b.min(*v);
                 }
@@ -246,7 +254,9 @@ pub fn risk(entry: &Entry, req: &RiskRequest, deadline: Instant) -> Result<RiskR
             *b = b.max(*x);
         }
         per.insert(o.id.clone(), best);
-        by_bound.insert(o.id.clone(), all);
+        if every {
+            by_bound.insert(o.id.clone(), all);
+        }
     }
     Ok(RiskReply {
         revision: entry.revision,

@@ -271,6 +271,10 @@ pub struct RiskRequest {
     /// `cantelli`: Cantelli's. Default `auto`.
     #[serde(default)]
     pub bound: Option<String>,
+    /// `true`: the reply's `by_bound` lists every bound per obstacle (six numbers per point
+    /// and obstacle: a large grid's reply then may exceed the size limit). Default false.
+    #[serde(default)]
+    pub every_bound: Option<bool>,
     /// How long the server may take, in milliseconds from the request's arrival,
     /// queue time included (default and cap: the server's `--max-job-seconds`). Past it
     /// the reply is the error `deadline_exceeded`.
@@ -293,7 +297,7 @@ pub struct RiskReply {
     pub obstacles: BTreeMap<String, Vec<f64>>,
     /// Per obstacle, every bound (`cantelli`, `support`, `moment4`, `moment6`, `moment8`;
     /// `support` is 0 where zero risk is proven, 1 elsewhere; a bound an obstacle does not
-    /// have is absent).
+    /// have is absent), when the request asked for it (`every_bound`); else empty.
     #[serde(default)]
     pub by_bound: BTreeMap<String, BTreeMap<String, Vec<f64>>>,
     /// The bounds allowed.

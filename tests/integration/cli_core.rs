@@ -26,7 +26,7 @@ fn q(n: i64, d: i64) -> BigRational {
 #[test]
 fn risk_exact_cantelli_value_and_centre() {
     let s = ref_scene("illustrative-1");
-    let (code, out, err) = run(&["risk", "--scene", &s, "--point", "0.5", "0.5"]);
+    let (code, out, err) = run(&["risk", "--scene", &s, "--point", "0.5", "0.5", "--bound", "cantelli"]);
     assert_eq!(code, 0, "{err}");
     let v: Value = serde_json::from_str(&out).unwrap();
     // E[P] = 37/300 − 1/2, E[P²] = 781/50000 − (37/150)(1/2) + 1/4; bound = (E[P²] − E[P]²)/E[P²]
@@ -37,6 +37,14 @@ fn risk_exact_cantelli_value_and_centre() {
     assert_eq!(o["bound_exact"].as_str().unwrap(), bound.to_string());
     assert_eq!(o["bound"].as_f64().unwrap(), riskplan::poly::rational_to_f64(&bound));
     assert_eq!(v["max_bound"], o["bound"]);
+    // by default (auto) the best bound: zero risk from the support (w ≤ 0.4 < |x| = 0.71),
+    // with Cantelli's still listed
+    let (_, out, _) = run(&["risk", "--scene", &s, "--point", "0.5", "0.5"]);
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let o = &v["obstacles"][0];
+    assert_eq!(o["best"].as_str(), Some("support"));
+    assert_eq!(o["bound_exact"].as_str(), Some("0"));
+    assert_eq!(o["bounds"]["cantelli"]["exact"].as_str().unwrap(), bound.to_string());
     let (_, out, _) = run(&["risk", "--scene", &s, "--point", "0", "0"]);
     let v: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["obstacles"][0]["bound"].as_f64(), Some(1.0));

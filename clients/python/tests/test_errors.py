@@ -268,8 +268,12 @@ def test_outside_workspace(client, name3):
 
 def test_unsafe_endpoint(client, name3):
     expect(riskplan.UnsafeEndpointError, client.plan, name3, start=[0, 0], goal=[1, 1], time_limit=1, field="start")
-    # just inside the Δ = 0.1 contour (radius ≈ 0.4289) is unsafe too
-    expect(riskplan.UnsafeEndpointError, client.plan, name3, start=[-1, -1], goal=[0.42, 0], time_limit=1, field="goal")
+    # where the true risk exceeds Δ = 0.1 (radius w ~ U[0.3, 0.4]: Prob(w ≥ 0.38) = 0.2) no
+    # bound can prove it safe (at 0.42 the default bound, auto, proves zero risk)
+    expect(riskplan.UnsafeEndpointError, client.plan, name3, start=[-1, -1], goal=[0.38, 0], time_limit=1, field="goal")
+    # ... and at 0.42, inside the Cantelli contour (radius ≈ 0.4289), with the paper's bound
+    expect(riskplan.UnsafeEndpointError, client.plan, name3, start=[-1, -1], goal=[0.42, 0], time_limit=1,
+           field="goal", bound="cantelli")
 
 
 # -- no_plan -----------------------------------------------------------------------------------

@@ -105,7 +105,9 @@ def test_plan_is_certified_with_the_revision(client, scene3, unique):
     xs = plan.sample(200)
     assert xs.shape == (200, 2)
     # the planned path keeps out of the Δ-contour of the disk (radius ≈ 0.429)
-    assert np.min(np.linalg.norm(xs, axis=1)) > 0.42
+    # outside the true Δ-contour (radius w ~ U[0.3, 0.4]: Prob(w ≥ r) ≤ 0.1 iff r ≥ 0.39); the
+    # default bound (auto) proves zero risk beyond 0.4, Cantelli's only beyond 0.4289
+    assert np.min(np.linalg.norm(xs, axis=1)) > 0.39
     assert plan.stats["planning_time_s"] >= 0 and plan.stats["edges_checked"] >= 1
 
 
@@ -290,16 +292,25 @@ def test_apply_changes_are_atomic(client, scene3, unique):
 def test_risk_points_match_the_reference_values(client, scene3, unique):
     name = unique()
     rev = applied(client, name, scene3)
-    reply = client.risk_query(name, {"points": [[-1, -1], [0.45, 0], [0, 0.5], [1, 1]], "time": 0})
+    points = [[-1, -1], [0.45, 0], [0, 0.5], [1, 1]]
+    reply = client.risk_query(name, {"points": points, "time": 0, "bound": "cantelli"})
     validate("risk_reply", reply)
-    assert reply["revision"] == rev and reply["time"] == 0
-    # derived_checks of illustrative-3.json
+    assert reply["revision"] == rev and reply["time"] == 0 and reply["by_bound"] == {}
+    # derived_checks of illustrative-3.json (Cantelli's bound)
     expected = [0.0001160862041, 0.06124529322, 0.02485143166, 0.0001160862041]
     np.testing.assert_allclose(reply["bounds"], expected, rtol=1e-6)
     np.testing.assert_allclose(reply["obstacles"]["disk"], expected, rtol=1e-6)
-    b = client.risk(name, np.array([[0.45, 0.0], [0.0, 0.5]]))
+    b = client.risk(name, np.array([[0.45, 0.0], [0.0, 0.5]]), bound="cantelli")
     assert b.shape == (2,)
     np.testing.assert_allclose(b, expected[1:3], rtol=1e-6)
+    # the default (auto): every point here is beyond the largest radius 0.4, so zero risk is
+    # proven; every bound is listed on request, Cantelli's among them
+    every = client.risk_query(name, {"points": points, "time": 0, "every_bound": True})
+    validate("risk_reply", every)
+    assert every["bound"] == "auto" and every["bounds"] == [0.0] * 4
+    np.testing.assert_allclose(every["by_bound"]["disk"]["cantelli"], expected, rtol=1e-6)
+    assert every["by_bound"]["disk"]["support"] == [0.0] * 4
+    assert all(0 <= v <= 1 for v in every["by_bound"]["disk"]["moment8"])
     assert client.risk(name, [0.45, 0.0]).shape == (1,)
 
 
@@ -307,7 +318,7 @@ def test_risk_grid_contour_radius(client, scene3, unique):
     name = unique()
     applied(client, name, scene3)
     n = 201
-    X, Y, B = client.risk_grid(name, [-1, -1], [1, 1], n)
+    X, Y, B = client.risk_grid(name, [-1, -1], [1, 1], n, bound="cantelli")
     assert X.shape == Y.shape == B.shape == (n, n)
     assert not np.isnan(B).any()
     assert X[0, 0] == -1 and X[0, -1] == 1 and Y[0, 0] == -1 and Y[-1, 0] == 1
@@ -317,6 +328,11 @@ def test_risk_grid_contour_radius(client, scene3, unique):
     xs = X[n // 2]
     outside = xs[(xs > 0) & (row <= 0.1)]
     assert outside.min() == pytest.approx(0.4289479419, abs=2 / (n - 1))
+    # the default bound (auto) proves zero risk beyond the largest radius 0.4
+    _, _, A = client.risk_grid(name, [-1, -1], [1, 1], n)
+    outside = xs[(xs > 0) & (A[n // 2] <= 0.1)]
+    assert 0.39 - 2 / (n - 1) <= outside.min() <= 0.4 + 2 / (n - 1)
+    assert (A <= B + 1e-12).all()
 
 
 def test_risk_grid_in_3d_fixes_other_coordinates_at_lower(client, unique):

@@ -411,7 +411,8 @@ class Client:
         """Risk bounds (max over obstacles) at ``points`` (an ``(n, dim)`` array, or
         one point) at ``time`` (default: the horizon's start): an ``(n,)`` array.
         ``bound="auto"``: the best proven bound at each point; ``"cantelli"``: Cantelli's
-        (default: ``"auto"``). ``risk_query`` returns every bound per obstacle (``by_bound``)."""
+        (default: ``"auto"``). ``risk_query`` with ``"every_bound": true`` returns every
+        bound per obstacle (``by_bound``)."""
         pts = np.asarray(points, dtype=float)
         if pts.ndim == 1:
             pts = pts.reshape(1, -1)
@@ -424,10 +425,10 @@ class Client:
         return np.asarray(reply["bounds"], dtype=float)
 
     def risk_grid(self, name: str, lower: Sequence[float], upper: Sequence[float], n: int,
-                  time: Optional[float] = None, *, timeout: Optional[float] = None
-                  ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Cantelli bounds on an ``n``×``n`` grid over the first two axes (other
-        coordinates at ``lower``). Returns ``(X, Y, B)``, each ``(n, n)``, as from
+                  time: Optional[float] = None, *, timeout: Optional[float] = None,
+                  bound: Optional[str] = None) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Risk bounds (``bound``: ``"auto"``, the default, or ``"cantelli"``) on an
+        ``n``×``n`` grid over the first two axes (other coordinates at ``lower``). Returns ``(X, Y, B)``, each ``(n, n)``, as from
         ``numpy.meshgrid`` (``X`` varies along axis 1): ready for ``plt.contour``."""
         lower = [float(v) for v in lower]
         upper = [float(v) for v in upper]
@@ -435,6 +436,8 @@ class Client:
         request: Json = {"grid": {"lower": lower, "upper": upper, "n": n}}
         if time is not None:
             request["time"] = float(time)
+        if bound is not None:
+            request["bound"] = bound
         reply = self.risk_query(name, request, timeout=timeout)
         xs = np.linspace(lower[0], upper[0], n)
         ys = np.linspace(lower[1], upper[1], n)
