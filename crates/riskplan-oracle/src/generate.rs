@@ -51,6 +51,29 @@ pub const PLACEMENT_TRIES: usize = 60;
 /// How many standard deviations of an uncertain size or offset the bounding radius
 /// allows for.
 pub const BOUND_SIGMAS: f64 = 3.0;
+/// Most parameters of one obstacle other than a pedestrian (the generator makes the
+/// uncertain quantities past it constant).
+pub const MAX_PARAMS: usize = 3;
+/// Most parameters of a pedestrian: a Gaussian position error and a Gaussian velocity
+/// error per axis, and possibly an uncertain radius (2·3 + 1 in 3-D). The oracle's
+/// quadrature folds the Gaussian errors into one Gaussian per axis at each time
+/// (`oracle::ObstacleMoments`), so they cost 3^dim nodes, not 3^(2·dim).
+pub const MAX_PEDESTRIAN_PARAMS: usize = 7;
+/// Probability that a random obstacle of a scene with moving obstacles is a pedestrian
+/// ([`Shape::Pedestrian`]: a disk/ball in linear motion with Gaussian position and
+/// velocity errors).
+pub const PEDESTRIAN_SHARE: f64 = 0.35;
+/// A pedestrian's position error σ_p per axis, as a share of the scene's width (its
+/// largest side), drawn uniformly in this range (≈ 1 %).
+pub const PEDESTRIAN_POS_SD: (f64, f64) = (0.007, 0.013);
+/// A pedestrian's velocity error σ_v per axis times the horizon length t_f − t₀, as a
+/// share of the scene's width, drawn uniformly in this range (≈ 2 %).
+pub const PEDESTRIAN_DRIFT_SD: (f64, f64) = (0.015, 0.025);
+/// Probability that a pedestrian's radius is uncertain (else fixed).
+pub const PEDESTRIAN_UNCERTAIN_RADIUS: f64 = 0.5;
+/// A pedestrian's radius uncertainty (sd over radius), when uncertain, is this share of
+/// the relative uncertainty drawn for other obstacles ("slightly uncertain").
+pub const PEDESTRIAN_RADIUS_REL: f64 = 0.5;
 
 /// Rounds to [`SIG_DIGITS`] significant digits.
 pub fn q(x: f64) -> f64 {
@@ -401,6 +424,20 @@ pub enum Shape {
         /// R⁴.
         r4: Unc,
     },
+    /// "Pedestrian": a disk/ball `r² − Σ_d (u_d − p_d − v_d·(t − t_ref))²` whose centre
+    /// c(t) + p + v·(t − t_ref) carries a position error p and a velocity error v (in
+    /// generated scenes independent zero-mean Gaussian parameters per axis, c(t) linear:
+    /// the centre is p₀ + ω_p + (v₀ + ω_v)·(t − t₀)); radius fixed or uncertain.
+    Pedestrian {
+        /// Radius r.
+        radius: Unc,
+        /// Position error per axis (at t = t_ref).
+        pos: Vec<Unc>,
+        /// Velocity error per axis.
+        vel: Vec<Unc>,
+        /// The time at which the position error is the whole error (the horizon's t₀).
+        t_ref: f64,
+    },
 }
 
 impl Shape {
@@ -410,8 +447,30 @@ impl Shape {
             Shape::Ball { .. } => "ball",
             Shape::Ellipsoid { .. } => "ellipsoid",
             Shape::Peanut { .. } | Shape::Superellipse { .. } => "quartic",
+            Shape::Pedestrian { .. } => "pedestrian",
         }
     }
+}
+
+/// `r² − Σ_d (u_d − z_d)²` (a missing `z_d` gives NaN).
+fn disk(r: f64, u: &[f64], z: &[f64]) -> f64 {
+    r * r - u.iter().enumerate().map(|(d, u)| (u - at(z, d)).powi(2)).sum::<f64>()
+}
+
+/// The radius around a pedestrian's nominal centre outside which it is safe at level
+/// `delta` by Cantelli's inequality (paper, eq. 10), for radius `r` taken as fixed and
+/// an isotropic Gaussian centre error of sd `s` per axis in `dim` dimensions: with
+/// ρ = |u|, E[P] = r² − ρ² − dim·s² and Var[P] = 4ρ²s² + 2·dim·s⁴, the point is safe
+/// when E[P] < 0 and E[P]² ≥ k²·Var[P], k² = (1 − Δ)/Δ: ρ² at least the larger root of
+/// (ρ² + a)² − k²(4s²ρ² + 2·dim·s⁴), a = dim·s² − r².
+pub fn pedestrian_cantelli_radius(r: f64, s: f64, dim: usize, delta: f64) -> f64 {
+    let n = dim as f64;
+    let k2 = (1.0 - delta) / delta;
+    let a = n * s * s - r * r;
+    let b = a - 2.0 * k2 * s * s;
+    let disc = (b * b - a * a + 2.0 * n * k2 * s.powi(4)).max(0.0);
+    let y = (-b + disc.sqrt()).max(-a).max(0.0);
+    y.sqrt()
 }
 
 /// One uncertain parameter.
@@ -432,7 +491,8 @@ pub struct ObstacleSpec {
     pub shape: Shape,
     /// Motion of c(t).
     pub motion: Motion,
-    /// Its parameters (≤ 3), in the order `Unc::param` indexes.
+    /// Its parameters (≤ [`MAX_PARAMS`], a pedestrian ≤ [`MAX_PEDESTRIAN_PARAMS`]), in
+    /// the order `Unc::param` indexes.
     pub params: Vec<ParamSpec>,
     /// Radius around c(t) outside which P < 0 for all but rare parameter values
     /// (bounding radius with [`BOUND_SIGMAS`] of the uncertainty).
@@ -471,6 +531,25 @@ impl ObstacleSpec {
                 k.value(w) - f1 * f2
             }
             Shape::Superellipse { r4 } => r4.value(w) - u.iter().map(|u| u.powi(4)).sum::<f64>(),
+            Shape::Pedestrian { radius, pos, vel, t_ref } => {
+                let z: Vec<f64> = pos.iter().zip(vel).map(|(p, v)| p.value(w) + v.value(w) * (t - t_ref)).collect();
+                disk(radius.value(w), &u, &z)
+            }
+        }
+    }
+
+    /// A pedestrian's P(x, ω, t) with its centre error at time t given as `z` (per axis:
+    /// p + v·(t − t_ref)) instead of computed from the position and velocity errors'
+    /// parameters; `w` gives the others (the radius's). NaN for the other shapes. The
+    /// oracle's quadrature of Gaussian errors uses it.
+    pub fn eval_with_centre_error(&self, x: &[f64], t: f64, w: &[f64], z: &[f64]) -> f64 {
+        match &self.shape {
+            Shape::Pedestrian { radius, .. } => {
+                let c = self.motion.centre(t);
+                let u: Vec<f64> = x.iter().zip(&c).map(|(x, c)| x - c).collect();
+                disk(radius.value(w), &u, z)
+            }
+            _ => f64::NAN,
         }
     }
 
@@ -523,6 +602,26 @@ impl ObstacleSpec {
                 let mut s = r4.text(&names);
                 for d in 0..dim {
                     s += &format!(" - {}^4", u(d));
+                }
+                s
+            }
+            Shape::Pedestrian { radius, pos, vel, t_ref } => {
+                let mut s = format!("{}^2", radius.text(&names));
+                for d in 0..dim {
+                    let mut ud = format!("x{} - {}", d + 1, self.motion.text(d));
+                    match pos.get(d) {
+                        Some(p) if p.param.is_some() || p.base != 0.0 => ud += &format!(" - {}", p.text(&names)),
+                        Some(_) => {}
+                        None => ud += " - ?", // a missing axis does not parse
+                    }
+                    match vel.get(d) {
+                        Some(v) if v.param.is_some() || v.base != 0.0 => {
+                            ud += &format!(" - {}*(t - {})", v.text(&names), num(*t_ref));
+                        }
+                        Some(_) => {}
+                        None => ud += " - ?", // a missing axis does not parse
+                    }
+                    s += &format!(" - ({ud})^2");
                 }
                 s
             }
@@ -715,7 +814,7 @@ impl Builder<'_> {
     /// A quantity of mean `mean` and standard deviation `sd`, through a fresh
     /// parameter of the next family (or constant when sd = 0).
     fn unc(&mut self, role: &str, mean: f64, sd: f64) -> Unc {
-        if sd == 0.0 || self.params.len() >= 3 {
+        if sd == 0.0 || self.params.len() >= MAX_PARAMS {
             return Unc::fixed(mean);
         }
         let mut family = FAMILIES[self.family_counter % FAMILIES.len()];
@@ -730,6 +829,18 @@ impl Builder<'_> {
         let base = q(mean - scale * m);
         self.params.push(ParamSpec { name: format!("o{}_{role}", self.obstacle), dist });
         Unc { base, scale, param: Some(self.params.len() - 1) }
+    }
+
+    /// A zero-mean Gaussian quantity of standard deviation `sd` (already rounded): a
+    /// fresh `normal` parameter of mean 0 and that sd, entering with factor 1 (no family
+    /// of the cycle is used up; constant 0 when sd = 0).
+    fn gaussian(&mut self, role: &str, sd: f64) -> Unc {
+        if sd == 0.0 || self.params.len() >= MAX_PEDESTRIAN_PARAMS {
+            return Unc::fixed(0.0);
+        }
+        let dist = Dist::Normal { mean: 0.0, std: sd };
+        self.params.push(ParamSpec { name: format!("o{}_{role}", self.obstacle), dist });
+        Unc { base: 0.0, scale: 1.0, param: Some(self.params.len() - 1) }
     }
 }
 
@@ -747,6 +858,10 @@ struct ObstaclePlan {
     axes: Option<Vec<f64>>,
     /// may use `moments` parameters
     allow_moments: bool,
+    /// the scene's width (a pedestrian's errors scale with it)
+    width: f64,
+    /// the scene's Δ (a pedestrian's bounding radius is its Cantelli radius at Δ/2)
+    delta: f64,
 }
 
 fn build_obstacle(
@@ -848,6 +963,22 @@ fn build_obstacle(
             let bound = (sep + rho * r) * (1.0 + BOUND_SIGMAS * rel) + r * 0.2;
             (Shape::Peanut { shift, lobe, r1sq, r2sq, k }, bound, rho * r)
         }
+        "pedestrian" => {
+            let uncertain = b.rng.random::<f64>() < PEDESTRIAN_UNCERTAIN_RADIUS;
+            let rel = rel * PEDESTRIAN_RADIUS_REL;
+            let radius = if uncertain { b.unc("r", s, rel * s) } else { Unc::fixed(s) };
+            let sp = q(p.width * unif(b.rng, PEDESTRIAN_POS_SD.0, PEDESTRIAN_POS_SD.1));
+            let sv = q(p.width * unif(b.rng, PEDESTRIAN_DRIFT_SD.0, PEDESTRIAN_DRIFT_SD.1) / len);
+            let pos: Vec<Unc> = (0..dim).map(|d| b.gaussian(&format!("p{}", d + 1), sp)).collect();
+            let vel: Vec<Unc> = (0..dim).map(|d| b.gaussian(&format!("v{}", d + 1), sv)).collect();
+            // the centre error's sd per axis at the horizon's end (the largest)
+            let s_end = (sp * sp + sv * sv * len * len).sqrt();
+            let r_max = s * (1.0 + if uncertain { BOUND_SIGMAS * rel } else { 0.0 });
+            let tight = p.delta * super::oracle::TIGHT_FACTOR;
+            let bound = pedestrian_cantelli_radius(r_max, s_end, dim, tight)
+                .max(r_max + BOUND_SIGMAS * s_end * (dim as f64).sqrt());
+            (Shape::Pedestrian { radius, pos, vel, t_ref: t0 }, bound, s)
+        }
         _ => {
             let r4 = b.unc("r4", s.powi(4), 4.0 * rel * s.powi(4));
             let bound = s * (dim as f64).powf(0.25) * (1.0 + 4.0 * BOUND_SIGMAS * rel).powf(0.25);
@@ -880,6 +1011,7 @@ pub fn generate(seed: u64, index: usize) -> GeneratedScene {
     let upper: Vec<f64> = lower.iter().zip(&sides).map(|(l, s)| q(l + s)).collect();
     let sides: Vec<f64> = lower.iter().zip(&upper).map(|(l, u)| u - l).collect();
     let min_side = sides.iter().cloned().fold(f64::INFINITY, f64::min);
+    let scene_width = sides.iter().cloned().fold(0.0, f64::max);
     let mut t0 = (unif(rng, T0_RANGE.0, T0_RANGE.1) * 100.0).round() / 100.0;
     if t0 == 0.0 {
         t0 = 0.25;
@@ -946,6 +1078,8 @@ pub fn generate(seed: u64, index: usize) -> GeneratedScene {
                 rel_sd: 0.03,
                 axes: None,
                 allow_moments,
+                width: scene_width,
+                delta,
             };
             let mut o = build_obstacle(rng, &mut family_counter, 0, &plan, horizon);
             // re-anchor so that c(t) = p exactly at the endpoint's time
@@ -988,6 +1122,8 @@ pub fn generate(seed: u64, index: usize) -> GeneratedScene {
                     rel_sd: 0.02,
                     axes: Some(axes),
                     allow_moments,
+                    width: scene_width,
+                    delta,
                 };
                 let o = build_obstacle(rng, &mut family_counter, obstacles.len(), &plan, horizon);
                 obstacles.push(o);
@@ -1011,7 +1147,7 @@ pub fn generate(seed: u64, index: usize) -> GeneratedScene {
         } else {
             "superellipse"
         };
-        let motion = if !moving {
+        let mut motion = if !moving {
             MotionKind::Static
         } else if !any_moving && k + 1 == n_random {
             MotionKind::Linear
@@ -1031,12 +1167,29 @@ pub fn generate(seed: u64, index: usize) -> GeneratedScene {
         {
             shape = if rng.random::<bool>() { "ball" } else { "ellipsoid" };
         }
+        // pedestrians only in scenes with moving obstacles (static scenes draw nothing
+        // more, so they are the scenes they were before pedestrians)
+        if moving && rng.random::<f64>() < PEDESTRIAN_SHARE {
+            shape = "pedestrian";
+            motion = MotionKind::Linear;
+        }
         let size = min_side * unif(rng, 0.05, 0.13) / crowd;
         let rel_sd = unif(rng, 0.03, 0.12);
         let travel = min_side * unif(rng, 0.1, 0.5);
         for _ in 0..PLACEMENT_TRIES {
             let centre: Vec<f64> = (0..dim).map(|d| unif(rng, lower[d], upper[d])).collect();
-            let plan = ObstaclePlan { shape, size, centre, motion, travel, rel_sd, axes: None, allow_moments };
+            let plan = ObstaclePlan {
+                shape,
+                size,
+                centre,
+                motion,
+                travel,
+                rel_sd,
+                axes: None,
+                allow_moments,
+                width: scene_width,
+                delta,
+            };
             let mut fc = family_counter;
             let o = build_obstacle(rng, &mut fc, obstacles.len(), &plan, horizon);
             let margin = ENDPOINT_CLEARANCE * min_side;
@@ -1076,6 +1229,145 @@ mod tests {
             assert_eq!(generate(3, i).json(), generate(3, i).json());
         }
         assert_ne!(generate(3, 1).json(), generate(4, 1).json());
+    }
+
+    /// Every generated obstacle's polynomial text, read by the crate's own parser
+    /// ([`crate::expr`]), agrees with the structural [`ObstacleSpec::eval`] at random
+    /// points, times and parameter values, for every shape class including pedestrians.
+    #[test]
+    fn poly_text_matches_structure() {
+        let mut rng = ChaCha12Rng::seed_from_u64(17);
+        let mut classes = std::collections::BTreeSet::new();
+        for i in 0..120 {
+            let g = generate(1, i);
+            for o in &g.obstacles {
+                classes.insert(o.shape.class());
+                let e = crate::expr::Expr::parse(&o.poly_text()).unwrap_or_else(|e| panic!("scene {i} {}: {e}", o.id));
+                for _ in 0..4 {
+                    let w: Vec<f64> = o.params.iter().map(|p| p.dist.sample(&mut rng)).collect();
+                    let t = unif(&mut rng, g.horizon.0, g.horizon.1);
+                    let c = o.motion.centre(t);
+                    let x: Vec<f64> = c.iter().map(|c| c + o.bound * unif(&mut rng, -1.5, 1.5)).collect();
+                    let lookup = |name: &str| -> Option<f64> {
+                        if name == "t" {
+                            return Some(t);
+                        }
+                        if let Some(d) = name.strip_prefix('x').and_then(|d| d.parse::<usize>().ok()) {
+                            return x.get(d - 1).copied();
+                        }
+                        o.params.iter().position(|p| p.name == name).map(|k| w[k])
+                    };
+                    let text = e.eval(&lookup).unwrap_or(f64::NAN);
+                    let direct = o.eval(&x, t, &w);
+                    // cancellation scale: the terms are of the size of the squared or
+                    // fourth-power coordinates relative to the origin
+                    let big = x.iter().chain(&c).fold(1.0f64, |m, v| m.max(v.abs())) + t.abs();
+                    let scale = 1.0 + direct.abs() + big.powi(if o.shape.class() == "quartic" { 4 } else { 2 });
+                    assert!((direct - text).abs() <= 1e-9 * scale, "scene {i} {}: {direct} vs {text}", o.id);
+                }
+            }
+        }
+        assert_eq!(classes.len(), 4, "{classes:?}");
+    }
+
+    /// A pedestrian: its text and structure agree (with fixed and uncertain parts, a
+    /// negative t_ref), the centre error shifts the disk as p + v·(t − t_ref), and
+    /// [`ObstacleSpec::eval_with_centre_error`] is `eval` with that error.
+    #[test]
+    fn pedestrian_structure() {
+        let n = |name: &str, std: f64| ParamSpec { name: name.into(), dist: Dist::Normal { mean: 0.0, std } };
+        let g = |i: usize| Unc { base: 0.0, scale: 1.0, param: Some(i) };
+        let o = ObstacleSpec {
+            id: "o0".into(),
+            shape: Shape::Pedestrian {
+                radius: Unc { base: 0.5, scale: 0.02, param: Some(0) },
+                pos: vec![g(1), Unc::fixed(0.25)],
+                vel: vec![g(2), g(3)],
+                t_ref: -2.5,
+            },
+            motion: Motion { kind: MotionKind::Linear, c0: vec![100.0, -40.0], v: vec![0.5, -0.25], a: vec![0.0; 2] },
+            params: vec![
+                ParamSpec { name: "o0_r".into(), dist: Dist::Uniform { low: -1.0, high: 1.0 } },
+                n("o0_p1", 0.1),
+                n("o0_v1", 0.05),
+                n("o0_v2", 0.05),
+            ],
+            bound: 1.0,
+            feature: 0.5,
+        };
+        let text = o.poly_text();
+        let e = crate::expr::Expr::parse(&text).unwrap();
+        let w = [0.3, -0.2, 0.1, -0.05];
+        let (x, t) = ([101.0, -41.5], 1.5);
+        let lookup = |name: &str| match name {
+            "x1" => Some(x[0]),
+            "x2" => Some(x[1]),
+            "t" => Some(t),
+            _ => o.params.iter().position(|p| p.name == name).map(|k| w[k]),
+        };
+        let direct = o.eval(&x, t, &w);
+        assert!((e.eval(&lookup).unwrap() - direct).abs() < 1e-9, "{text}");
+        // by hand: centre (100 + 0.5·1.5 − 0.2 + 0.1·4, −40 − 0.25·1.5 + 0.25 − 0.05·4)
+        let r = 0.5 + 0.02 * 0.3;
+        let c = [100.0 + 0.75 - 0.2 + 0.4, -40.0 - 0.375 + 0.25 - 0.2];
+        let by_hand = r * r - (x[0] - c[0]).powi(2) - (x[1] - c[1]).powi(2);
+        assert!((direct - by_hand).abs() < 1e-12, "{direct} vs {by_hand}");
+        let z = [-0.2 + 0.1 * 4.0, 0.25 - 0.05 * 4.0];
+        assert_eq!(o.eval_with_centre_error(&x, t, &w, &z), direct);
+        assert_eq!(o.shape.class(), "pedestrian");
+    }
+
+    /// The suite has pedestrians (linear motion, Gaussian position and velocity errors
+    /// per axis, σ scaled by the width and horizon), and its other obstacles keep at
+    /// most [`MAX_PARAMS`] parameters.
+    #[test]
+    fn suite_has_pedestrians() {
+        let (mut scenes, mut count) = (0, 0);
+        for i in 0..120 {
+            let g = generate(1, i);
+            let mut any = false;
+            for o in &g.obstacles {
+                let Shape::Pedestrian { pos, vel, t_ref, .. } = &o.shape else {
+                    assert!(o.params.len() <= MAX_PARAMS, "scene {i} {}", o.id);
+                    continue;
+                };
+                any = true;
+                count += 1;
+                assert!(o.params.len() <= MAX_PEDESTRIAN_PARAMS);
+                assert_eq!((pos.len(), vel.len()), (g.dim, g.dim));
+                assert_eq!(*t_ref, g.horizon.0);
+                assert_eq!(o.motion.kind, MotionKind::Linear);
+                let len = g.horizon.1 - g.horizon.0;
+                for (u, (lo, hi)) in
+                    pos.iter().map(|u| (u, PEDESTRIAN_POS_SD)).chain(vel.iter().map(|u| (u, PEDESTRIAN_DRIFT_SD)))
+                {
+                    let i = u.param.expect("uncertain");
+                    let Dist::Normal { mean, std } = o.params[i].dist else { panic!("not normal") };
+                    let share = if (lo, hi) == PEDESTRIAN_POS_SD { std / g.width() } else { std * len / g.width() };
+                    assert!(mean == 0.0 && share >= lo * 0.999 && share <= hi * 1.001, "{share}");
+                }
+            }
+            scenes += any as usize;
+        }
+        eprintln!("pedestrians: {count} in {scenes} scenes of 120");
+        assert!((15..=60).contains(&scenes), "{scenes} scenes with pedestrians");
+    }
+
+    /// The Cantelli radius of a pedestrian is where the closed-form Cantelli condition
+    /// changes.
+    #[test]
+    fn pedestrian_cantelli_radius_is_the_boundary() {
+        for (r, s, dim, delta) in [(1.0, 0.1, 2, 0.05), (0.3, 0.05, 3, 0.001), (2.0, 0.01, 2, 0.2), (0.1, 0.3, 3, 0.01)]
+        {
+            let n = dim as f64;
+            let safe = |rho: f64| {
+                let ep = r * r - rho * rho - n * s * s;
+                let var = 4.0 * rho * rho * s * s + 2.0 * n * s.powi(4);
+                ep < 0.0 && ep * ep * delta > (1.0 - delta) * var
+            };
+            let rho = pedestrian_cantelli_radius(r, s, dim, delta);
+            assert!(rho > r && safe(rho * 1.001) && !safe(rho * 0.999), "{r} {s} {dim} {delta}: {rho}");
+        }
     }
 
     /// A peanut contains both lobe centres and its waist, not the far side.

@@ -17,9 +17,10 @@
 //!
 //! The generator covers 2-D and 3-D scenes, workspaces 1–100 units wide anywhere within
 //! ±1000, horizons with t₀ ≠ 0, Δ in [0.01, 0.2], disks/balls, ellipses/ellipsoids and
-//! nonconvex quartics, static, linearly and quadratically moving obstacles, every
-//! distribution family of the scene format, and intentionally infeasible scenes of
-//! three kinds. The oracle judges each scene with none of riskplan's moment,
+//! nonconvex quartics, static, linearly and quadratically moving obstacles,
+//! "pedestrians" (moving disks/balls with Gaussian position and velocity errors per
+//! axis), every distribution family of the scene format, and intentionally infeasible
+//! scenes of three kinds. The oracle judges each scene with none of riskplan's moment,
 //! polynomial, contour, certification or verification code, so that a disagreement
 //! between it and the planners points at one of them. This crate does not depend on
 //! `riskplan` at all, so the compiler checks that independence.

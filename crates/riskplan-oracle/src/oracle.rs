@@ -5,7 +5,9 @@
 //! **Point safety.** At a point (x, t), E[P] and E[P²] of each obstacle are computed by
 //! Gauss quadrature ([`super::quadrature`], 3 nodes per parameter, tensor product over
 //! an obstacle's independent parameters, exact since P has degree ≤ 2 in each
-//! parameter) of P evaluated from the generator's structure ([`ObstacleSpec::eval`]).
+//! parameter) of P evaluated from the generator's structure ([`ObstacleSpec::eval`]);
+//! a pedestrian's Gaussian position and velocity errors through its centre error, one
+//! Gaussian per axis at each time ([`ObstacleMoments`]).
 //! The point is safe at level Δ when, for every obstacle, it lies in the paper's
 //! Cantelli contour: E[P] < 0 and E[P]² − (1−Δ)·E[P²] > 0 ([`cantelli_safe`]), and it
 //! lies in the workspace box.
@@ -42,8 +44,8 @@
 //! These are approximations with margins (Δ/2 against 1.5·Δ), not proofs: the oracle
 //! is evidence against which the planners and certifiers are compared.
 
-use super::generate::{GeneratedScene, ObstacleSpec, Shape, Unc};
-use super::quadrature::{rule, QuadratureError};
+use super::generate::{Dist, GeneratedScene, ObstacleSpec, Shape, Unc};
+use super::quadrature::{rule, QuadratureError, Rule};
 use serde::Serialize;
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap, VecDeque};
@@ -215,43 +217,166 @@ pub fn cantelli_safe(ep: f64, ep2: f64, delta: f64) -> bool {
 }
 
 /// E[P] and E[P²] of one obstacle at points, by tensor-product quadrature.
+///
+/// A pedestrian ([`Shape::Pedestrian`]) whose position and velocity errors are each
+/// `base + scale·ω` of its own normal parameter ω is integrated through its centre error
+/// instead: per axis z_d(t) = p_d + v_d·(t − t_ref) is normal (a sum of independent
+/// normals) with mean m_p + m_v·(t − t_ref) and variance s_p² + s_v²·(t − t_ref)², and the
+/// axes are independent, so a 3-node Gauss–Hermite rule per axis (exact to degree 5; P
+/// has degree 2 in z) gives E[P] and E[P²] exactly with 3^dim nodes instead of the
+/// 3^(2·dim) of the tensor product over the 2·dim errors. The other parameters (an
+/// uncertain radius) keep their tensor-product rule. [`ObstacleMoments::tensor`] builds
+/// the plain tensor product for every obstacle (the cross-check of the shortcut).
 #[derive(Clone, Debug)]
 pub struct ObstacleMoments {
     spec: ObstacleSpec,
-    /// (weight, parameter values) of the tensor-product rule.
+    /// (weight, parameter values) of the tensor-product rule (with a Gaussian centre
+    /// error: over the other parameters only, the errors' entries 0 and unused).
     nodes: Vec<(f64, Vec<f64>)>,
+    /// A pedestrian's Gaussian centre error, integrated per axis.
+    centre_error: Option<GaussianCentreError>,
 }
 
-impl ObstacleMoments {
-    /// Builds the rule of the obstacle's parameters.
-    pub fn new(spec: &ObstacleSpec) -> Result<Self, OracleError> {
-        let mut nodes = vec![(1.0, vec![])];
-        for p in &spec.params {
-            let r = rule(&p.dist).map_err(|source| OracleError::Quadrature { param: p.name.clone(), source })?;
-            nodes = nodes
+/// A pedestrian's centre error z(t) = p + v·(t − t_ref), normal and independent per axis.
+#[derive(Clone, Debug)]
+struct GaussianCentreError {
+    t_ref: f64,
+    /// Per axis: mean and variance of the position error, of the velocity error.
+    pos: Vec<(f64, f64)>,
+    vel: Vec<(f64, f64)>,
+    /// The product over the axes of the standard normal's 3-node rule: (weight, ξ per
+    /// axis); z_d = mean_d(t) + ξ_d·sd_d(t).
+    combos: Vec<(f64, Vec<f64>)>,
+}
+
+impl GaussianCentreError {
+    /// The pedestrian's errors if each is constant or `base + scale·ω` of a normal ω of
+    /// its own (no parameter shared with another quantity), with the indices of those
+    /// parameters; `None` otherwise (the tensor product then integrates them).
+    fn of(spec: &ObstacleSpec) -> Result<Option<(Self, Vec<usize>)>, OracleError> {
+        let Shape::Pedestrian { radius, pos, vel, t_ref } = &spec.shape else { return Ok(None) };
+        let mut used: Vec<usize> = radius.param.into_iter().collect();
+        let mut own = vec![];
+        let mut normal = |u: &Unc| -> Option<(f64, f64)> {
+            match u.param {
+                None => Some((u.base, 0.0)),
+                Some(i) => {
+                    if used.contains(&i) {
+                        return None;
+                    }
+                    used.push(i);
+                    own.push(i);
+                    match spec.params.get(i).map(|p| &p.dist) {
+                        Some(Dist::Normal { mean, std }) => Some((u.base + u.scale * mean, (u.scale * std).powi(2))),
+                        _ => None,
+                    }
+                }
+            }
+        };
+        let p: Option<Vec<(f64, f64)>> = pos.iter().map(&mut normal).collect();
+        let v: Option<Vec<(f64, f64)>> = vel.iter().map(&mut normal).collect();
+        let (Some(p), Some(v)) = (p, v) else { return Ok(None) };
+        let std_normal = Dist::Normal { mean: 0.0, std: 1.0 };
+        let r = rule(&std_normal).map_err(|source| OracleError::Quadrature { param: "N(0, 1)".into(), source })?;
+        let mut combos = vec![(1.0, vec![])];
+        for _ in 0..p.len() {
+            combos = combos
                 .into_iter()
-                .flat_map(|(w, v)| {
+                .flat_map(|(w, xi): (f64, Vec<f64>)| {
                     r.nodes.iter().zip(&r.weights).map(move |(&x, &rw)| {
-                        let mut v2 = v.clone();
-                        v2.push(x);
-                        (w * rw, v2)
+                        let mut xi2 = xi.clone();
+                        xi2.push(x);
+                        (w * rw, xi2)
                     })
                 })
                 .collect();
         }
-        Ok(ObstacleMoments { spec: spec.clone(), nodes })
+        Ok(Some((GaussianCentreError { t_ref: *t_ref, pos: p, vel: v, combos }, own)))
+    }
+}
+
+impl ObstacleMoments {
+    /// Builds the rule of the obstacle's parameters (a pedestrian's Gaussian errors
+    /// through its centre error, see the type's documentation).
+    pub fn new(spec: &ObstacleSpec) -> Result<Self, OracleError> {
+        match GaussianCentreError::of(spec)? {
+            Some((ce, own)) => {
+                Ok(ObstacleMoments { spec: spec.clone(), nodes: tensor_rule(spec, &own)?, centre_error: Some(ce) })
+            }
+            None => Self::tensor(spec),
+        }
+    }
+
+    /// The plain tensor-product rule over every parameter, whatever the obstacle
+    /// (3^k nodes for k parameters: slow for pedestrians; the cross-check of
+    /// [`ObstacleMoments::new`]).
+    pub fn tensor(spec: &ObstacleSpec) -> Result<Self, OracleError> {
+        Ok(ObstacleMoments { spec: spec.clone(), nodes: tensor_rule(spec, &[])?, centre_error: None })
+    }
+
+    /// Quadrature nodes per evaluation (the cost of [`ObstacleMoments::at`]).
+    pub fn node_count(&self) -> usize {
+        self.nodes.len() * self.centre_error.as_ref().map_or(1, |c| c.combos.len())
     }
 
     /// (E[P], E[P²]) at (x, t).
     pub fn at(&self, x: &[f64], t: f64) -> (f64, f64) {
         let (mut m1, mut m2) = (0.0, 0.0);
-        for (w, v) in &self.nodes {
-            let p = self.spec.eval(x, t, v);
-            m1 += w * p;
-            m2 += w * p * p;
+        match &self.centre_error {
+            None => {
+                for (w, v) in &self.nodes {
+                    let p = self.spec.eval(x, t, v);
+                    m1 += w * p;
+                    m2 += w * p * p;
+                }
+            }
+            Some(ce) => {
+                let dt = t - ce.t_ref;
+                let (mean, sd): (Vec<f64>, Vec<f64>) = ce
+                    .pos
+                    .iter()
+                    .zip(&ce.vel)
+                    .map(|((mp, vp), (mv, vv))| (mp + mv * dt, (vp + vv * dt * dt).sqrt()))
+                    .unzip();
+                let mut z = vec![0.0; mean.len()];
+                for (w, v) in &self.nodes {
+                    for (cw, xi) in &ce.combos {
+                        for (d, zd) in z.iter_mut().enumerate() {
+                            *zd = mean[d] + xi[d] * sd[d];
+                        }
+                        let p = self.spec.eval_with_centre_error(x, t, v, &z);
+                        m1 += w * cw * p;
+                        m2 += w * cw * p * p;
+                    }
+                }
+            }
         }
         (m1, m2)
     }
+}
+
+/// The tensor product of the rules of the obstacle's parameters, but for those in
+/// `skip` (value 0, weight 1).
+fn tensor_rule(spec: &ObstacleSpec, skip: &[usize]) -> Result<Vec<(f64, Vec<f64>)>, OracleError> {
+    let mut nodes = vec![(1.0, vec![])];
+    for (i, p) in spec.params.iter().enumerate() {
+        let r = if skip.contains(&i) {
+            Rule { nodes: vec![0.0], weights: vec![1.0] }
+        } else {
+            rule(&p.dist).map_err(|source| OracleError::Quadrature { param: p.name.clone(), source })?
+        };
+        nodes = nodes
+            .into_iter()
+            .flat_map(|(w, v)| {
+                r.nodes.iter().zip(&r.weights).map(move |(&x, &rw)| {
+                    let mut v2 = v.clone();
+                    v2.push(x);
+                    (w * rw, v2)
+                })
+            })
+            .collect();
+    }
+    Ok(nodes)
 }
 
 /// Point classification against the three levels.
@@ -366,6 +491,12 @@ fn validate(g: &GeneratedScene) -> Result<(), String> {
             }
             Shape::Peanut { shift, lobe, r1sq, k, .. } => (vec![lobe.len()], vec![shift, r1sq, k]),
             Shape::Superellipse { r4 } => (vec![], vec![r4]),
+            Shape::Pedestrian { radius, pos, vel, t_ref } => {
+                if !t_ref.is_finite() {
+                    return Err(format!("obstacle {}: t_ref is not finite", o.id));
+                }
+                (vec![pos.len(), vel.len()], [radius].into_iter().chain(pos).chain(vel).collect())
+            }
         };
         if per_axis.iter().any(|&n| n != g.dim) {
             return Err(format!("obstacle {}: shape of the wrong dimension", o.id));
@@ -962,7 +1093,7 @@ fn dilate(grid: &Grid, set: &[bool], r: i64) -> Vec<bool> {
 mod tests {
     use super::*;
     use crate::generate::{Dist, Intent, Motion, MotionKind, ParamSpec};
-    use rand::SeedableRng;
+    use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha12Rng;
 
     fn ball(id: &str, c: Vec<f64>, radius: Unc, params: Vec<ParamSpec>) -> ObstacleSpec {
@@ -1059,6 +1190,79 @@ mod tests {
                 assert!((ep2 - s2 / n as f64).abs() <= 0.02 * ep2 + 1e-12, "{}: E[P²]", d.family());
             }
         }
+    }
+
+    /// A pedestrian's moments through its Gaussian centre error (3^dim nodes per radius
+    /// node) equal the plain tensor product over all its parameters (3^(2·dim + 1)), and
+    /// E[P] has the closed form E[r²] − |x − c(t) − m(t)|² − Σ_d s_d(t)²; every
+    /// pedestrian of a generated suite takes the shortcut.
+    #[test]
+    fn pedestrian_moments_through_the_centre_error() {
+        let mut rng = ChaCha12Rng::seed_from_u64(3);
+        let mut checked = 0;
+        for i in 0..120 {
+            let g = crate::generate::generate(1, i);
+            for o in g.obstacles.iter().filter(|o| matches!(o.shape, Shape::Pedestrian { .. })) {
+                let fast = ObstacleMoments::new(o).unwrap();
+                let full = ObstacleMoments::tensor(o).unwrap();
+                // 3^dim times fewer nodes than the tensor product over 2·dim errors
+                assert_eq!(fast.node_count() * 3usize.pow(g.dim as u32), full.node_count(), "scene {i} {}", o.id);
+                if checked >= 12 {
+                    continue; // the full tensor product is slow in 3-D: a dozen suffice
+                }
+                checked += 1;
+                for _ in 0..5 {
+                    let t = g.horizon.0 + (g.horizon.1 - g.horizon.0) * rng.random::<f64>();
+                    let c = o.motion.centre(t);
+                    let x: Vec<f64> = c.iter().map(|c| c + o.bound * (2.0 * rng.random::<f64>() - 1.0)).collect();
+                    let (a1, a2) = fast.at(&x, t);
+                    let (b1, b2) = full.at(&x, t);
+                    let scale = 1.0 + o.bound.powi(2) + c.iter().fold(0.0f64, |m, v| m.max(v.abs())).powi(2);
+                    assert!((a1 - b1).abs() <= 1e-9 * scale, "scene {i} {}: E[P] {a1} vs {b1}", o.id);
+                    assert!((a2 - b2).abs() <= 1e-9 * scale * scale, "scene {i} {}: E[P²] {a2} vs {b2}", o.id);
+                }
+            }
+        }
+        assert!(checked >= 5, "{checked} pedestrians");
+        // closed form, hand-made 2-D pedestrian with a fixed radius and nonzero means
+        let n = |name: &str, mean: f64, std: f64| ParamSpec { name: name.into(), dist: Dist::Normal { mean, std } };
+        let u = |i: usize, scale: f64| Unc { base: 0.01, scale, param: Some(i) };
+        let o = ObstacleSpec {
+            id: "p".into(),
+            shape: Shape::Pedestrian {
+                radius: Unc::fixed(0.2),
+                pos: vec![u(0, 1.0), u(1, 2.0)],
+                vel: vec![u(2, 1.0), Unc::fixed(0.0)],
+                t_ref: 3.0,
+            },
+            motion: Motion { kind: MotionKind::Linear, c0: vec![100.0, -49.5], v: vec![0.1, 0.0], a: vec![0.0; 2] },
+            params: vec![n("a", 0.02, 0.03), n("b", 0.0, 0.01), n("c", -0.01, 0.05)],
+            bound: 1.0,
+            feature: 0.2,
+        };
+        let om = ObstacleMoments::new(&o).unwrap();
+        assert_eq!(om.node_count(), 9);
+        let (x, t): ([f64; 2], f64) = ([100.6, -49.4], 3.5);
+        let dt = t - 3.0;
+        let m = [0.01 + 0.02 + (0.01 - 0.01) * dt, 0.01];
+        let var = [0.03f64.powi(2) + (0.05 * dt).powi(2), 0.02f64.powi(2)];
+        let c = o.motion.centre(t);
+        let ep = 0.04 - (x[0] - c[0] - m[0]).powi(2) - (x[1] - c[1] - m[1]).powi(2) - var[0] - var[1];
+        let (e1, _) = om.at(&x, t);
+        assert!((e1 - ep).abs() < 1e-12, "{e1} vs {ep}");
+        let (f1, f2) = ObstacleMoments::tensor(&o).unwrap().at(&x, t);
+        assert!((f1 - e1).abs() < 1e-12 && (f2 - om.at(&x, t).1).abs() < 1e-12);
+        // a shared or non-normal error parameter takes the plain tensor product
+        let mut shared = o.clone();
+        if let Shape::Pedestrian { vel, .. } = &mut shared.shape {
+            vel[1] = u(0, 1.0);
+        }
+        assert_eq!(ObstacleMoments::new(&shared).unwrap().node_count(), 27);
+        let mut uniform = o.clone();
+        uniform.params[1].dist = Dist::Uniform { low: -0.01, high: 0.01 };
+        assert_eq!(ObstacleMoments::new(&uniform).unwrap().node_count(), 27);
+        let (g1, _) = ObstacleMoments::new(&uniform).unwrap().at(&x, t);
+        assert!(g1.is_finite());
     }
 
     /// An open scene with two small disks is feasible, with a path from start to goal.

@@ -1,17 +1,19 @@
 //! The robustness suite's runner: per scene the oracle's judgement, a plan with the
-//! default options, a Monte Carlo audit of the plan, and the exact-versus-SOS
-//! certification counts; then a Markdown summary. Pure computation: the `robustness`
+//! default options (at a common Δ and with a given bound if asked: [`RunOptions`]), a
+//! Monte Carlo audit of the plan, and the exact-versus-SOS certification counts (with
+//! Cantelli's bound); then a Markdown summary and a row of the Δ × bound table. Pure computation: the `robustness`
 //! binary of this crate writes the records and prints the table. The scenes and the
 //! oracle come from `riskplan-oracle`, which shares no code with riskplan.
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha12Rng;
 use riskplan::app::{no_plan_reason, PlanRequest};
+use riskplan::contour::{BoundChoice, RiskLevel, RiskLevelError};
 use riskplan::mc::clopper_pearson;
 use riskplan::plan::{PlanError, PlanStatus};
 use riskplan::scene::{Scene, Trajectory};
-use riskplan::verify::{audit_trajectory, verify, AuditOptions, Method, Status};
-use riskplan_oracle::generate::{GeneratedScene, Intent, ObstacleSpec};
+use riskplan::verify::{audit_trajectory, verify_until, AuditOptions, Method, SceneKernel, Status, VerifyReport};
+use riskplan_oracle::generate::{GeneratedScene, Intent, ObstacleSpec, Shape};
 use riskplan_oracle::oracle::{judge, InfeasibleReason, Judgement, ObstacleMoments, OracleOptions, OracleReport};
 use serde::Serialize;
 use serde_json::Value;
@@ -43,7 +45,34 @@ pub struct RunOptions {
     pub audit_seed: u64,
     /// Oracle options.
     pub oracle: OracleOptions,
+    /// Δ for every scene instead of the generated one (the scene's `risk`, the plan
+    /// request, the oracle, the audits and the certification counts all use it).
+    pub delta: Option<f64>,
+    /// Which risk bounds the planner may use (`PlanRequest::bound`); `None`: riskplan's
+    /// default.
+    pub bound: Option<BoundChoice>,
 }
+
+impl Default for RunOptions {
+    /// The bench's defaults: 10 s, 4000 scenarios × 20 times per piece, audit seed 7,
+    /// the generated Δ, riskplan's default bound.
+    fn default() -> Self {
+        RunOptions {
+            time_limit: Duration::from_secs(10),
+            audit_samples: 4000,
+            audit_times: 20,
+            audit_seed: 7,
+            oracle: OracleOptions::default(),
+            delta: None,
+            bound: None,
+        }
+    }
+}
+
+/// The risk bound the oracle judges with: its feasibility judgement says whether a path
+/// exists that is safe by Cantelli's bound (the paper's contour), whatever bound the
+/// planner is given.
+pub const ORACLE_BOUND: &str = "cantelli";
 
 /// The oracle's part of a record.
 #[derive(Clone, Debug, Serialize)]
@@ -53,6 +82,8 @@ pub struct OracleRecord {
     pub report: OracleReport,
     /// Wall time, seconds.
     pub time_s: f64,
+    /// The bound of its judgement ([`ORACLE_BOUND`]).
+    pub bound: &'static str,
 }
 
 /// The planner's part of a record.
@@ -60,6 +91,8 @@ pub struct OracleRecord {
 pub struct PlanRecord {
     /// A trajectory was returned.
     pub planned: bool,
+    /// Every piece of it was accepted by a sound checker (the outcome's `certified`).
+    pub certified: bool,
     /// Wall time of the request, seconds.
     pub time_s: f64,
     /// The outcome's status (no error).
@@ -149,8 +182,15 @@ pub struct SceneRecord {
     pub width_band: &'static str,
     /// Obstacles.
     pub obstacles: usize,
-    /// Δ.
+    /// Δ the scene was run at (the generated one, or `RunOptions::delta`).
     pub delta: f64,
+    /// The generated scene's own Δ.
+    pub generated_delta: f64,
+    /// The bound the plan request used (`auto` or `cantelli`: the request's, else
+    /// riskplan's default); `None` if the scene did not load.
+    pub bound: Option<String>,
+    /// Pedestrians among the obstacles (`Shape::Pedestrian`).
+    pub pedestrians: usize,
     /// Speed limit.
     pub max_speed: Option<f64>,
     /// Has a `moments` parameter.
@@ -198,11 +238,31 @@ pub fn width_band(w: f64) -> &'static str {
 /// Whether [`plan_request`] passes the scene's speed limit to the planner.
 pub const SPEED_LIMIT_PASSED: bool = true;
 
-/// The plan request of a generated scene: default options and the time limit.
-pub fn plan_request(g: &GeneratedScene, time_limit: Duration) -> PlanRequest {
-    // the scene's planner block carries the same limit; passing it explicitly makes the
-    // request self-describing
-    PlanRequest { time_limit, max_speed: g.max_speed, ..Default::default() }
+/// The plan request of a generated scene: default options, the time limit, the bound
+/// of `bound` (`None`: riskplan's default) and the scene's Δ.
+pub fn plan_request(
+    g: &GeneratedScene,
+    time_limit: Duration,
+    bound: Option<BoundChoice>,
+) -> Result<PlanRequest, RiskLevelError> {
+    // the scene's planner block carries the same limit and its `risk` the same Δ;
+    // passing them explicitly makes the request self-describing
+    let delta = Some(RiskLevel::from_f64(g.delta)?);
+    Ok(PlanRequest { time_limit, max_speed: g.max_speed, delta, bound, ..Default::default() })
+}
+
+/// `g` at level `delta` (the generated scene when `None`).
+pub fn with_delta(g: &GeneratedScene, delta: Option<f64>) -> GeneratedScene {
+    let mut g = g.clone();
+    if let Some(d) = delta {
+        g.delta = d;
+    }
+    g
+}
+
+/// Pedestrians among a scene's obstacles.
+pub fn pedestrians(g: &GeneratedScene) -> usize {
+    g.obstacles.iter().filter(|o| matches!(o.shape, Shape::Pedestrian { .. })).count()
 }
 
 fn error_kind(e: &PlanError) -> &'static str {
@@ -215,8 +275,9 @@ fn error_kind(e: &PlanError) -> &'static str {
     }
 }
 
-/// Runs one scene: oracle, plan, audit, certification counts.
-pub fn run_scene(g: &GeneratedScene, o: &RunOptions) -> SceneRecord {
+/// Runs one scene (at `o.delta` when given): oracle, plan, audit, certification counts.
+pub fn run_scene(generated: &GeneratedScene, o: &RunOptions) -> SceneRecord {
+    let g = &with_delta(generated, o.delta);
     let text = g.json();
     let mut rec = SceneRecord {
         index: g.index,
@@ -229,6 +290,9 @@ pub fn run_scene(g: &GeneratedScene, o: &RunOptions) -> SceneRecord {
         width_band: width_band(g.width()),
         obstacles: g.obstacles.len(),
         delta: g.delta,
+        generated_delta: generated.delta,
+        bound: None,
+        pedestrians: pedestrians(g),
         max_speed: g.max_speed,
         moments_param: g.has_moments_param(),
         intent: g.intent,
@@ -243,7 +307,9 @@ pub fn run_scene(g: &GeneratedScene, o: &RunOptions) -> SceneRecord {
     };
     let t = Instant::now();
     match judge(g, &o.oracle) {
-        Ok(report) => rec.oracle = Some(OracleRecord { report, time_s: t.elapsed().as_secs_f64() }),
+        Ok(report) => {
+            rec.oracle = Some(OracleRecord { report, time_s: t.elapsed().as_secs_f64(), bound: ORACLE_BOUND })
+        }
         Err(e) => rec.oracle_error = Some(e.to_string()),
     }
     let scene = match Scene::from_json(&text) {
@@ -253,7 +319,14 @@ pub fn run_scene(g: &GeneratedScene, o: &RunOptions) -> SceneRecord {
             return rec;
         }
     };
-    let request = plan_request(g, o.time_limit);
+    let request = match plan_request(g, o.time_limit, o.bound) {
+        Ok(r) => r,
+        Err(e) => {
+            rec.load_error = Some(e.to_string());
+            return rec;
+        }
+    };
+    rec.bound = Some(request.bound_on(&scene).as_str().to_string());
     let t = Instant::now();
     let result = request.run(scene.clone(), None);
     let mut plan = PlanRecord { time_s: t.elapsed().as_secs_f64(), ..Default::default() };
@@ -265,6 +338,7 @@ pub fn run_scene(g: &GeneratedScene, o: &RunOptions) -> SceneRecord {
         }
         Ok((_, out)) => {
             plan.status = Some(out.status);
+            plan.certified = out.certified && out.trajectory.is_some();
             match out.trajectory {
                 Some(tr) => {
                     plan.planned = true;
@@ -375,10 +449,18 @@ pub fn own_audit(obstacles: &[ObstacleSpec], delta: f64, points: &[(Vec<f64>, f6
     (worst, over)
 }
 
+/// The scene's verification of `tr` at its Δ with Cantelli's bound only, whatever
+/// riskplan's default bound (the relative margins below are of Cantelli's constraints).
+fn cantelli_verify(kernel: &SceneKernel, tr: &Trajectory, method: Method) -> Option<VerifyReport> {
+    let delta = &kernel.scene().risk;
+    verify_until(kernel, tr, delta, method, &Default::default(), BoundChoice::Cantelli, &|| false).ok()
+}
+
 fn certify_counts(g: &GeneratedScene, scene: &Scene, tr: &Trajectory) -> Option<CertifyRecord> {
     let t = Instant::now();
     let moments: Vec<ObstacleMoments> = g.obstacles.iter().map(ObstacleMoments::new).collect::<Result<_, _>>().ok()?;
-    let exact = verify(scene, tr, &scene.risk, Method::Exact, &Default::default());
+    let kernel = SceneKernel::from(scene);
+    let exact = cantelli_verify(&kernel, tr, Method::Exact)?;
     let mut ok = vec![false; tr.pieces.len()];
     let mut min_rel: Option<f64> = None;
     for (pi, (pr, pc)) in exact.pieces.iter().zip(&tr.pieces).enumerate() {
@@ -413,7 +495,7 @@ fn certify_counts(g: &GeneratedScene, scene: &Scene, tr: &Trajectory) -> Option<
     }
     let exact_with_margin = ok.iter().filter(|&&b| b).count();
     let sos_also = if exact_with_margin > 0 {
-        let sos = verify(scene, tr, &scene.risk, Method::Sos, &Default::default());
+        let sos = cantelli_verify(&kernel, tr, Method::Sos)?;
         sos.pieces.iter().zip(&ok).filter(|(p, &k)| k && p.safe).count()
     } else {
         0
@@ -477,7 +559,7 @@ type Group = (String, Box<dyn Fn(&SceneRecord) -> bool>);
 /// The Markdown summary of a suite run.
 pub fn summary_table(records: &[SceneRecord]) -> String {
     let mut out = vec![
-        "| class | scenes | feasible | infeasible | ambiguous | plans among feasible (target ≥ 95 %) | median plan time (s) | max plan time (s) | plans over Δ (target 0) | own audit over Δ (disagreeing) | infeasible with typed refusal (target all) | plans on infeasible | pieces exact-certified, rel. margin ≥ 1e-4 | of those SOS-certified |".to_string(),
+        "| class | scenes | feasible (Cantelli oracle) | infeasible | ambiguous | plans among feasible (target ≥ 95 %) | median plan time (s) | max plan time (s) | plans over Δ (target 0) | own audit over Δ (disagreeing) | infeasible with typed refusal (target all) | plans on infeasible | pieces exact-certified, rel. margin ≥ 1e-4 | of those SOS-certified |".to_string(),
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
     ];
     let all: Vec<&SceneRecord> = records.iter().collect();
@@ -503,6 +585,7 @@ pub fn summary_table(records: &[SceneRecord]) -> String {
     }
     groups.push(("with speed limit".into(), Box::new(|r: &SceneRecord| r.max_speed.is_some())));
     groups.push(("with a moments parameter".into(), Box::new(|r: &SceneRecord| r.moments_param)));
+    groups.push(("with a pedestrian".into(), Box::new(|r: &SceneRecord| r.pedestrians > 0)));
     for (label, f) in groups {
         let rs: Vec<&SceneRecord> = records.iter().filter(|r| f(r)).collect();
         if !rs.is_empty() {
@@ -536,6 +619,14 @@ pub fn summary_table(records: &[SceneRecord]) -> String {
                 .into(),
         );
     }
+    out.push(format!(
+        "The oracle judges with Cantelli's bound ({ORACLE_BOUND}): \"feasible\" means a path safe by Cantelli's \
+         contour exists, \"infeasible\" that none does. Run at Δ {} with bound {}: a planner given `auto` may \
+         plan scenes the oracle calls infeasible (counted under \"plans on infeasible\"); the audit decides \
+         whether such a plan keeps Δ.",
+        deltas(records),
+        bounds(records),
+    ));
     out.push(
         "A typed refusal is a `PlanError` or a typed no-plan reason (limits spent, speed limit, or the deadline, \
          counted in brackets). \
@@ -546,4 +637,77 @@ pub fn summary_table(records: &[SceneRecord]) -> String {
             .into(),
     );
     out.join("\n")
+}
+
+/// The distinct Δ of the records (`0.01`, or `0.01–0.2 (generated)` when they vary).
+fn deltas(records: &[SceneRecord]) -> String {
+    let lo = records.iter().map(|r| r.delta).fold(f64::INFINITY, f64::min);
+    let hi = records.iter().map(|r| r.delta).fold(f64::NEG_INFINITY, f64::max);
+    if records.is_empty() {
+        "–".into()
+    } else if lo == hi {
+        format!("{lo}")
+    } else {
+        format!("{lo}–{hi} (generated)")
+    }
+}
+
+/// The distinct bounds of the records' plan requests, joined with `/`.
+fn bounds(records: &[SceneRecord]) -> String {
+    let mut b: Vec<&str> = records.iter().filter_map(|r| r.bound.as_deref()).collect();
+    b.sort();
+    b.dedup();
+    if b.is_empty() {
+        "–".into()
+    } else {
+        b.join("/")
+    }
+}
+
+/// The header of [`delta_bound_row`] (docs/benchmarks.md, "Issue 19: bounds and risk
+/// levels").
+pub const DELTA_BOUND_HEADER: &str = "| Δ | bound | scenes | feasible (Cantelli oracle) | certified plans / feasible | certified plans / all | plans on infeasible | plans over Δ (audit; own audit) | median plan time (s) | pedestrian scenes: certified plans / feasible | pedestrian scenes: certified plans / all |\n|---|---|---|---|---|---|---|---|---|---|---|";
+
+/// One row of the Δ × bound table: the records of one run (one Δ, one bound).
+/// "Certified plans" are returned trajectories every piece of which a sound checker
+/// accepted; "feasible" is the oracle's (Cantelli) judgement; plans over Δ count plans
+/// whose audit (the crate's, or the own audit for scenes with a `moments` parameter)
+/// has a Clopper–Pearson lower bound over Δ somewhere, then the own audit's count; the
+/// median time is over the plans found.
+pub fn delta_bound_row(records: &[SceneRecord]) -> String {
+    let certified = |r: &SceneRecord| r.plan.as_ref().is_some_and(|p| p.planned && p.certified);
+    let share = |a: usize, b: usize| {
+        if b == 0 {
+            format!("{a}/{b}")
+        } else {
+            format!("{a}/{b} ({:.0} %)", 100.0 * a as f64 / b as f64)
+        }
+    };
+    let feasible: Vec<&SceneRecord> = records.iter().filter(|r| r.label() == "feasible").collect();
+    let on_feasible = feasible.iter().filter(|r| certified(r)).count();
+    let all = records.iter().filter(|r| certified(r)).count();
+    let on_infeasible =
+        records.iter().filter(|r| r.label() == "infeasible" && r.plan.as_ref().is_some_and(|p| p.planned)).count();
+    let audited: Vec<&AuditRecord> = records.iter().filter_map(|r| r.audit.as_ref()).collect();
+    let over = audited.iter().filter(|a| a.over_delta).count();
+    let own_over = audited.iter().filter(|a| a.own_over_delta).count();
+    let times: Vec<f64> =
+        records.iter().filter_map(|r| r.plan.as_ref()).filter(|p| p.planned).map(|p| p.time_s).collect();
+    let ped: Vec<&SceneRecord> = records.iter().filter(|r| r.pedestrians > 0).collect();
+    let ped_feasible = ped.iter().filter(|r| r.label() == "feasible").count();
+    let ped_on_feasible = ped.iter().filter(|r| r.label() == "feasible").filter(|r| certified(r)).count();
+    let ped_all = ped.iter().filter(|r| certified(r)).count();
+    format!(
+        "| {} | {} | {} | {} | {} | {} | {on_infeasible} | {over}/{}; {own_over} | {} | {} | {} |",
+        deltas(records),
+        bounds(records),
+        records.len(),
+        feasible.len(),
+        share(on_feasible, feasible.len()),
+        share(all, records.len()),
+        audited.len(),
+        median(times).map(|x| format!("{x:.2}")).unwrap_or_else(|| "–".into()),
+        share(ped_on_feasible, ped_feasible),
+        share(ped_all, ped.len()),
+    )
 }

@@ -7,7 +7,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha12Rng;
 use riskplan::scene::Scene;
-use riskplan_oracle::generate::{generate, Shape, MOMENTS_SCENE_EVERY};
+use riskplan_oracle::generate::{generate, Shape, MAX_PARAMS, MAX_PEDESTRIAN_PARAMS, MOMENTS_SCENE_EVERY};
 use std::collections::BTreeSet;
 use std::f64::consts::PI;
 
@@ -26,7 +26,7 @@ fn coverage_and_every_scene_loads() {
     let mut motions = BTreeSet::new();
     let mut intents = BTreeSet::new();
     let (mut wmin, mut wmax) = (f64::INFINITY, 0.0f64);
-    let (mut speed, mut feasible, mut two_d, mut moments_scenes) = (0, 0, 0, 0);
+    let (mut speed, mut feasible, mut two_d, mut moments_scenes, mut pedestrian_scenes) = (0, 0, 0, 0, 0);
     for i in 0..SUITE {
         let g = generate(1, i);
         let text = g.json();
@@ -35,8 +35,10 @@ fn coverage_and_every_scene_loads() {
         assert!(g.horizon.0 != 0.0 && g.horizon.0 < g.horizon.1);
         assert!((0.01..=0.2).contains(&g.delta));
         assert!(!g.obstacles.is_empty() && g.obstacles.len() <= 8, "scene {i}");
+        pedestrian_scenes += g.obstacles.iter().any(|o| matches!(o.shape, Shape::Pedestrian { .. })) as usize;
         for o in &g.obstacles {
-            assert!(o.params.len() <= 3 && !o.params.is_empty());
+            let max = if matches!(o.shape, Shape::Pedestrian { .. }) { MAX_PEDESTRIAN_PARAMS } else { MAX_PARAMS };
+            assert!(o.params.len() <= max && !o.params.is_empty());
             families.extend(o.params.iter().map(|p| p.dist.family()));
             shapes.insert(o.shape.class());
             motions.insert(format!("{:?}", o.motion.kind));
@@ -56,7 +58,8 @@ fn coverage_and_every_scene_loads() {
     }
     assert_eq!(families.len(), 8, "{families:?}");
     assert_eq!(dims.len(), 2);
-    assert_eq!(shapes.len(), 3, "{shapes:?}");
+    assert_eq!(shapes.len(), 4, "{shapes:?}");
+    assert!((15..=60).contains(&pedestrian_scenes), "{pedestrian_scenes}");
     assert_eq!(motions.len(), 3, "{motions:?}");
     assert_eq!(intents.len(), 4, "{intents:?}");
     assert!(wmin < 2.0 && wmax > 50.0, "{wmin} {wmax}");
@@ -67,7 +70,8 @@ fn coverage_and_every_scene_loads() {
 }
 
 /// The structured P and the polynomial text agree (evaluated by the crate's parser
-/// at a few points), and each shape's {P ≥ 0} is bounded by its bounding radius.
+/// at a few points), and each shape's {P ≥ 0} is bounded by its bounding radius. (The
+/// oracle crate checks the same with its own parser, `generate::tests`.)
 #[test]
 fn structure_matches_text_and_shapes_are_bounded() {
     let mut rng = ChaCha12Rng::seed_from_u64(5);
@@ -102,7 +106,7 @@ fn structure_matches_text_and_shapes_are_bounded() {
             assert!(o.eval(&c, t, &mean) > 0.0 || matches!(o.shape, Shape::Peanut { .. }));
         }
     }
-    assert_eq!(seen.len(), 3);
+    assert_eq!(seen.len(), 4, "{seen:?}");
 }
 
 /// Evaluates a riskplan polynomial exactly at named values (test only: checks the

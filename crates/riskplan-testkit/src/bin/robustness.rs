@@ -3,14 +3,18 @@
 //! ```sh
 //! OPENBLAS_NUM_THREADS=1 cargo run --release -p riskplan-testkit --bin robustness -- \
 //!     --count 120 --suite-seed 1 --out bench-robustness.jsonl
+//! # issue 19: every scene at one Δ, with one bound
+//! OPENBLAS_NUM_THREADS=1 cargo run --release -p riskplan-testkit --bin robustness -- \
+//!     --count 120 --suite-seed 1 --delta 0.01 --bound cantelli --out /tmp/rob-0.01-cantelli.jsonl
 //! ```
 //!
 //! Exit status: 0 success, 2 bad usage or an I/O error (one line on stderr).
 
 use clap::Parser;
+use riskplan::contour::{BoundChoice, RiskLevel};
 use riskplan_oracle::generate;
 use riskplan_oracle::oracle::OracleOptions;
-use riskplan_testkit::runner::{run_scene, summary_table, RunOptions};
+use riskplan_testkit::runner::{delta_bound_row, run_scene, summary_table, RunOptions, DELTA_BOUND_HEADER};
 use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
@@ -22,15 +26,18 @@ use thiserror::Error;
 ///
 /// --count scenes generated from --suite-seed (2-D and 3-D, widths 1–100 anywhere
 /// within ±1000, static and moving obstacles, disks, ellipses and nonconvex quartics,
-/// every distribution family, about 18 % intentionally infeasible). Each is judged
-/// feasible / infeasible / ambiguous by an oracle independent of riskplan's moment and
-/// certification code (riskplan-oracle: a clearance grid search at Δ/2, a relaxed
+/// every distribution family, pedestrians with Gaussian position and velocity errors,
+/// about 18 % intentionally infeasible). Each is judged feasible / infeasible / ambiguous
+/// by an oracle independent of riskplan's moment and certification code
+/// (riskplan-oracle: Cantelli's contour, a clearance grid search at Δ/2, a relaxed
 /// connectivity check at 1.5·Δ), then planned by rrt-sos with default options (the
-/// scene's speed limit passed), its plan audited by Monte Carlo (the generator's true
-/// distributions for `moments` parameters) and its pieces certified by the exact and the
-/// SOS method. Prints a summary by scene class; one JSON line per scene (with the scene)
-/// goes to --out. The oracle's time over the suite is in the header and, with its
-/// slowest scene, on stderr at the end.
+/// scene's speed limit passed, --bound if given), its plan audited by Monte Carlo (the
+/// generator's true distributions for `moments` parameters) and its pieces certified by
+/// the exact and the SOS method. With --delta, every scene is run at that Δ (its `risk`,
+/// the request, the oracle, the audits). Prints a summary by scene class and the row of
+/// the Δ × bound table; one JSON line per scene (with the scene, its Δ and bound) goes to
+/// --out. The oracle's time over the suite is in the header and, with its slowest scene,
+/// on stderr at the end.
 #[derive(Parser, Debug)]
 #[command(name = "robustness", about, long_about, max_term_width = 100)]
 struct Args {
@@ -49,6 +56,13 @@ struct Args {
     /// Audited times per piece.
     #[arg(long, default_value_t = 20)]
     audit_times: usize,
+    /// Δ for every scene, in (0, 1) [default: each scene's generated Δ].
+    #[arg(long)]
+    delta: Option<f64>,
+    /// Which risk bounds the planner may use: auto or cantelli [default: riskplan's
+    /// default]. The oracle judges with Cantelli's bound either way.
+    #[arg(long)]
+    bound: Option<BoundChoice>,
     /// JSON lines of every scene.
     #[arg(long, default_value = "bench-robustness.jsonl")]
     out: PathBuf,
@@ -60,6 +74,9 @@ enum BenchError {
     /// A time limit that is not a positive, finite number of seconds.
     #[error("--time-limit: {0}")]
     TimeLimit(String),
+    /// A Δ outside (0, 1).
+    #[error("--delta: {0}")]
+    Delta(String),
     /// The JSON lines file cannot be created.
     #[error("{}: {source}", .path.display())]
     Create { path: PathBuf, source: std::io::Error },
@@ -127,12 +144,17 @@ fn print_out(text: &str) -> Result<(), BenchError> {
 
 fn run(a: Args) -> Result<(), BenchError> {
     let seconds = a.time_limit;
+    if let Some(d) = a.delta {
+        RiskLevel::from_f64(d).map_err(|e| BenchError::Delta(e.to_string()))?;
+    }
     let opts = RunOptions {
         time_limit: time_limit(seconds)?,
         audit_samples: a.audit_samples,
         audit_times: a.audit_times,
         audit_seed: 7,
         oracle: OracleOptions::default(),
+        delta: a.delta,
+        bound: a.bound,
     };
     let out = a.out;
     let mut log = std::fs::File::create(&out).map_err(|source| BenchError::Create { path: out.clone(), source })?;
@@ -145,13 +167,14 @@ fn run(a: Args) -> Result<(), BenchError> {
         let rec = run_scene(g, &opts);
         let plan = rec.plan.as_ref();
         eprintln!(
-            "[{}/{}] {} {}-D {} {}: oracle {} ({:.2} s); plan {} ({:.2} s){}",
+            "[{}/{}] {} {}-D {} {}{}: oracle {} ({:.2} s); plan {} ({:.2} s){}",
             g.index + 1,
             a.count,
             g.name,
             g.dim,
             if rec.moving { "moving" } else { "static" },
             rec.shape_mix,
+            if rec.pedestrians > 0 { format!(" ({} pedestrians)", rec.pedestrians) } else { String::new() },
             rec.label(),
             rec.oracle.as_ref().map(|o| o.time_s).unwrap_or(0.0),
             if plan.is_some_and(|p| p.planned) { "found" } else { "none" },
@@ -167,13 +190,16 @@ fn run(a: Args) -> Result<(), BenchError> {
     }
     let oracle_s: f64 = records.iter().filter_map(|r| r.oracle.as_ref()).map(|o| o.time_s).sum();
     let header = format!(
-        "Host: {host}; git {rev}; robustness suite seed {}, {} scenes; time limit {seconds} s; audit {} scenarios × {} times per piece; generation {gen_s:.2} s, oracle {oracle_s:.2} s in total.\n",
+        "Host: {host}; git {rev}; robustness suite seed {}, {} scenes; Δ {}; bound {}; time limit {seconds} s; audit {} scenarios × {} times per piece; generation {gen_s:.2} s, oracle {oracle_s:.2} s in total.\n",
         a.suite_seed,
         a.count,
+        a.delta.map_or_else(|| "generated".to_string(), |d| d.to_string()),
+        a.bound.map_or("riskplan's default", |b| b.as_str()),
         opts.audit_samples,
         opts.audit_times
     );
     print_out(&(header + &summary_table(&records)))?;
+    print_out(&format!("\n{DELTA_BOUND_HEADER}\n{}", delta_bound_row(&records)))?;
     // the oracle's time over the suite (what the oracle's unit test once bounded by a
     // wall-clock assertion), with its slowest scene
     let slowest = records
