@@ -105,7 +105,8 @@ impl Level {
         Level { interval: Interval::enclose_rational(delta), nearest: rational_to_f64(delta) }
     }
 
-    /// A placeholder level for questions that do not depend on Δ (the support proof).
+    /// The level used where the answer does not depend on Δ (the support proof of a point:
+    /// zero risk is below every level).
     const ANY: Level = Level { interval: Interval { lo: 0.5, hi: 0.5 }, nearest: 0.5 };
 }
 

@@ -668,41 +668,39 @@ impl Compiled {
     /// The value at `vals` in plain floating point from the coefficients' nearest floats
     /// (an estimate, for choices; never for proofs).
     pub fn eval_f64(&self, vals: &[f64]) -> f64 {
-        fn go(n: &Node, vals: &[f64]) -> f64 {
-            match n {
-                Node::Zero => 0.0,
-                Node::Const(_, f, _) => *f,
-                Node::Horner { var, coeffs } => {
-                    let x = vals[*var];
-                    let mut acc = go(&coeffs[coeffs.len() - 1], vals);
-                    for c in coeffs[..coeffs.len() - 1].iter().rev() {
-                        acc = acc * x + go(c, vals);
-                    }
-                    acc
-                }
-            }
-        }
-        go(&self.root, vals)
+        horner(&self.root, vals, 0.0, &|c| match c {
+            Node::Const(_, f, _) => *f,
+            _ => 0.0,
+        })
     }
 
     /// An enclosure of the polynomial's range over the box `vals` (naive interval
     /// Horner evaluation).
     pub fn eval_box(&self, vals: &[Interval]) -> Interval {
-        fn go(n: &Node, vals: &[Interval]) -> Interval {
-            match n {
-                Node::Zero => ZERO,
-                Node::Const(c, _, _) => *c,
-                Node::Horner { var, coeffs } => {
-                    let x = vals[*var];
-                    let mut acc = go(&coeffs[coeffs.len() - 1], vals);
-                    for c in coeffs[..coeffs.len() - 1].iter().rev() {
-                        acc = acc * x + go(c, vals);
-                    }
-                    acc
-                }
+        horner(&self.root, vals, ZERO, &|c| match c {
+            Node::Const(i, _, _) => *i,
+            _ => ZERO,
+        })
+    }
+}
+
+/// Horner evaluation of a tree at `vals`: `leaf` gives a constant node's value (`zero` for
+/// an empty subtree).
+fn horner<T>(n: &Node, vals: &[T], zero: T, leaf: &dyn Fn(&Node) -> T) -> T
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Mul<Output = T>,
+{
+    match n {
+        Node::Zero => zero,
+        Node::Const(..) => leaf(n),
+        Node::Horner { var, coeffs } => {
+            let x = vals[*var];
+            let mut acc = horner(&coeffs[coeffs.len() - 1], vals, zero, leaf);
+            for c in coeffs[..coeffs.len() - 1].iter().rev() {
+                acc = acc * x + horner(c, vals, zero, leaf);
             }
+            acc
         }
-        go(&self.root, vals)
     }
 }
 

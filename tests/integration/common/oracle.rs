@@ -88,6 +88,14 @@ fn exact_terms(p: &QPoly, xt: &[BigRational]) -> BigRational {
     v
 }
 
+/// The piece's point (x(t), t) at the exact time `tq`, in rationals.
+fn exact_point(piece: &Piece, tq: &BigRational) -> Vec<BigRational> {
+    let mut v: Vec<BigRational> =
+        piece.coeffs.iter().map(|c| c.iter().rev().fold(BigRational::zero(), |acc, &k| acc * tq + exact(k))).collect();
+    v.push(tq.clone());
+    v
+}
+
 fn exact(v: f64) -> BigRational {
     BigRational::from_float(v).expect("finite")
 }
@@ -206,15 +214,7 @@ pub fn check_piece_with(
                 (m < 0.0, g1 > 0.0)
             } else {
                 st.exact += 1;
-                let xq = xq.get_or_insert_with(|| {
-                    let mut v: Vec<BigRational> = piece
-                        .coeffs
-                        .iter()
-                        .map(|c| c.iter().rev().fold(BigRational::zero(), |acc, &k| acc * &tq + exact(k)))
-                        .collect();
-                    v.push(tq.clone());
-                    v
-                });
+                let xq = xq.get_or_insert_with(|| exact_point(piece, &tq));
                 let m = exact_terms(&o.contour.mean, xq);
                 let s = exact_terms(&o.contour.second, xq);
                 let g1 = &m * &m - &one_minus_q * &s;
@@ -227,13 +227,8 @@ pub fn check_piece_with(
                     let crate_mean = if mean_sure {
                         m
                     } else {
-                        let mut v: Vec<BigRational> = piece
-                            .coeffs
-                            .iter()
-                            .map(|c| c.iter().rev().fold(BigRational::zero(), |acc, &k| acc * &tq + exact(k)))
-                            .collect();
-                        v.push(tq.clone());
-                        riskplan::poly::rational_to_f64(&exact_terms(&o.contour.mean, &v))
+                        let xq = xq.get_or_insert_with(|| exact_point(piece, &tq));
+                        riskplan::poly::rational_to_f64(&exact_terms(&o.contour.mean, xq))
                     };
                     let best = best_bound(ob, &xt[..xt.len() - 1], t, crate_mean)?;
                     if best <= delta.to_f64() * (1.0 + BOUND_ORACLE_SLACK) {
