@@ -19,22 +19,33 @@
 use super::bernstein::bernstein_hull;
 use super::compose::{interval_substitutions, PieceRef};
 use super::fast::{CompiledContour, FPoly, CAPACITY};
-use crate::contour::bounds::{best_shift, binomial_f64, interval_pow as pow, moment_bound_f64, monomial_range, MOMENT_ORDERS};
+use crate::contour::bounds::{best_shift, best_shift_until, binomial_f64, interval_pow as pow, moment_bound_f64, monomial_range, MOMENT_ORDERS};
 use crate::contour::{cantelli_bound_f64, BoundKind, RiskContour};
 use crate::poly::{rational_to_f64, Interval, UPoly, Var};
 use num_rational::BigRational;
 use std::cell::OnceCell;
 
-/// Deepest split of a piece's local time (sub-intervals at least 2⁻¹² of the piece):
-/// a sub-interval that needs more lies on the Δ-contour of every bound, where the piece
-/// would be within ~2⁻²⁴ relative of the bound's limit anyway.
-pub const COVER_MAX_DEPTH: u32 = 12;
+/// Deepest split of a piece's local time (sub-intervals at least 2⁻⁶ of the piece).
+/// Measured on the reference scenes at Δ = 0.1 (docs/design.md §5.13): one cover in a
+/// hundred that succeeds needs more than four levels; the searches that went deeper (to
+/// 2⁻¹²) failed in nine cases of ten, at the enclosure's precision floor (where the
+/// central moments are tiny next to their coefficients in the scene's frame, halving the
+/// sub-interval no longer narrows the moment constraint's hull) or where the piece grazes
+/// a contour, and cost six times a successful cover. Giving up only refuses the piece.
+pub const COVER_MAX_DEPTH: u32 = 6;
 
 /// Most sub-intervals examined per piece and obstacle (bounds the work of a grazing piece).
 pub const COVER_MAX_NODES: usize = 128;
 
+/// A moment bound of a low order is preferred to a smaller one of a higher order when
+/// its value at a sub-interval's middle is at most this share of Δ: the low orders'
+/// restrictions have lower degree (cⱼ has degree j·deg P) and so cost less, and half of Δ
+/// leaves the proof a margin for the bound's variation over the sub-interval.
+pub const LOW_ORDER_SHARE: f64 = 0.5;
+
 /// Evenly spaced local times (besides a hint) at which a piece is checked for hopelessness
-/// before any sub-interval proof: 1/16 of the piece apart.
+/// when the whole piece is not proven, before it is split: 1/8 of the piece apart (the
+/// failed sub-intervals are probed at their middles as the split goes on).
 pub const HOPELESS_PROBES: usize = 16;
 
 /// Most parameter boxes examined by one zero-risk proof on one sub-interval.
@@ -126,6 +137,7 @@ pub struct PieceBounds<'a> {
     g1: OnceCell<UPoly<Interval>>,
     central: OnceCell<Option<Scaled>>,
     support: OnceCell<Option<SupportTerms>>,
+    last_point: std::cell::RefCell<Option<std::rc::Rc<PointValues>>>,
 }
 
 /// A piece's coordinates in a compiled contour's frame.
@@ -145,25 +157,93 @@ impl Fast<'_> {
 type SupportTerms = Vec<(Vec<(Var, u32)>, UPoly<Interval>)>;
 
 /// μ and the central moments scaled by a power of two s (μ/s, cⱼ/sʲ), so that the moment
-/// constraint's numbers stay near 1 at any scene scale, with the products it needs.
+/// constraint's numbers stay near 1 at any scene scale. Each cⱼ is restricted on first use:
+/// a proof of order 2k needs c₂ … c₂ₖ only, and the low orders cost far less (cⱼ has
+/// degree j·deg P).
 struct Scaled {
-    /// (μ/s)^i for i = 0 … max order.
-    mu_pow: Vec<UPoly<Interval>>,
-    /// cⱼ/sʲ.
-    central: Vec<UPoly<Interval>>,
-    /// Per order 2k (index k): (μ/s)^(2k−j)·cⱼ/sʲ for j = 0 … 2k (built on first use).
-    products: Vec<OnceCell<Vec<UPoly<Interval>>>>,
+    /// The exponent e of s = 2^e.
+    e: i32,
+    /// μ/s.
+    mu_s: UPoly<Interval>,
+    /// cⱼ/sʲ for j = 0 … top, restricted on first use (`None`: beyond the capacity of the
+    /// scaling, see [`PieceBounds::central_scaled`]).
+    central: Vec<OnceCell<Option<UPoly<Interval>>>>,
 }
 
-fn reparam(p: &UPoly<Interval>, a: f64, w: f64) -> UPoly<Interval> {
-    if a == 0.0 && w == 1.0 {
-        return p.clone();
+/// A point's values in floating point (choices and giving up only).
+struct PointValues {
+    tau: f64,
+    mu: f64,
+    second: f64,
+    /// The central moments (empty below the lowest order of [`MOMENT_ORDERS`]).
+    central: OnceCell<Vec<f64>>,
+    xt: Vec<f64>,
+    /// The point in the compiled frame, when there is one.
+    z: Option<Vec<f64>>,
+}
+
+impl PointValues {
+    fn central(&self, pb: &PieceBounds<'_>) -> &[f64] {
+        self.central.get_or_init(|| {
+            usable(match (&pb.fast, &self.z) {
+                (Some(f), Some(z)) => f.compiled.bounds(pb.contour).central_at(z),
+                _ => pb.contour.higher().eval_f64(&self.xt),
+            })
+        })
     }
-    p.compose_affine(&Interval::point(a), &Interval::point(w))
+}
+
+/// The central moments if they reach the lowest moment order, else none.
+fn usable(central: Vec<f64>) -> Vec<f64> {
+    if central.len() > MOMENT_ORDERS[0] as usize {
+        central
+    } else {
+        Vec::new()
+    }
+}
+
+/// The coefficients of p(a + w·τ) in place of those of p (outward rounded, so each
+/// encloses the exact one for any polynomial within the input's enclosures): a Taylor
+/// shift by `a` (repeated synthetic division, no allocation), then τᵏ scaled by wᵏ.
+fn reparam_in_place(c: &mut [Interval], a: f64, w: f64) {
+    let n = c.len();
+    if a != 0.0 {
+        let ai = Interval::point(a);
+        for k in 0..n.saturating_sub(1) {
+            for j in (k..n - 1).rev() {
+                c[j] = c[j] + ai * c[j + 1];
+            }
+        }
+    }
+    if w != 1.0 {
+        let wi = Interval::point(w);
+        let mut wk = wi;
+        for x in c.iter_mut().skip(1) {
+            *x = *x * wk;
+            wk = wk * wi;
+        }
+    }
+}
+
+/// 2^(−e·j) as a point interval, when it is a normal float (scaling by it is exact).
+fn scale_factor(e: i32, j: i32) -> Option<Interval> {
+    let f = 2f64.powi(-e * j);
+    (f.is_finite() && f.is_normal()).then_some(Interval::point(f))
 }
 
 fn hull_on(p: &UPoly<Interval>, a: f64, w: f64) -> Option<Interval> {
-    bernstein_hull(reparam(p, a, w).coeffs())
+    let src = p.coeffs();
+    if src.len() <= CAPACITY {
+        let mut buf = [Interval::point(0.0); CAPACITY];
+        let c = &mut buf[..src.len()];
+        c.copy_from_slice(src);
+        reparam_in_place(c, a, w);
+        bernstein_hull(c)
+    } else {
+        let mut c = src.to_vec();
+        reparam_in_place(&mut c, a, w);
+        bernstein_hull(&c)
+    }
 }
 
 impl<'a> PieceBounds<'a> {
@@ -231,6 +311,7 @@ impl<'a> PieceBounds<'a> {
             g1: OnceCell::new(),
             central: OnceCell::new(),
             support: OnceCell::new(),
+            last_point: std::cell::RefCell::new(None),
         }
     }
 
@@ -256,23 +337,19 @@ impl<'a> PieceBounds<'a> {
         })
     }
 
+    /// The highest central-moment order available (compiled in the frame, else general).
+    fn top_order(&self) -> u32 {
+        match &self.fast {
+            Some(f) => f.compiled.bounds(self.contour).max_order(),
+            None => self.contour.higher().max_order(),
+        }
+    }
+
     fn scaled(&self) -> Option<&Scaled> {
         self.central
             .get_or_init(|| {
-                // the central moments restricted: compiled in the frame, else generally
-                let restricted: Vec<UPoly<Interval>> = match self
-                    .fast
-                    .as_ref()
-                    .and_then(|f| f.compiled.bounds(self.contour).central_on(f.subs()))
-                {
-                    Some(c) => c,
-                    None => {
-                        let hm = self.contour.higher();
-                        let top = hm.max_order() as usize;
-                        hm.interval().iter().take(top + 1).map(|c| c.compose_univariate(&self.subs)).collect()
-                    }
-                };
-                if restricted.len() <= MOMENT_ORDERS[0] as usize {
+                let top = self.top_order();
+                if top < MOMENT_ORDERS[0] {
                     return None;
                 }
                 let mu = self.mu();
@@ -282,23 +359,25 @@ impl<'a> PieceBounds<'a> {
                     return None;
                 }
                 let e = big.log2().floor() as i32;
-                let inv = |j: i32| {
-                    let f = 2f64.powi(-e * j);
-                    (f.is_finite() && f > 0.0 && f.is_normal()).then_some(Interval::point(f))
+                let mu_s = mu.scale(&scale_factor(e, 1)?);
+                let central = (0..=top).map(|_| OnceCell::new()).collect();
+                Some(Scaled { e, mu_s, central })
+            })
+            .as_ref()
+    }
+
+    /// cⱼ/sʲ restricted to the piece: compiled in the frame, else generally composed;
+    /// `None` when sʲ is not a normal power of two (the proof is not attempted then).
+    fn central_scaled<'s>(&self, s: &'s Scaled, j: usize) -> Option<&'s UPoly<Interval>> {
+        s.central
+            .get(j)?
+            .get_or_init(|| {
+                let f = scale_factor(s.e, j as i32)?;
+                let c = match self.fast.as_ref().and_then(|fa| fa.compiled.bounds(self.contour).central_one_on(j, fa.subs())) {
+                    Some(c) => c,
+                    None => self.contour.higher().interval().get(j)?.compose_univariate(&self.subs),
                 };
-                let mu_s = mu.scale(&inv(1)?);
-                let top = restricted.len() - 1;
-                let mut central = Vec::with_capacity(top + 1);
-                for (j, c) in restricted.iter().enumerate() {
-                    central.push(c.scale(&inv(j as i32)?));
-                }
-                let mut mu_pow = vec![UPoly::constant(Interval::point(1.0))];
-                for i in 1..=top {
-                    let next = mu_pow[i - 1].mul(&mu_s);
-                    mu_pow.push(next);
-                }
-                let products = (0..=top / 2).map(|_| OnceCell::new()).collect();
-                Some(Scaled { mu_pow, central, products })
+                Some(c.scale(&f))
             })
             .as_ref()
     }
@@ -323,11 +402,7 @@ impl<'a> PieceBounds<'a> {
         let (Some(terms), Some(sf)) = (self.support_terms(), self.contour.support()) else { return false };
         let ranges: Option<Vec<Interval>> = terms.iter().map(|(_, p)| hull_on(p, a, w)).collect();
         let Some(ranges) = ranges else { return false };
-        let root: Vec<Interval> = sf
-            .support
-            .iter()
-            .map(|(_, lo, hi)| Interval::new(Interval::enclose_rational(lo).lo, Interval::enclose_rational(hi).hi))
-            .collect();
+        let root = sf.support_box.clone();
         let vars: Vec<Var> = sf.support.iter().map(|s| s.0).collect();
         let mid_tau = a + 0.5 * w;
         let at_mid: Vec<Interval> = terms.iter().map(|(_, p)| p.eval(&Interval::point(mid_tau))).collect();
@@ -368,63 +443,66 @@ impl<'a> PieceBounds<'a> {
         true
     }
 
-    fn products(&self, s: &'a Scaled, order: u32) -> &'a [UPoly<Interval>] {
-        let k = (order / 2) as usize;
-        s.products[k].get_or_init(|| {
-            (0..=order as usize).map(|j| s.mu_pow[order as usize - j].mul(&s.central[j])).collect()
-        })
-    }
-
-    /// H/s^2k = (Δ(1−b)^2k − b^2k)·(μ/s)^2k − Σ_{j≥2} C(2k,j)·b^(2k−j)·(μ/s)^(2k−j)·cⱼ/sʲ.
-    fn moment_constraint(&self, s: &'a Scaled, order: u32, b: f64) -> UPoly<Interval> {
-        let prods = self.products(s, order);
+    /// H/s^2k = Σⱼ αⱼ·(μ/s)^(2k−j)·cⱼ/sʲ with α₀ = Δ(1−b)^2k − b^2k, α₁ = 0 (c₁ = 0) and
+    /// αⱼ = −C(2k,j)·b^(2k−j), by Horner's rule in μ/s (2k products by the low-degree μ/s
+    /// instead of the powers of μ times each cⱼ); `None` when a cⱼ is unavailable.
+    fn moment_constraint(&self, s: &Scaled, order: u32, b: f64) -> Option<UPoly<Interval>> {
         let bi = Interval::point(b);
         let omb = Interval::point(1.0) - bi;
-        let lead = self.delta * pow(omb, order) - pow(bi, order);
-        let mut h = prods[0].scale(&lead);
-        for (j, p) in prods.iter().enumerate().skip(2) {
-            let coef = Interval::point(binomial_f64(order, j as u32)) * pow(bi, order - j as u32);
-            h = h.sub(&p.scale(&coef));
+        let mut h = UPoly::constant(self.delta * pow(omb, order) - pow(bi, order));
+        for j in 1..=order {
+            h = h.mul(&s.mu_s);
+            if j >= 2 {
+                let coef = -(Interval::point(binomial_f64(order, j)) * pow(bi, order - j));
+                h = h.add(&self.central_scaled(s, j as usize)?.scale(&coef));
+            }
         }
-        h
+        Some(h)
     }
 
-    /// The best shifted moment bound at local time `tau` in floating point (order, shift,
-    /// value), from the restricted polynomials.
-    fn best_moment_at(&self, s: &Scaled, tau: f64) -> Option<(u32, f64, f64)> {
-        let t = Interval::point(tau);
-        let mu = s.mu_pow[1].eval(&t).mid();
-        let c: Vec<f64> = s.central.iter().map(|p| p.eval(&t).mid()).collect();
-        let top = (c.len() - 1) as u32;
-        MOMENT_ORDERS
-            .into_iter()
-            .filter(|&o| o <= top)
-            .filter_map(|o| best_shift(mu, &c, o).map(|(b, v)| (o, b, v)))
-            .min_by(|x, y| x.2.total_cmp(&y.2))
+    /// The moment bound to try at local time `tau` (order, shift, float value at `tau`),
+    /// from the point's central moments in floating point: the lowest order whose best
+    /// shifted bound is at most [`LOW_ORDER_SHARE`]·Δ there, else the smallest bound.
+    fn moment_choice_at(&self, tau: f64) -> Option<(u32, f64, f64)> {
+        let pt = self.point_at(tau)?;
+        let (mu, c) = (pt.mu, pt.central(self));
+        let top = (c.len() as u32).saturating_sub(1);
+        let mut best: Option<(u32, f64, f64)> = None;
+        for o in MOMENT_ORDERS.into_iter().filter(|&o| o <= top) {
+            let Some((b, v)) = best_shift(mu, c, o) else { continue };
+            if v <= LOW_ORDER_SHARE * self.delta_f {
+                return Some((o, b, v));
+            }
+            if best.is_none_or(|x| v < x.2) {
+                best = Some((o, b, v));
+            }
+        }
+        best
     }
 
     /// Whether no bound can prove any sub-interval containing local time `tau`, judged at the
-    /// point in floating point (cheap; only ever used to give up).
-    pub fn hopeless_at(&self, tau: f64) -> Option<CoverFailure> {
-        let (mu, second, xt) = self.point_values(tau)?;
-        if mu >= 0.0 {
+    /// point in floating point (cheap; only ever used to give up): every bound there is
+    /// above `factor`·Δ.
+    fn hopeless_at(&self, tau: f64, factor: f64) -> Option<CoverFailure> {
+        let pt = self.point_at(tau)?;
+        if pt.mu >= 0.0 {
             return Some(CoverFailure::MeanNotNegative { tau });
         }
-        let limit = self.delta_f * HOPELESS_FACTOR;
-        let mut best = cantelli_bound_f64(mu, second);
+        let limit = self.delta_f * factor;
+        let mut best = cantelli_bound_f64(pt.mu, pt.second);
         if best <= limit {
             return None;
         }
-        let central = self.central_at(&xt);
+        let central = pt.central(self);
         // the central-moment Markov bounds (shift 0) first: one evaluation each
         for o in MOMENT_ORDERS.into_iter().rev() {
-            best = best.min(moment_bound_f64(mu, &central, o, 0.0));
+            best = best.min(moment_bound_f64(pt.mu, central, o, 0.0));
             if best <= limit {
                 return None;
             }
         }
         for o in MOMENT_ORDERS.into_iter().rev() {
-            if let Some((_, v)) = best_shift(mu, &central, o) {
+            if let Some((_, v)) = best_shift_until(pt.mu, central, o, limit) {
                 best = best.min(v);
                 if best <= limit {
                     return None;
@@ -432,15 +510,16 @@ impl<'a> PieceBounds<'a> {
             }
         }
         // zero risk from the support at the point itself (a zero-width sub-interval)
-        if best <= self.delta_f * HOPELESS_FACTOR || self.support_proves(tau, 0.0) {
+        if self.support_proves(tau, 0.0) {
             return None;
         }
         Some(CoverFailure::AboveDelta { tau, best })
     }
 
-    /// μ and E\[P²\] at local time `tau` of the piece (from the piece's coordinates and
-    /// the contour's `f64` copies), with the point (x, t).
-    fn point_values(&self, tau: f64) -> Option<(f64, f64, Vec<f64>)> {
+    /// μ, E\[P²\] and the central moments at local time `tau` of the piece (or at the
+    /// point) in floating point: from the compiled frame's point table when there is one
+    /// (one pass for all of them), else from the contour's `f64` copies.
+    fn point_values(&self, tau: f64) -> Option<PointValues> {
         let dim = self.contour.layout().dim;
         let mut xt = vec![0.0; dim + 1];
         match self.piece {
@@ -460,61 +539,72 @@ impl<'a> PieceBounds<'a> {
         if xt.iter().any(|v| !v.is_finite()) {
             return None;
         }
+        if let Some(f) = &self.fast {
+            let z = f.compiled.frame().point_coords_f64(&xt);
+            let (mu, second) = f.compiled.bounds(self.contour).moments_at(&z);
+            if mu.is_finite() && second.is_finite() {
+                return Some(PointValues { tau, mu, second, central: OnceCell::new(), xt, z: Some(z) });
+            }
+        }
         let (mu, second) = self.contour.moments_f64(&xt);
-        Some((mu, second, xt))
+        Some(PointValues { tau, mu, second, central: OnceCell::new(), xt, z: None })
     }
 
-    /// The central moments at the point (x, t) in floating point (empty below the lowest
-    /// order of [`MOMENT_ORDERS`]): from the compiled frame when there is one.
-    fn central_at(&self, xt: &[f64]) -> Vec<f64> {
-        let central = match &self.fast {
-            Some(f) => f.compiled.bounds(self.contour).central_at(&f.compiled.frame().point_coords_f64(xt)),
-            None => self.contour.higher().eval_f64(xt),
-        };
-        if central.len() > MOMENT_ORDERS[0] as usize {
-            central
-        } else {
-            Vec::new()
+    /// [`Self::point_values`] with a one-entry memo: a failed sub-interval's choice and
+    /// its give-up test look at the same middle.
+    fn point_at(&self, tau: f64) -> Option<std::rc::Rc<PointValues>> {
+        if let Some(p) = self.last_point.borrow().as_ref().filter(|p| p.tau == tau) {
+            return Some(p.clone());
         }
+        let p = std::rc::Rc::new(self.point_values(tau)?);
+        *self.last_point.borrow_mut() = Some(p.clone());
+        Some(p)
     }
 
     /// Covers [0, 1] by sub-intervals each proven by one bound (§5.13), or says where it
     /// could not. `hint`: a local time where Cantelli failed (checked first for hopelessness).
     pub fn cover(&self, hint: Option<f64>) -> Result<Vec<BoundPart>, CoverFailure> {
-        // cheap rejection first: the hint, then evenly spaced points (a piece that fails
-        // somewhere usually fails at one of them; the float checks cost microseconds,
-        // a sub-interval proof tens); a point is probed once
-        let spaced = if self.piece.is_some() { HOPELESS_PROBES } else { 0 };
-        let probes = hint.into_iter().chain((0..=spaced).map(|k| k as f64 / spaced.max(1) as f64));
-        for t in probes {
-            if let Some(f) = self.hopeless_at(t) {
+        let is_piece = self.piece.is_some();
+        // cheap rejection first (the float checks cost about a microsecond, a sub-interval
+        // proof tens): the hint; then the whole piece, which one bound proves more often
+        // than not; then evenly spaced points before splitting (a piece that fails
+        // somewhere usually fails at one of them)
+        if let Some(f) = hint.and_then(|t| self.hopeless_at(t, HOPELESS_FACTOR)) {
+            return Err(f);
+        }
+        // a hint is where Cantelli's constraints failed: they cannot prove the whole piece
+        if let Some(kind) = self.node(0.0, 1.0, hint.is_none()) {
+            return Ok(vec![BoundPart { tau0: 0.0, tau1: 1.0, bound: kind }]);
+        }
+        if !is_piece {
+            return Err(self.failure_at(0.5));
+        }
+        for k in 0..=HOPELESS_PROBES {
+            if let Some(f) = self.hopeless_at(k as f64 / HOPELESS_PROBES as f64, HOPELESS_FACTOR) {
                 return Err(f);
             }
         }
-        let max_depth = if self.piece.is_some() { COVER_MAX_DEPTH } else { 0 };
         let mut parts: Vec<BoundPart> = Vec::new();
-        let mut stack = vec![(0.0f64, 1.0f64, 0u32)];
-        let mut nodes = 0usize;
+        let mut stack = vec![(0.5f64, 0.5f64, 1u32), (0.0, 0.5, 1)];
+        let mut nodes = 1usize;
         while let Some((a, w, depth)) = stack.pop() {
             nodes += 1;
             let mid = a + 0.5 * w;
             if nodes > COVER_MAX_NODES {
                 return Err(CoverFailure::Budget { tau: mid });
             }
-            if let Some(kind) = self.node(a, w) {
+            if let Some(kind) = self.node(a, w, true) {
                 match parts.last_mut() {
                     Some(last) if last.bound == kind && last.tau1 == a => last.tau1 = a + w,
                     _ => parts.push(BoundPart { tau0: a, tau1: a + w, bound: kind }),
                 }
                 continue;
             }
-            if depth >= max_depth {
+            if depth >= COVER_MAX_DEPTH {
                 return Err(self.failure_at(mid));
             }
-            if depth >= 1 {
-                if let Some(f) = (self.piece.is_some()).then(|| self.hopeless_at(mid)).flatten() {
-                    return Err(f);
-                }
+            if let Some(f) = self.hopeless_at(mid, HOPELESS_FACTOR) {
+                return Err(f);
             }
             let half = 0.5 * w;
             stack.push((a + half, half, depth + 1));
@@ -525,7 +615,7 @@ impl<'a> PieceBounds<'a> {
 
     fn failure_at(&self, tau: f64) -> CoverFailure {
         if self.piece.is_some() {
-            if let Some(f) = self.hopeless_at(tau) {
+            if let Some(f) = self.hopeless_at(tau, HOPELESS_FACTOR) {
                 return f;
             }
         } else {
@@ -538,9 +628,11 @@ impl<'a> PieceBounds<'a> {
     }
 
     /// The bound proving [a, a + w], if one does.
-    fn node(&self, a: f64, w: f64) -> Option<BoundKind> {
+    /// `cantelli`: whether to try Cantelli's constraints (not on a whole piece where the
+    /// caller saw them fail).
+    fn node(&self, a: f64, w: f64, cantelli: bool) -> Option<BoundKind> {
         let mu_h = hull_on(self.mu(), a, w)?;
-        if mu_h.hi < 0.0 && hull_on(self.g1(), a, w).is_some_and(|g| g.lo > 0.0) {
+        if cantelli && mu_h.hi < 0.0 && hull_on(self.g1(), a, w).is_some_and(|g| g.lo > 0.0) {
             return Some(BoundKind::Cantelli);
         }
         if self.support_proves(a, w) {
@@ -548,9 +640,9 @@ impl<'a> PieceBounds<'a> {
         }
         if mu_h.hi < 0.0 {
             if let Some(s) = self.scaled() {
-                let (order, b, value) = self.best_moment_at(s, a + 0.5 * w)?;
+                let (order, b, value) = self.moment_choice_at(a + 0.5 * w)?;
                 if value < self.delta_f && b < 1.0 {
-                    let h = self.moment_constraint(s, order, b);
+                    let h = self.moment_constraint(s, order, b)?;
                     if hull_on(&h, a, w).is_some_and(|g| g.lo > 0.0) {
                         return Some(BoundKind::Moment(order));
                     }

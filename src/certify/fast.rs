@@ -116,6 +116,16 @@ impl<const N: usize> FPoly<N> {
     pub fn degree(&self) -> usize {
         self.len.saturating_sub(1)
     }
+    /// The same polynomial in a buffer of capacity `M`; `None` when it does not fit.
+    pub fn resized<const M: usize>(&self) -> Option<FPoly<M>> {
+        if self.len > M {
+            return None;
+        }
+        let mut r = FPoly::<M>::zero();
+        r.c[..self.len].copy_from_slice(&self.c[..self.len]);
+        r.len = self.len;
+        Some(r)
+    }
 }
 
 /// Unit roundoff of `f64` (round to nearest): `2^-53`.

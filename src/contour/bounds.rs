@@ -312,6 +312,9 @@ pub struct SupportForm {
     pub terms: Vec<SupportTerm>,
     /// The parameters' supports, exactly: (parameter, lo, hi).
     pub support: Vec<(Var, BigRational, BigRational)>,
+    /// The same supports as one box of outward-rounded intervals (converted once: the
+    /// proofs on every sub-interval start from it).
+    pub support_box: Vec<Interval>,
 }
 
 impl SupportForm {
@@ -333,6 +336,11 @@ impl SupportForm {
                     let ai = a.map_coeffs(Interval::enclose_rational);
                     (m.pairs().to_vec(), a, ai)
                 })
+                .collect(),
+            support_box: support
+                .iter()
+                .filter(|s| used.contains(&s.0))
+                .map(|(_, lo, hi)| Interval::new(Interval::enclose_rational(lo).lo, Interval::enclose_rational(hi).hi))
                 .collect(),
             support: support.iter().filter(|s| used.contains(&s.0)).cloned().collect(),
         })
@@ -407,6 +415,12 @@ pub const SHIFT_RANGE: (f64, f64) = (-4.0, 0.9);
 /// The shift b minimising [`moment_bound_f64`] (a grid then golden-section refinement; a
 /// heuristic — any b < 1 gives a sound bound) and its value. `None` when μ ≥ 0.
 pub fn best_shift(mu: f64, c: &[f64], order: u32) -> Option<(f64, f64)> {
+    best_shift_until(mu, c, order, f64::NEG_INFINITY)
+}
+
+/// [`best_shift`], stopping at the first shift whose value is at most `stop` (for a
+/// question such as "is some bound below Δ here?", where any such shift answers it).
+pub fn best_shift_until(mu: f64, c: &[f64], order: u32, stop: f64) -> Option<(f64, f64)> {
     if mu.is_nan() || mu >= 0.0 || c.len() <= order as usize {
         return None;
     }
@@ -441,6 +455,9 @@ pub fn best_shift(mu: f64, c: &[f64], order: u32) -> Option<(f64, f64)> {
     let (mut best_i, mut best) = (0, f64::INFINITY);
     for i in 0..=n {
         let v = f(grid(i));
+        if v <= stop {
+            return Some((grid(i), v));
+        }
         if v < best {
             best = v;
             best_i = i;

@@ -12,7 +12,7 @@
 use super::{to_frame, Compiled, FPoly, Frame, CAPACITY};
 use crate::contour::bounds::build_higher_of;
 use crate::contour::{RiskContour, SupportForm};
-use crate::poly::{Interval, UPoly, Var};
+use crate::poly::{Interval, Poly, UPoly, Var};
 
 /// A support-form term: ω^β as (parameter, exponent) pairs, and its coefficient a_β in some form.
 pub type SupportPart<T> = (Vec<(Var, u32)>, T);
@@ -25,6 +25,92 @@ pub struct CompiledBounds {
     /// The support form's terms: ω^β as (parameter, exponent) pairs and a_β compiled;
     /// `None` without bounded support.
     support: Option<Vec<SupportPart<Compiled>>>,
+    /// E\[P\] and E\[P²\] as a table for point evaluation.
+    moments: PointTable,
+    /// c₀ … c_max as a table for point evaluation.
+    point: PointTable,
+}
+
+/// Several polynomials in the frame's variables as one table for evaluation at points in
+/// floating point (choices and giving up, never proofs): the union of their monomials,
+/// evaluated once from the variables' powers, and per polynomial a dense row of
+/// coefficient midpoints over that union. The central moments share most monomials (cⱼ
+/// has those of P^j), so a point costs about one pass over the highest order's terms
+/// instead of a tree walk per order.
+#[derive(Clone, Debug, Default)]
+struct PointTable {
+    nvars: usize,
+    /// Powers kept per variable (highest exponent + 1).
+    stride: usize,
+    /// The monomials' exponents, `nvars` per monomial.
+    exps: Vec<u32>,
+    /// Row-major: per polynomial, its coefficient midpoint at each monomial (0 where absent).
+    rows: Vec<f64>,
+    nrows: usize,
+}
+
+/// A polynomial's terms as exponent vectors over variables `0..nvars` and `f64` coefficients.
+fn sparse_row<C>(p: &Poly<C>, nvars: usize, to_f: impl Fn(&C) -> f64) -> Vec<(Vec<u32>, f64)>
+where
+    C: crate::poly::Ring,
+{
+    p.terms()
+        .map(|(m, c)| {
+            let mut e = vec![0u32; nvars];
+            for &(v, k) in m.pairs() {
+                if let Some(slot) = e.get_mut(v as usize) {
+                    *slot = k;
+                }
+            }
+            (e, to_f(c))
+        })
+        .collect()
+}
+
+impl PointTable {
+    fn new(sparse: Vec<Vec<(Vec<u32>, f64)>>, nvars: usize) -> Self {
+        let mut index: std::collections::BTreeMap<Vec<u32>, usize> = std::collections::BTreeMap::new();
+        for row in &sparse {
+            for (e, _) in row {
+                let n = index.len();
+                index.entry(e.clone()).or_insert(n);
+            }
+        }
+        let nmon = index.len();
+        let mut rows = vec![0.0; nmon * sparse.len()];
+        for (r, row) in sparse.iter().enumerate() {
+            for (e, c) in row {
+                rows[r * nmon + index[e]] += c;
+            }
+        }
+        let mut exps = vec![0u32; nmon * nvars];
+        for (e, i) in index {
+            exps[i * nvars..(i + 1) * nvars].copy_from_slice(&e);
+        }
+        let stride = exps.iter().copied().max().unwrap_or(0) as usize + 1;
+        PointTable { nvars, stride, exps, rows, nrows: sparse.len() }
+    }
+
+    /// Every row's value at `z` (missing coordinates are 0).
+    fn eval(&self, z: &[f64]) -> Vec<f64> {
+        let mut powers = vec![1.0; self.nvars * self.stride];
+        for v in 0..self.nvars {
+            let x = z.get(v).copied().unwrap_or(0.0);
+            let p = &mut powers[v * self.stride..(v + 1) * self.stride];
+            for k in 1..self.stride {
+                p[k] = p[k - 1] * x;
+            }
+        }
+        let values: Vec<f64> = self
+            .exps
+            .chunks_exact(self.nvars.max(1))
+            .map(|e| e.iter().enumerate().fold(1.0, |acc, (v, &k)| acc * powers[v * self.stride + k as usize]))
+            .collect();
+        if values.is_empty() {
+            return vec![0.0; self.nrows];
+        }
+        self.rows.chunks_exact(values.len()).map(|row| row.iter().zip(&values).map(|(c, v)| c * v).sum()).collect()
+    }
 }
 
 impl CompiledBounds {
@@ -36,12 +122,20 @@ impl CompiledBounds {
         let hm = build_higher_of(contour, &poly, &mean);
         let top = hm.max_order() as usize;
         let central = hm.interval().iter().take(top + 1).map(|c| Compiled::from_intervals(c, nv)).collect();
+        let moments = PointTable::new(
+            vec![
+                sparse_row(&mean, nv, crate::poly::rational_to_f64),
+                sparse_row(&to_frame(&contour.second, frame), nv, crate::poly::rational_to_f64),
+            ],
+            nv,
+        );
+        let point = PointTable::new(hm.interval().iter().take(top + 1).map(|c| sparse_row(c, nv, |i: &Interval| i.mid())).collect(), nv);
         let layout = contour.layout();
         let support = contour.support().and_then(|sf| {
             let form = SupportForm::new(&poly, |v| layout.is_param(v), &sf.support)?;
             Some(form.terms.iter().map(|(beta, a, _)| (beta.clone(), Compiled::new(a, nv))).collect())
         });
-        CompiledBounds { central, support }
+        CompiledBounds { central, support, moments, point }
     }
 
     /// The highest even central-moment order compiled.
@@ -50,17 +144,24 @@ impl CompiledBounds {
         top - top % 2
     }
 
-    /// cⱼ restricted to a piece (`subs`: its frame coordinates), for j = 0 … max order;
-    /// `None` when a degree exceeds the capacity (the caller composes generally then).
-    pub fn central_on(&self, subs: &[FPoly<CAPACITY>]) -> Option<Vec<UPoly<Interval>>> {
-        self.central.iter().take(self.max_order() as usize + 1).map(|c| restricted(c, subs)).collect()
+    /// cⱼ alone restricted to a piece; `None` beyond the compiled orders or the capacity.
+    pub fn central_one_on(&self, j: usize, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {
+        restricted(self.central.get(j)?, subs)
     }
 
-    /// The central moments at a point given by its compiled coordinates `z`, in plain
-    /// floating point from the coefficients' midpoints (for choices and for giving up,
-    /// never for proofs).
+    /// E\[P\] and E\[P²\] at a point given by its compiled coordinates `z`, in floating
+    /// point (choices and giving up only).
+    pub fn moments_at(&self, z: &[f64]) -> (f64, f64) {
+        let v = self.moments.eval(z);
+        (v.first().copied().unwrap_or(f64::NAN), v.get(1).copied().unwrap_or(f64::NAN))
+    }
+
+    /// The central moments c₀ … c_max at a point given by its compiled coordinates `z`, in
+    /// floating point from the coefficients' midpoints (choices and giving up only).
     pub fn central_at(&self, z: &[f64]) -> Vec<f64> {
-        self.central.iter().take(self.max_order() as usize + 1).map(|c| c.eval_f64(z)).collect()
+        let mut c = self.point.eval(z);
+        c.truncate(self.max_order() as usize + 1);
+        c
     }
 
     /// The support terms restricted to a piece; `None` without bounded support or beyond
@@ -70,7 +171,23 @@ impl CompiledBounds {
     }
 }
 
-/// `c` composed with the piece's coordinates, as a heap polynomial.
+/// `c` composed with the piece's coordinates, as a heap polynomial. The composition runs
+/// in the smallest stack polynomial that holds its degree (a straight piece's c₄ needs 9
+/// coefficients, not [`CAPACITY`]): every product of the Horner walk zeroes and copies
+/// the whole buffer, which dominated the cost of the low orders.
 pub fn restricted(c: &Compiled, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {
-    c.compose(subs).map(|f| UPoly::new(f.coeffs().to_vec()))
+    let sub_degree = subs.iter().map(FPoly::degree).max().unwrap_or(0).max(1);
+    let len = c.degree().saturating_mul(sub_degree).saturating_add(1);
+    if len <= 9 {
+        restricted_in::<9>(c, subs)
+    } else if len <= 17 {
+        restricted_in::<17>(c, subs)
+    } else {
+        c.compose(subs).map(|f| UPoly::new(f.coeffs().to_vec()))
+    }
+}
+
+fn restricted_in<const N: usize>(c: &Compiled, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {
+    let small: Option<Vec<FPoly<N>>> = subs.iter().map(FPoly::resized).collect();
+    c.compose(&small?).map(|f| UPoly::new(f.coeffs().to_vec()))
 }
