@@ -19,7 +19,7 @@
 use super::bernstein::bernstein_hull;
 use super::compose::{interval_substitutions, PieceRef};
 use super::fast::{CompiledContour, FPoly, CAPACITY};
-use crate::contour::bounds::{best_shift, best_shift_until, binomial_f64, interval_pow as pow, moment_bound_f64, monomial_range, MOMENT_ORDERS};
+use crate::contour::bounds::{best_shift, shift_search, SHIFT_SEARCH_COARSE, binomial_f64, interval_pow as pow, moment_bound_f64, monomial_range, MOMENT_ORDERS};
 use crate::contour::{cantelli_bound_f64, BoundKind, RiskContour};
 use crate::poly::{rational_to_f64, Interval, UPoly, Var};
 use num_rational::BigRational;
@@ -41,7 +41,7 @@ pub const COVER_MAX_NODES: usize = 128;
 /// its value at a sub-interval's middle is at most this share of Δ: the low orders'
 /// restrictions have lower degree (cⱼ has degree j·deg P) and so cost less, and half of Δ
 /// leaves the proof a margin for the bound's variation over the sub-interval.
-pub const LOW_ORDER_SHARE: f64 = 0.5;
+pub const LOW_ORDER_SHARE: f64 = 0.95;
 
 /// Evenly spaced local times (besides a hint) at which a piece is checked for hopelessness
 /// when the whole piece is not proven, before it is split: 1/8 of the piece apart (the
@@ -180,6 +180,8 @@ struct PointValues {
     xt: Vec<f64>,
     /// The point in the compiled frame, when there is one.
     z: Option<Vec<f64>>,
+    /// The moment bound chosen here ([`PieceBounds::moment_choice_at`]), once computed.
+    choice: OnceCell<Option<(u32, f64, f64)>>,
 }
 
 impl PointValues {
@@ -465,19 +467,21 @@ impl<'a> PieceBounds<'a> {
     /// shifted bound is at most [`LOW_ORDER_SHARE`]·Δ there, else the smallest bound.
     fn moment_choice_at(&self, tau: f64) -> Option<(u32, f64, f64)> {
         let pt = self.point_at(tau)?;
-        let (mu, c) = (pt.mu, pt.central(self));
-        let top = (c.len() as u32).saturating_sub(1);
-        let mut best: Option<(u32, f64, f64)> = None;
-        for o in MOMENT_ORDERS.into_iter().filter(|&o| o <= top) {
-            let Some((b, v)) = best_shift(mu, c, o) else { continue };
-            if v <= LOW_ORDER_SHARE * self.delta_f {
-                return Some((o, b, v));
+        *pt.choice.get_or_init(|| {
+            let (mu, c) = (pt.mu, pt.central(self));
+            let top = (c.len() as u32).saturating_sub(1);
+            let mut best: Option<(u32, f64, f64)> = None;
+            for o in MOMENT_ORDERS.into_iter().filter(|&o| o <= top) {
+                let Some((b, v)) = shift_search(mu, c, o, f64::NEG_INFINITY, SHIFT_SEARCH_COARSE) else { continue };
+                if v <= LOW_ORDER_SHARE * self.delta_f {
+                    return Some((o, b, v));
+                }
+                if best.is_none_or(|x| v < x.2) {
+                    best = Some((o, b, v));
+                }
             }
-            if best.is_none_or(|x| v < x.2) {
-                best = Some((o, b, v));
-            }
-        }
-        best
+            best
+        })
     }
 
     /// Whether no bound can prove any sub-interval containing local time `tau`, judged at the
@@ -493,6 +497,10 @@ impl<'a> PieceBounds<'a> {
         if best <= limit {
             return None;
         }
+        // a moment bound chosen here already (a failed sub-interval's middle)
+        if pt.choice.get().copied().flatten().is_some_and(|c| c.2 <= limit) {
+            return None;
+        }
         let central = pt.central(self);
         // the central-moment Markov bounds (shift 0) first: one evaluation each
         for o in MOMENT_ORDERS.into_iter().rev() {
@@ -502,7 +510,7 @@ impl<'a> PieceBounds<'a> {
             }
         }
         for o in MOMENT_ORDERS.into_iter().rev() {
-            if let Some((_, v)) = best_shift_until(pt.mu, central, o, limit) {
+            if let Some((_, v)) = shift_search(pt.mu, central, o, limit, SHIFT_SEARCH_COARSE) {
                 best = best.min(v);
                 if best <= limit {
                     return None;
@@ -543,11 +551,11 @@ impl<'a> PieceBounds<'a> {
             let z = f.compiled.frame().point_coords_f64(&xt);
             let (mu, second) = f.compiled.bounds(self.contour).moments_at(&z);
             if mu.is_finite() && second.is_finite() {
-                return Some(PointValues { tau, mu, second, central: OnceCell::new(), xt, z: Some(z) });
+                return Some(PointValues { tau, mu, second, central: OnceCell::new(), xt, z: Some(z), choice: OnceCell::new() });
             }
         }
         let (mu, second) = self.contour.moments_f64(&xt);
-        Some(PointValues { tau, mu, second, central: OnceCell::new(), xt, z: None })
+        Some(PointValues { tau, mu, second, central: OnceCell::new(), xt, z: None, choice: OnceCell::new() })
     }
 
     /// [`Self::point_values`] with a one-entry memo: a failed sub-interval's choice and
@@ -573,7 +581,7 @@ impl<'a> PieceBounds<'a> {
             return Err(f);
         }
         // a hint is where Cantelli's constraints failed: they cannot prove the whole piece
-        if let Some(kind) = self.node(0.0, 1.0, hint.is_none()) {
+        if let Some(kind) = self.node_at(0.0, 1.0, hint.is_none(), hint.unwrap_or(0.5)) {
             return Ok(vec![BoundPart { tau0: 0.0, tau1: 1.0, bound: kind }]);
         }
         if !is_piece {
@@ -631,6 +639,13 @@ impl<'a> PieceBounds<'a> {
     /// `cantelli`: whether to try Cantelli's constraints (not on a whole piece where the
     /// caller saw them fail).
     fn node(&self, a: f64, w: f64, cantelli: bool) -> Option<BoundKind> {
+        self.node_at(a, w, cantelli, a + 0.5 * w)
+    }
+
+    /// [`Self::node`] with the moment bound chosen at local time `at` in [a, a + w] (the
+    /// whole piece: at the hint, where Cantelli's constraints fail and the give-up test
+    /// has just computed the choice's ingredients).
+    fn node_at(&self, a: f64, w: f64, cantelli: bool, at: f64) -> Option<BoundKind> {
         let mu_h = hull_on(self.mu(), a, w)?;
         if cantelli && mu_h.hi < 0.0 && hull_on(self.g1(), a, w).is_some_and(|g| g.lo > 0.0) {
             return Some(BoundKind::Cantelli);
@@ -640,7 +655,7 @@ impl<'a> PieceBounds<'a> {
         }
         if mu_h.hi < 0.0 {
             if let Some(s) = self.scaled() {
-                let (order, b, value) = self.moment_choice_at(a + 0.5 * w)?;
+                let (order, b, value) = self.moment_choice_at(at)?;
                 if value < self.delta_f && b < 1.0 {
                     let h = self.moment_constraint(s, order, b)?;
                     if hull_on(&h, a, w).is_some_and(|g| g.lo > 0.0) {

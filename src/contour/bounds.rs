@@ -421,6 +421,30 @@ pub fn best_shift(mu: f64, c: &[f64], order: u32) -> Option<(f64, f64)> {
 /// [`best_shift`], stopping at the first shift whose value is at most `stop` (for a
 /// question such as "is some bound below Δ here?", where any such shift answers it).
 pub fn best_shift_until(mu: f64, c: &[f64], order: u32, stop: f64) -> Option<(f64, f64)> {
+    shift_search(mu, c, order, stop, SHIFT_SEARCH_FINE)
+}
+
+/// Grid points and golden-section steps of a shift search.
+#[derive(Clone, Copy, Debug)]
+pub struct ShiftSearch {
+    /// Grid intervals over [`SHIFT_RANGE`].
+    pub grid: usize,
+    /// Golden-section steps around the best grid point.
+    pub golden: usize,
+}
+
+/// The search of [`best_shift`] (reported bounds: 24 grid intervals, then 24 golden
+/// steps narrow b to about 10⁻⁵ of the range).
+pub const SHIFT_SEARCH_FINE: ShiftSearch = ShiftSearch { grid: 24, golden: 24 };
+
+/// A coarser search for the certifier's choices and give-up tests (half the
+/// evaluations; b to about 10⁻³ of the range, where the bound is flat to a fraction of a
+/// percent): any b < 1 gives a sound constraint, and a give-up test that sees a
+/// slightly larger minimum only gives up slightly earlier.
+pub const SHIFT_SEARCH_COARSE: ShiftSearch = ShiftSearch { grid: 12, golden: 12 };
+
+/// The shift search with its effort `search`, stopping at the first value at most `stop`.
+pub fn shift_search(mu: f64, c: &[f64], order: u32, stop: f64, search: ShiftSearch) -> Option<(f64, f64)> {
     if mu.is_nan() || mu >= 0.0 || c.len() <= order as usize {
         return None;
     }
@@ -450,7 +474,7 @@ pub fn best_shift_until(mu: f64, c: &[f64], order: u32, stop: f64) -> Option<(f6
         }
     };
     let (lo, hi) = SHIFT_RANGE;
-    let n = 24;
+    let n = search.grid.max(2);
     let grid = |i: usize| lo + (hi - lo) * i as f64 / n as f64;
     let (mut best_i, mut best) = (0, f64::INFINITY);
     for i in 0..=n {
@@ -469,7 +493,7 @@ pub fn best_shift_until(mu: f64, c: &[f64], order: u32, stop: f64) -> Option<(f6
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
     let (mut f1, mut f2) = (f(x1), f(x2));
-    for _ in 0..24 {
+    for _ in 0..search.golden {
         if f1 < f2 {
             b = x2;
             x2 = x1;

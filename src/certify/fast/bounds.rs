@@ -44,9 +44,8 @@ struct PointTable {
     stride: usize,
     /// The monomials' exponents, `nvars` per monomial.
     exps: Vec<u32>,
-    /// Row-major: per polynomial, its coefficient midpoint at each monomial (0 where absent).
-    rows: Vec<f64>,
-    nrows: usize,
+    /// Per polynomial, its terms as (monomial index, coefficient midpoint).
+    rows: Vec<Vec<(u32, f64)>>,
 }
 
 /// A polynomial's terms as exponent vectors over variables `0..nvars` and `f64` coefficients.
@@ -69,26 +68,29 @@ where
 
 impl PointTable {
     fn new(sparse: Vec<Vec<(Vec<u32>, f64)>>, nvars: usize) -> Self {
-        let mut index: std::collections::BTreeMap<Vec<u32>, usize> = std::collections::BTreeMap::new();
-        for row in &sparse {
-            for (e, _) in row {
-                let n = index.len();
-                index.entry(e.clone()).or_insert(n);
-            }
-        }
-        let nmon = index.len();
-        let mut rows = vec![0.0; nmon * sparse.len()];
-        for (r, row) in sparse.iter().enumerate() {
-            for (e, c) in row {
-                rows[r * nmon + index[e]] += c;
-            }
-        }
-        let mut exps = vec![0u32; nmon * nvars];
+        let mut index: std::collections::BTreeMap<Vec<u32>, u32> = std::collections::BTreeMap::new();
+        let rows = sparse
+            .into_iter()
+            .map(|row| {
+                let mut terms: Vec<(u32, f64)> = Vec::with_capacity(row.len());
+                for (e, c) in row {
+                    let n = index.len() as u32;
+                    let i = *index.entry(e).or_insert(n);
+                    match terms.iter_mut().find(|t| t.0 == i) {
+                        Some(t) => t.1 += c,
+                        None => terms.push((i, c)),
+                    }
+                }
+                terms
+            })
+            .collect();
+        let mut exps = vec![0u32; index.len() * nvars];
         for (e, i) in index {
+            let i = i as usize;
             exps[i * nvars..(i + 1) * nvars].copy_from_slice(&e);
         }
         let stride = exps.iter().copied().max().unwrap_or(0) as usize + 1;
-        PointTable { nvars, stride, exps, rows, nrows: sparse.len() }
+        PointTable { nvars, stride, exps, rows }
     }
 
     /// Every row's value at `z` (missing coordinates are 0).
@@ -106,10 +108,7 @@ impl PointTable {
             .chunks_exact(self.nvars.max(1))
             .map(|e| e.iter().enumerate().fold(1.0, |acc, (v, &k)| acc * powers[v * self.stride + k as usize]))
             .collect();
-        if values.is_empty() {
-            return vec![0.0; self.nrows];
-        }
-        self.rows.chunks_exact(values.len()).map(|row| row.iter().zip(&values).map(|(c, v)| c * v).sum()).collect()
+        self.rows.iter().map(|row| row.iter().map(|&(i, c)| c * values[i as usize]).sum()).collect()
     }
 }
 

@@ -177,8 +177,10 @@ pub fn shortcut(
         if dist(&a.1, &b.1) >= old * (1.0 - 1e-9) || a.0 >= b.0 {
             continue;
         }
-        // the new pieces w[i] → a → b → w[j+1] must themselves be certified
-        let ok = judge(&w[i], &a) && judge(&a, &b) && judge(&b, &w[j + 1]);
+        // the new pieces w[i] → a → b → w[j+1] must themselves be certified; the shortcut
+        // a → b first, as it is the one most likely refused (the other two lie along
+        // pieces already certified, up to the rounding of a and b)
+        let ok = judge(&a, &b) && judge(&w[i], &a) && judge(&b, &w[j + 1]);
         if !ok {
             continue;
         }
