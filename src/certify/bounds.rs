@@ -18,8 +18,8 @@
 
 use super::bernstein::bernstein_hull;
 use super::compose::{interval_substitutions, PieceRef};
-use super::fast::{CompiledContour, FPoly, CAPACITY};
-use crate::contour::bounds::{best_shift, shift_search, SHIFT_SEARCH_COARSE, binomial_f64, interval_pow as pow, moment_bound_f64, monomial_range, MOMENT_ORDERS};
+use super::fast::{CompiledContour, FPoly, Substitution, CAPACITY};
+use crate::contour::bounds::{best_shift, shift_search, SHIFT_SEARCH_COARSE, binomial_f64, interval_pow as pow, moment_bound_f64, power_range, MOMENT_ORDERS};
 use crate::contour::{cantelli_bound_f64, BoundKind, RiskContour};
 use crate::poly::{rational_to_f64, Interval, UPoly, Var};
 use num_rational::BigRational;
@@ -47,6 +47,10 @@ pub const LOW_ORDER_SHARE: f64 = 0.95;
 /// when the whole piece is not proven, before it is split: 1/8 of the piece apart (the
 /// failed sub-intervals are probed at their middles as the split goes on).
 pub const HOPELESS_PROBES: usize = 16;
+
+/// Up to this many parameters, a support proof first evaluates P at every corner of the
+/// parameter box (2ⁿ points) at the sub-interval's middle, to refute quickly.
+pub const SUPPORT_CORNER_PARAMS: usize = 4;
 
 /// Most parameter boxes examined by one zero-risk proof on one sub-interval.
 pub const SUPPORT_MAX_BOXES: usize = 48;
@@ -138,6 +142,8 @@ pub struct PieceBounds<'a> {
     central: OnceCell<Option<Scaled>>,
     support: OnceCell<Option<SupportTerms>>,
     last_point: std::cell::RefCell<Option<std::rc::Rc<PointValues>>>,
+    /// The support terms' ω^β as (box side, exponent) pairs.
+    support_index: OnceCell<Vec<Vec<(usize, u32)>>>,
 }
 
 /// A piece's coordinates in a compiled contour's frame.
@@ -145,6 +151,9 @@ struct Fast<'a> {
     compiled: &'a CompiledContour,
     subs: [FPoly<CAPACITY>; 9],
     nv: usize,
+    /// The same coordinates for the `f64` restriction ([`Substitution`]), when the caller
+    /// has them.
+    esub: Option<&'a Substitution>,
 }
 
 impl Fast<'_> {
@@ -265,8 +274,18 @@ impl<'a> PieceBounds<'a> {
         level: Level,
     ) -> Self {
         let mut pb = Self::for_piece(contour, piece, level);
-        pb.fast = compiled.substitutions::<CAPACITY>(piece).map(|subs| Fast { compiled, subs, nv: compiled.frame().len() });
+        pb.fast =
+            compiled.substitutions::<CAPACITY>(piece).map(|subs| Fast { compiled, subs, nv: compiled.frame().len(), esub: None });
         pb
+    }
+
+    /// With the piece's coordinates in the compiled frame for the `f64` restriction of the
+    /// central moments (the certifier computes them for Cantelli's constraints anyway).
+    pub fn with_substitution(mut self, sub: Option<&'a Substitution>) -> Self {
+        if let Some(f) = self.fast.as_mut() {
+            f.esub = sub;
+        }
+        self
     }
 
     /// For one point, with the obstacle's compiled contour: `x` its floats (the frame
@@ -284,7 +303,8 @@ impl<'a> PieceBounds<'a> {
         for (s, v) in subs.iter_mut().zip(&z) {
             *s = FPoly::constant(*v);
         }
-        pb.fast = (z.len() == compiled.frame().len() && z.len() <= 9).then_some(Fast { compiled, subs, nv: z.len() });
+        pb.fast =
+            (z.len() == compiled.frame().len() && z.len() <= 9).then_some(Fast { compiled, subs, nv: z.len(), esub: None });
         pb
     }
 
@@ -314,6 +334,7 @@ impl<'a> PieceBounds<'a> {
             central: OnceCell::new(),
             support: OnceCell::new(),
             last_point: std::cell::RefCell::new(None),
+            support_index: OnceCell::new(),
         }
     }
 
@@ -375,7 +396,13 @@ impl<'a> PieceBounds<'a> {
             .get(j)?
             .get_or_init(|| {
                 let f = scale_factor(s.e, j as i32)?;
-                let c = match self.fast.as_ref().and_then(|fa| fa.compiled.bounds(self.contour).central_one_on(j, fa.subs())) {
+                // in f64 with midpoints and radii where the model allows, else in intervals
+                // (compiled), else generally composed
+                let fast = self.fast.as_ref().and_then(|fa| {
+                    let cb = fa.compiled.bounds(self.contour);
+                    fa.esub.and_then(|sub| cb.central_one_on_f64(j, sub)).or_else(|| cb.central_one_on(j, fa.subs()))
+                });
+                let c = match fast {
                     Some(c) => c,
                     None => self.contour.higher().interval().get(j)?.compose_univariate(&self.subs),
                 };
@@ -402,29 +429,52 @@ impl<'a> PieceBounds<'a> {
     /// proven by interval branch and bound over the parameter box (§3.7).
     fn support_proves(&self, a: f64, w: f64) -> bool {
         let (Some(terms), Some(sf)) = (self.support_terms(), self.contour.support()) else { return false };
+        // each term's ω^β as (box side, exponent) pairs, once per piece
+        let index = self.support_index.get_or_init(|| {
+            terms
+                .iter()
+                .map(|(beta, _)| {
+                    beta.iter().map(|&(v, e)| (sf.support.iter().position(|s| s.0 == v).unwrap_or(usize::MAX), e)).collect()
+                })
+                .collect()
+        });
         let ranges: Option<Vec<Interval>> = terms.iter().map(|(_, p)| hull_on(p, a, w)).collect();
         let Some(ranges) = ranges else { return false };
-        let root = sf.support_box.clone();
-        let vars: Vec<Var> = sf.support.iter().map(|s| s.0).collect();
-        let mid_tau = a + 0.5 * w;
-        let at_mid: Vec<Interval> = terms.iter().map(|(_, p)| p.eval(&Interval::point(mid_tau))).collect();
-        // Σ_β coefficient_β · range of ω^β over the box `bx` (`at`: map a box side to the values used)
-        let sum = |coeffs: &[Interval], bx: &[Interval], at: &dyn Fn(Interval) -> Interval| {
-            let range_of = |v: Var| vars.iter().position(|&u| u == v).map_or(Interval::ENTIRE, |i| at(bx[i]));
-            terms.iter().zip(coeffs).fold(Interval::point(0.0), |acc, ((beta, _), r)| acc + *r * monomial_range(beta, range_of))
+        let root = &sf.support_box;
+        let mid_tau = Interval::point(a + 0.5 * w);
+        let at_mid: Vec<Interval> = terms.iter().map(|(_, p)| p.eval(&mid_tau)).collect();
+        // Σ_β coefficient_β · range of ω^β, each parameter's range given by `side(i)`
+        let sum = |coeffs: &[Interval], side: &dyn Fn(usize) -> Interval| {
+            index.iter().zip(coeffs).fold(Interval::point(0.0), |acc, (beta, r)| {
+                let m = beta.iter().fold(Interval::point(1.0), |m, &(i, e)| {
+                    m * if i == usize::MAX { Interval::ENTIRE } else { power_range(side(i), e) }
+                });
+                acc + *r * m
+            })
         };
-        let mut stack = vec![root];
+        // quick refutation: P ≥ 0 at a corner of the box at the sub-interval's middle (the
+        // maximum over a box is often at a corner; the search below finds such points only
+        // after several splits)
+        if root.len() <= SUPPORT_CORNER_PARAMS {
+            for mask in 0..1usize << root.len() {
+                let corner = |i: usize| Interval::point(if mask >> i & 1 == 1 { root[i].hi } else { root[i].lo });
+                if sum(&at_mid, &corner).lo >= 0.0 {
+                    return false;
+                }
+            }
+        }
+        let mut stack = vec![root.clone()];
         let mut boxes = 0;
         while let Some(bx) = stack.pop() {
             boxes += 1;
             if boxes > SUPPORT_MAX_BOXES {
                 return false;
             }
-            if sum(&ranges, &bx, &|side| side).hi < 0.0 {
+            if sum(&ranges, &|i| bx[i]).hi < 0.0 {
                 continue;
             }
             // P ≥ 0 at the box's centre and the sub-interval's middle: no proof possible
-            if sum(&at_mid, &bx, &|side| Interval::point(side.mid())).lo >= 0.0 {
+            if sum(&at_mid, &|i| Interval::point(bx[i].mid())).lo >= 0.0 {
                 return false;
             }
             // split the widest parameter range
@@ -451,15 +501,34 @@ impl<'a> PieceBounds<'a> {
     fn moment_constraint(&self, s: &Scaled, order: u32, b: f64) -> Option<UPoly<Interval>> {
         let bi = Interval::point(b);
         let omb = Interval::point(1.0) - bi;
-        let mut h = UPoly::constant(self.delta * pow(omb, order) - pow(bi, order));
+        let mu = s.mu_s.coeffs();
+        let cap = (order as usize + 1) * mu.len().max(1) + 1;
+        // two buffers, no allocation per step
+        let (mut h, mut next) = (Vec::with_capacity(cap), Vec::with_capacity(cap));
+        h.push(self.delta * pow(omb, order) - pow(bi, order));
+        let zero = Interval::point(0.0);
         for j in 1..=order {
-            h = h.mul(&s.mu_s);
+            // next = h·(μ/s)
+            next.clear();
+            next.resize(h.len() + mu.len().max(1) - 1, zero);
+            for (i, x) in h.iter().enumerate() {
+                for (k, y) in mu.iter().enumerate() {
+                    next[i + k] = next[i + k] + *x * *y;
+                }
+            }
+            std::mem::swap(&mut h, &mut next);
             if j >= 2 {
                 let coef = -(Interval::point(binomial_f64(order, j)) * pow(bi, order - j));
-                h = h.add(&self.central_scaled(s, j as usize)?.scale(&coef));
+                let c = self.central_scaled(s, j as usize)?.coeffs();
+                if c.len() > h.len() {
+                    h.resize(c.len(), zero);
+                }
+                for (x, y) in h.iter_mut().zip(c) {
+                    *x = *x + coef * *y;
+                }
             }
         }
-        Some(h)
+        Some(UPoly::new(h))
     }
 
     /// The moment bound to try at local time `tau` (order, shift, float value at `tau`),
@@ -572,6 +641,19 @@ impl<'a> PieceBounds<'a> {
     /// Covers [0, 1] by sub-intervals each proven by one bound (§5.13), or says where it
     /// could not. `hint`: a local time where Cantelli failed (checked first for hopelessness).
     pub fn cover(&self, hint: Option<f64>) -> Result<Vec<BoundPart>, CoverFailure> {
+        let t0 = std::time::Instant::now();
+        NODES.lock().unwrap().clear();
+        let r = self.cover_x(hint);
+        let ns = t0.elapsed().as_nanos() as u64;
+        let n = NODES.lock().unwrap().len();
+        let md = NODES.lock().unwrap().iter().map(|x| x.2).max().unwrap_or(0);
+        HIST.lock().unwrap().push((match &r { Ok(_) => 0, Err(CoverFailure::Budget{..}) => 3, _ => 2 }, n, md, ns));
+        use std::sync::atomic::Ordering::Relaxed;
+        let k = match &r { Ok(_) => 0, Err(CoverFailure::MeanNotNegative{..}) => 1, Err(CoverFailure::AboveDelta{..}) => 2, Err(_) => 3 };
+        DBG[2*k].fetch_add(1, Relaxed); DBG[2*k+1].fetch_add(ns, Relaxed);
+        r
+    }
+    fn cover_x(&self, hint: Option<f64>) -> Result<Vec<BoundPart>, CoverFailure> {
         let is_piece = self.piece.is_some();
         // cheap rejection first (the float checks cost about a microsecond, a sub-interval
         // proof tens): the hint; then the whole piece, which one bound proves more often
@@ -597,6 +679,7 @@ impl<'a> PieceBounds<'a> {
         let mut nodes = 1usize;
         while let Some((a, w, depth)) = stack.pop() {
             nodes += 1;
+            NODES.lock().unwrap().push((a, w, depth));
             let mid = a + 0.5 * w;
             if nodes > COVER_MAX_NODES {
                 return Err(CoverFailure::Budget { tau: mid });
@@ -650,19 +733,29 @@ impl<'a> PieceBounds<'a> {
         if cantelli && mu_h.hi < 0.0 && hull_on(self.g1(), a, w).is_some_and(|g| g.lo > 0.0) {
             return Some(BoundKind::Cantelli);
         }
+        let moment = || -> Option<BoundKind> {
+            let s = self.scaled()?;
+            let (order, b, value) = self.moment_choice_at(at)?;
+            if !(value < self.delta_f && b < 1.0) {
+                return None;
+            }
+            let h = self.moment_constraint(s, order, b)?;
+            hull_on(&h, a, w).is_some_and(|g| g.lo > 0.0).then_some(BoundKind::Moment(order))
+        };
+        // a moment bound well below Δ at the choice point is tried before the support
+        // proof (a branch and bound over the parameter box, the dearer of the two)
+        let negative = mu_h.hi < 0.0;
+        let promising = negative && self.moment_choice_at(at).is_some_and(|c| c.2 <= LOW_ORDER_SHARE * self.delta_f);
+        if promising {
+            if let Some(kind) = moment() {
+                return Some(kind);
+            }
+        }
         if self.support_proves(a, w) {
             return Some(BoundKind::Support);
         }
-        if mu_h.hi < 0.0 {
-            if let Some(s) = self.scaled() {
-                let (order, b, value) = self.moment_choice_at(at)?;
-                if value < self.delta_f && b < 1.0 {
-                    let h = self.moment_constraint(s, order, b)?;
-                    if hull_on(&h, a, w).is_some_and(|g| g.lo > 0.0) {
-                        return Some(BoundKind::Moment(order));
-                    }
-                }
-            }
+        if negative && !promising {
+            return moment();
         }
         None
     }
@@ -708,3 +801,9 @@ pub fn point_bounds_f64(contour: &RiskContour, xt: &[f64]) -> Vec<(BoundKind, f6
 
 #[cfg(test)]
 mod tests;
+/// debug
+pub static NODES: std::sync::Mutex<Vec<(f64,f64,u32)>> = std::sync::Mutex::new(Vec::new());
+/// debug
+pub static HIST: std::sync::Mutex<Vec<(u32,usize,u32,u64)>> = std::sync::Mutex::new(Vec::new());
+/// debug
+pub static DBG: [std::sync::atomic::AtomicU64; 16] = [const { std::sync::atomic::AtomicU64::new(0) }; 16];

@@ -96,3 +96,23 @@ fn gaussian_piece_is_covered_by_moment_bounds() {
     let piece = PieceRef { t0: 0.0, t1: 1.0, coeffs: &near };
     assert!(PieceBounds::for_piece(&c, piece, Level::new(&q("0.001"))).cover(None).is_err());
 }
+
+proptest::proptest! {
+    /// The in-place reparametrisation of the sub-interval hulls encloses the exact
+    /// coefficients of p(a + w·τ) (rational composition by the general polynomial code).
+    #[test]
+    fn sub_interval_reparametrisation_encloses_the_exact_one(
+        coeffs in proptest::collection::vec(-1e3f64..1e3, 1..18), k in 0u32..64, depth in 0u32..7,
+    ) {
+        let w = 0.5f64.powi(depth as i32);
+        let a = f64::from(k % (1 << depth).max(1)) * w;
+        let mut c: Vec<Interval> = coeffs.iter().map(|&v| Interval::point(v)).collect();
+        reparam_in_place(&mut c, a, w);
+        let qf = |v: f64| BigRational::from_float(v).unwrap();
+        let exact = UPoly::new(coeffs.iter().map(|&v| qf(v)).collect()).compose_affine(&qf(a), &qf(w));
+        for (i, iv) in c.iter().enumerate() {
+            let e = exact.coeff(i);
+            proptest::prop_assert!(qf(iv.lo) <= e && e <= qf(iv.hi), "coefficient {i}: {e} not in {iv:?}");
+        }
+    }
+}

@@ -9,7 +9,7 @@
 //! ([`crate::contour::bounds::build_higher_of`]), and every later operation is outward
 //! rounded, so each restricted coefficient encloses the exact one.
 
-use super::{to_frame, Compiled, FPoly, Frame, CAPACITY};
+use super::{to_frame, Compiled, FPoly, Frame, Substitution, CAPACITY};
 use crate::contour::bounds::build_higher_of;
 use crate::contour::{RiskContour, SupportForm};
 use crate::poly::{Interval, Poly, UPoly, Var};
@@ -146,6 +146,26 @@ impl CompiledBounds {
     /// cⱼ alone restricted to a piece; `None` beyond the compiled orders or the capacity.
     pub fn central_one_on(&self, j: usize, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {
         restricted(self.central.get(j)?, subs)
+    }
+
+    /// cⱼ restricted to a piece given by its [`Substitution`], in `f64` with midpoints,
+    /// radii and a running error bound ([`Compiled::compose_r`]); `None` beyond the
+    /// compiled orders, the capacity or the error model's range (the caller uses
+    /// [`CompiledBounds::central_one_on`] then).
+    pub fn central_one_on_f64(&self, j: usize, sub: &Substitution) -> Option<UPoly<Interval>> {
+        let c = self.central.get(j)?;
+        let len = c.degree().saturating_mul(sub.degree().max(1)).saturating_add(1);
+        fn run<const N: usize>(c: &Compiled, sub: &Substitution) -> Option<UPoly<Interval>> {
+            let subs = sub.epolys::<N>()?;
+            c.compose_r(&subs[..sub.len()]).map(|f| UPoly::new(f.coeffs().to_vec()))
+        }
+        if len <= 9 {
+            run::<9>(c, sub)
+        } else if len <= 17 {
+            run::<17>(c, sub)
+        } else {
+            run::<CAPACITY>(c, sub)
+        }
     }
 
     /// E\[P\] and E\[P²\] at a point given by its compiled coordinates `z`, in floating

@@ -187,7 +187,7 @@ impl SceneCertifier {
             Ok(()) => true,
             Err(Some(hint)) if self.bounds.beyond_cantelli() => {
                 let pb = if self.fast {
-                    PieceBounds::for_piece_compiled(&o.contour, &self.compiled[i], pr, self.levels[i])
+                    PieceBounds::for_piece_compiled(&o.contour, &self.compiled[i], pr, self.levels[i]).with_substitution(subs)
                 } else {
                     PieceBounds::for_piece(&o.contour, pr, self.levels[i])
                 };
