@@ -342,7 +342,7 @@ impl<'a> PieceBounds<'a> {
         self.mu.get_or_init(|| {
             self.fast
                 .as_ref()
-                .and_then(|f| f.compiled.mean_on(f.subs()))
+                .and_then(|f| f.esub.and_then(|sub| f.compiled.mean_on_f64(sub)).or_else(|| f.compiled.mean_on(f.subs())))
                 .unwrap_or_else(|| self.contour.interval_polys().0.compose_univariate(&self.subs))
         })
     }
@@ -353,7 +353,7 @@ impl<'a> PieceBounds<'a> {
             let e2 = self
                 .fast
                 .as_ref()
-                .and_then(|f| f.compiled.second_on(f.subs()))
+                .and_then(|f| f.esub.and_then(|sub| f.compiled.second_on_f64(sub)).or_else(|| f.compiled.second_on(f.subs())))
                 .unwrap_or_else(|| self.contour.interval_polys().1.compose_univariate(&self.subs));
             let omd = Interval::point(1.0) - self.delta;
             e1.mul(e1).sub(&e2.scale(&omd))
@@ -452,13 +452,15 @@ impl<'a> PieceBounds<'a> {
                 acc + *r * m
             })
         };
-        // quick refutation: P ≥ 0 at a corner of the box at the sub-interval's middle (the
-        // maximum over a box is often at a corner; the search below finds such points only
-        // after several splits)
+        // quick refutation at the box's corners (the maximum over a box is often at a corner;
+        // the search below finds such points only after many splits): P ≥ 0 there at the
+        // sub-interval's middle, or P's range over the sub-interval at the corner not below
+        // 0 — every box containing the corner has a range at least as wide, so no split
+        // can prove the box that holds it
         if root.len() <= SUPPORT_CORNER_PARAMS {
             for mask in 0..1usize << root.len() {
                 let corner = |i: usize| Interval::point(if mask >> i & 1 == 1 { root[i].hi } else { root[i].lo });
-                if sum(&at_mid, &corner).lo >= 0.0 {
+                if sum(&at_mid, &corner).lo >= 0.0 || sum(&ranges, &corner).hi >= 0.0 {
                     return false;
                 }
             }
@@ -566,24 +568,20 @@ impl<'a> PieceBounds<'a> {
         if best <= limit {
             return None;
         }
-        // a moment bound chosen here already (a failed sub-interval's middle)
-        if pt.choice.get().copied().flatten().is_some_and(|c| c.2 <= limit) {
-            return None;
-        }
-        let central = pt.central(self);
-        // the central-moment Markov bounds (shift 0) first: one evaluation each
-        for o in MOMENT_ORDERS.into_iter().rev() {
-            best = best.min(moment_bound_f64(pt.mu, central, o, 0.0));
+        // the moment bound a proof here would use (memoised for that proof): the smallest
+        // over the orders unless a low order is already below ½Δ
+        if let Some(c) = self.moment_choice_at(tau) {
+            best = best.min(c.2);
             if best <= limit {
                 return None;
             }
         }
-        for o in MOMENT_ORDERS.into_iter().rev() {
-            if let Some((_, v)) = shift_search(pt.mu, central, o, limit, SHIFT_SEARCH_COARSE) {
-                best = best.min(v);
-                if best <= limit {
-                    return None;
-                }
+        // the central-moment Markov bounds (shift 0), which the shift grid may miss
+        let central = pt.central(self);
+        for o in MOMENT_ORDERS {
+            best = best.min(moment_bound_f64(pt.mu, central, o, 0.0));
+            if best <= limit {
+                return None;
             }
         }
         // zero risk from the support at the point itself (a zero-width sub-interval)

@@ -296,6 +296,17 @@ impl<const N: usize> EPoly<N> {
     }
 }
 
+/// `2^-900`: the smallest nonzero midpoint or radius [`RPoly`] takes (smaller ones are
+/// widened to about it), so that the products of running values stay above
+/// [`MODEL_FLOOR`] — the guard of [`RPoly`]'s product still refuses any that would not.
+/// Used only for polynomials whose largest coefficient is at least [`RPOLY_MIN_SCALE`],
+/// where the widening is below 2⁻³⁰⁰ relative.
+const RADIUS_FLOOR: f64 = pow2(-900);
+
+/// `2^-600`: the smallest largest-coefficient magnitude of a polynomial restricted
+/// through [`RPoly`] (smaller ones take the interval walk).
+pub const RPOLY_MIN_SCALE: f64 = pow2(-600);
+
 /// An [`EPoly`] whose inputs are intervals (the central moments' enclosures, §3.8):
 /// each input coefficient is its midpoint `m`, taken as an exact float, plus an unknown
 /// `δ` with `|δ| ≤ r`. A composition is linear in its coefficients, so the exact
@@ -318,20 +329,24 @@ impl<const N: usize> RPoly<N> {
         RPoly { v: [0.0; N], a: [0.0; N], r: [0.0; N], len: 0, k: 0 }
     }
 
-    /// The constant `[lo, hi]`: its midpoint exactly and a radius rounded up (at least
-    /// [`MODEL_FLOOR`] when not zero: a larger radius is always sound, and keeps the
-    /// products of radii in the relative model); `None` when not finite.
+    /// The constant `[lo, hi]`: its midpoint exactly and a radius rounded up (0 for a
+    /// point). A nonzero radius below [`RADIUS_FLOOR`] is raised to it, and a midpoint
+    /// below it becomes 0 with the radius 4·[`RADIUS_FLOOR`] (larger radii are sound; they
+    /// keep the products of running values in the relative model). `None` when not finite.
     fn interval(c: Interval) -> Option<Self> {
-        let m = c.mid();
+        let mut m = c.mid();
         if !(m.is_finite() && c.lo.is_finite() && c.hi.is_finite()) {
             return None;
         }
-        let mut rad = (m - c.lo).next_up().max((c.hi - m).next_up()).max(0.0);
-        if rad > 0.0 && rad < MODEL_FLOOR {
-            rad = MODEL_FLOOR;
+        let (below, above) = (m - c.lo, c.hi - m);
+        let mut rad = if below > 0.0 || above > 0.0 { below.max(above).next_up() } else { 0.0 };
+        if rad != 0.0 && rad < RADIUS_FLOOR {
+            rad = RADIUS_FLOOR;
         }
-        if m != 0.0 && m.abs() < MODEL_FLOOR {
-            return None;
+        if m != 0.0 && m.abs() < RADIUS_FLOOR {
+            // |m| + rad < 2·RADIUS_FLOOR
+            m = 0.0;
+            rad = 4.0 * RADIUS_FLOOR;
         }
         let mut p = Self::zero();
         p.v[0] = m;
@@ -417,6 +432,26 @@ impl<const N: usize> RPoly<N> {
             *o = Interval { lo: (v - e).next_down(), hi: (v + e).next_up() };
         }
         Some(self.len)
+    }
+}
+
+/// `c` composed with a [`Substitution`] in `f64` with a running error bound, as an
+/// enclosure in the smallest stack buffer that holds it.
+fn enclosed_e(c: &Compiled, sub: &Substitution) -> Option<UPoly<Interval>> {
+    fn run<const N: usize>(c: &Compiled, sub: &Substitution) -> Option<UPoly<Interval>> {
+        let subs = sub.epolys::<N>()?;
+        let e = c.compose_e(&subs[..sub.len()])?;
+        let mut out = [ZERO; N];
+        let n = e.enclosure(&mut out)?;
+        Some(UPoly::new(out[..n].to_vec()))
+    }
+    let len = c.degree().saturating_mul(sub.degree().max(1)).saturating_add(1);
+    if len <= 9 {
+        run::<9>(c, sub)
+    } else if len <= 17 {
+        run::<17>(c, sub)
+    } else {
+        run::<CAPACITY>(c, sub)
     }
 }
 
@@ -692,6 +727,8 @@ pub struct Compiled {
     /// Every coefficient's nearest float is exact or normal ([`round_for_model`]): the
     /// `f64` path ([`Compiled::compose_e`]) is used only then.
     in_model: bool,
+    /// The largest coefficient magnitude (of the enclosures' midpoints, or nearest floats).
+    max_coeff: f64,
 }
 
 /// A term as its exponent vector and coefficient.
@@ -755,7 +792,8 @@ impl Compiled {
             });
             Node::Const(Interval::enclose_rational(&acc), near, k)
         });
-        Compiled { root, nvars, degree, in_model }
+        let max_coeff = max_const(&root);
+        Compiled { root, nvars, degree, in_model, max_coeff }
     }
 
     /// Compiles a polynomial whose coefficients are enclosures already (the central
@@ -768,7 +806,8 @@ impl Compiled {
             let acc = ts.iter().fold(ZERO, |acc, (_, c)| acc + *c);
             Node::Const(acc, acc.mid(), 1)
         });
-        Compiled { root, nvars, degree, in_model: false }
+        let max_coeff = max_const(&root);
+        Compiled { root, nvars, degree, in_model: false, max_coeff }
     }
 
     /// Total degree.
@@ -809,6 +848,9 @@ impl Compiled {
     /// coefficients' intervals; `None` beyond the capacity or outside the model's range
     /// (the caller composes in interval arithmetic then).
     pub fn compose_r<const N: usize>(&self, subs: &[EPoly<N>]) -> Option<FPoly<N>> {
+        if self.max_coeff.is_nan() || self.max_coeff < RPOLY_MIN_SCALE {
+            return None;
+        }
         fn go<const N: usize>(n: &Node, subs: &[RPoly<N>]) -> Option<RPoly<N>> {
             match n {
                 Node::Zero => Some(RPoly::zero()),
@@ -901,6 +943,15 @@ where
     }
 }
 
+/// The largest magnitude among a tree's constants (nearest floats).
+fn max_const(n: &Node) -> f64 {
+    match n {
+        Node::Zero => 0.0,
+        Node::Const(_, f, _) => f.abs(),
+        Node::Horner { coeffs, .. } => coeffs.iter().map(max_const).fold(0.0, f64::max),
+    }
+}
+
 /// `p(c + 2^e·z)`: the polynomial in the compiled variables of `frame`, exactly.
 pub fn to_frame(p: &QPoly, frame: &Frame) -> QPoly {
     let two = BigRational::from_integer(2.into());
@@ -989,6 +1040,18 @@ impl CompiledContour {
     /// E\[P²\] restricted to a piece, enclosed.
     pub fn second_on(&self, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {
         restricted(&self.second, subs)
+    }
+
+    /// E\[P\] restricted to a piece given by its [`Substitution`], in `f64` with a running
+    /// error bound ([`Compiled::compose_e`]), enclosed; `None` outside the model (the
+    /// caller uses [`CompiledContour::mean_on`] then).
+    pub fn mean_on_f64(&self, sub: &Substitution) -> Option<UPoly<Interval>> {
+        enclosed_e(&self.mean, sub)
+    }
+
+    /// E\[P²\] likewise.
+    pub fn second_on_f64(&self, sub: &Substitution) -> Option<UPoly<Interval>> {
+        enclosed_e(&self.second, sub)
     }
 
     /// The frame of the compiled variables.

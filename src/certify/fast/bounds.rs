@@ -95,19 +95,34 @@ impl PointTable {
 
     /// Every row's value at `z` (missing coordinates are 0).
     fn eval(&self, z: &[f64]) -> Vec<f64> {
-        let mut powers = vec![1.0; self.nvars * self.stride];
+        // stack buffers for the usual sizes (a few variables, degree ≤ 16, ≤ 256 monomials)
+        let npow = self.nvars * self.stride;
+        let nmon = self.exps.len() / self.nvars.max(1);
+        let (mut pstack, mut vstack) = ([0.0f64; 64], [0.0f64; 256]);
+        let (mut pheap, mut vheap) = (Vec::new(), Vec::new());
+        let powers: &mut [f64] = if npow <= pstack.len() {
+            &mut pstack[..npow]
+        } else {
+            pheap.resize(npow, 0.0);
+            &mut pheap
+        };
         for v in 0..self.nvars {
             let x = z.get(v).copied().unwrap_or(0.0);
             let p = &mut powers[v * self.stride..(v + 1) * self.stride];
+            p[0] = 1.0;
             for k in 1..self.stride {
                 p[k] = p[k - 1] * x;
             }
         }
-        let values: Vec<f64> = self
-            .exps
-            .chunks_exact(self.nvars.max(1))
-            .map(|e| e.iter().enumerate().fold(1.0, |acc, (v, &k)| acc * powers[v * self.stride + k as usize]))
-            .collect();
+        let values: &mut [f64] = if nmon <= vstack.len() {
+            &mut vstack[..nmon]
+        } else {
+            vheap.resize(nmon, 0.0);
+            &mut vheap
+        };
+        for (val, e) in values.iter_mut().zip(self.exps.chunks_exact(self.nvars.max(1))) {
+            *val = e.iter().enumerate().fold(1.0, |acc, (v, &k)| acc * powers[v * self.stride + k as usize]);
+        }
         self.rows.iter().map(|row| row.iter().map(|&(i, c)| c * values[i as usize]).sum()).collect()
     }
 }
