@@ -279,6 +279,17 @@ impl<'a> PieceBounds<'a> {
         pb
     }
 
+    /// With the enclosures of −E\[P\] and of Cantelli's g₁ on the piece that the caller's
+    /// fast path computed (`(−E[P], g₁)` coefficients; the same polynomials
+    /// [`PieceBounds::mu`] and [`PieceBounds::g1`] would restrict again).
+    pub fn with_cantelli_restrictions(self, restricted: Option<(Vec<Interval>, Vec<Interval>)>) -> Self {
+        if let Some((neg_mean, g1)) = restricted {
+            let _ = self.mu.set(UPoly::new(neg_mean.into_iter().map(|v| -v).collect()));
+            let _ = self.g1.set(UPoly::new(g1));
+        }
+        self
+    }
+
     /// With the piece's coordinates in the compiled frame for the `f64` restriction of the
     /// central moments (the certifier computes them for Cantelli's constraints anyway).
     pub fn with_substitution(mut self, sub: Option<&'a Substitution>) -> Self {

@@ -455,6 +455,41 @@ fn enclosed_e(c: &Compiled, sub: &Substitution) -> Option<UPoly<Interval>> {
     }
 }
 
+/// The exact sign of `c0 + c1·t − l` (a straight coordinate's value at `t` against a
+/// bound), by error-free transformations: `c1·t = p + e` exactly by a fused multiply-add
+/// (when `p` is zero from a zero factor or at least [`FMA_FLOOR`]), `c0 − l` by
+/// [`two_sum`], and the four terms summed into a non-overlapping expansion (Shewchuk's
+/// grow-expansion), whose sign is its largest component's. `None` when a value is not
+/// finite or too large for the sums to be exact (the caller decides in rationals then).
+pub fn straight_value_sign(c0: f64, c1: f64, t: f64, l: f64) -> Option<std::cmp::Ordering> {
+    const LIMIT: f64 = pow2(1000);
+    if ![c0, c1, t, l].iter().all(|v| v.is_finite() && v.abs() < LIMIT) {
+        return None;
+    }
+    let p = c1 * t;
+    let exact_product = (c1 == 0.0 || t == 0.0) || p.abs() >= FMA_FLOOR;
+    if !exact_product || !p.is_finite() || p.abs() >= LIMIT {
+        return None;
+    }
+    let e = c1.mul_add(t, -p);
+    let (s, f) = two_sum(c0, -l);
+    // grow the expansion term by term (components in increasing magnitude)
+    let mut expansion: [f64; 4] = [0.0; 4];
+    let mut len = 0;
+    for x in [f, s, e, p] {
+        let mut q = x;
+        for h in expansion.iter_mut().take(len) {
+            let (sum, err) = two_sum(q, *h);
+            *h = err;
+            q = sum;
+        }
+        expansion[len] = q;
+        len += 1;
+    }
+    let top = expansion[..len].iter().rev().find(|v| **v != 0.0).copied().unwrap_or(0.0);
+    top.partial_cmp(&0.0)
+}
+
 /// Error-free sum: `a + b = s + e` exactly (Knuth's TwoSum; exact also under gradual
 /// underflow, where sums are exact).
 fn two_sum(a: f64, b: f64) -> (f64, f64) {
@@ -1371,6 +1406,25 @@ mod tests {
             for member in &members {
                 let exact = exact_in_frame(member, &rows, t0, t0 + h, &frame);
                 prop_assert!(encloses(enc.coeffs(), &exact).is_ok(), "{:?}", encloses(enc.coeffs(), &exact));
+            }
+        }
+    }
+
+    proptest! {
+        /// The error-free sign of c0 + c1·t − l equals the sign computed in rationals,
+        /// also for bounds at, one ulp around, and a rounding away from the float value.
+        #[test]
+        fn straight_value_sign_is_exact(
+            c0 in -1e6f64..1e6, c1 in -1e6f64..1e6, t in -1e3f64..1e3, k in 0u32..5, scale in -300i32..300,
+        ) {
+            let sc = 2f64.powi(scale);
+            let (c0, c1) = (c0 * sc, c1 * sc);
+            let v = c0 + c1 * t;
+            let l = match k { 0 => v, 1 => v.next_up(), 2 => v.next_down(), 3 => c0, _ => v * 1.5 };
+            let q = |x: f64| BigRational::from_float(x).unwrap();
+            if let Some(sign) = straight_value_sign(c0, c1, t, l) {
+                let exact = (q(c0) + q(c1) * q(t) - q(l)).cmp(&BigRational::from_integer(0.into()));
+                prop_assert_eq!(sign, exact);
             }
         }
     }

@@ -6,11 +6,12 @@ use super::framed::piece_passes_verify_path;
 use super::index::{piece_bbox, SceneIndex};
 use super::kernel::SceneKernel;
 use super::workspace::check_workspace;
-use crate::certify::fast::{CompiledContour, Substitution};
+use crate::certify::fast::{straight_value_sign, CompiledContour, Substitution};
 use crate::certify::bounds::{Level, PieceBounds};
 use crate::certify::{bernstein, restrict_exact, sos, PieceRef, Verdict};
 use crate::contour::{BoundChoice, RiskLevel};
 use crate::motion::{Motion, MotionChecker, Termination};
+use crate::poly::Interval;
 use crate::scene::{Piece, Scene};
 use num_rational::BigRational;
 use std::sync::{Arc, OnceLock};
@@ -138,6 +139,10 @@ impl SceneCertifier {
         let delta = self.deltas[i].rational();
         // Cantelli: Ok(()) proven; Err(None) g₂ fails (E[P] ≥ 0 somewhere: no bound can
         // help); Err(Some(hint)) only g₁ fails or is undecided (hint: a local time, if known)
+        // the fast path's enclosures of −E[P] and g₁ when g₁ fails there, for the other
+        // bounds' search (the same polynomials it would restrict again)
+        let mut restricted: Option<(Vec<Interval>, Vec<Interval>)> = None;
+        let keep = self.bounds.beyond_cantelli() && self.fast;
         let cantelli: Result<(), Option<Option<f64>>> = 'cantelli: {
             if self.method == Method::Exact {
                 let fast = subs.and_then(|subs| {
@@ -146,7 +151,12 @@ impl SceneCertifier {
                             match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
                                 Verdict::Safe { .. } => {}
                                 Verdict::Unsafe(_) if k == 0 => return Some(Err(None)),
-                                Verdict::Unsafe(w) => return Some(Err(Some(Some(w.tau)))),
+                                Verdict::Unsafe(w) => {
+                                    if keep {
+                                        restricted = Some((g2.to_vec(), g1.to_vec()));
+                                    }
+                                    return Some(Err(Some(Some(w.tau))));
+                                }
                                 Verdict::Undecided(_) => return None,
                             }
                         }
@@ -187,7 +197,9 @@ impl SceneCertifier {
             Ok(()) => true,
             Err(Some(hint)) if self.bounds.beyond_cantelli() => {
                 let pb = if self.fast {
-                    PieceBounds::for_piece_compiled(&o.contour, &self.compiled[i], pr, self.levels[i]).with_substitution(subs)
+                    PieceBounds::for_piece_compiled(&o.contour, &self.compiled[i], pr, self.levels[i])
+                        .with_substitution(subs)
+                        .with_cantelli_restrictions(restricted)
                 } else {
                     PieceBounds::for_piece(&o.contour, pr, self.levels[i])
                 };
@@ -204,6 +216,16 @@ impl SceneCertifier {
 fn straight_coordinate_inside(c: &[f64], t0: f64, t1: f64, l: f64, u: f64) -> bool {
     if c.len() > 2 {
         return false;
+    }
+    // exactly in floating point by error-free transformations (rationals otherwise)
+    let (c0, c1) = (c.first().copied().unwrap_or(0.0), c.get(1).copied().unwrap_or(0.0));
+    let signs: Option<Vec<(std::cmp::Ordering, std::cmp::Ordering)>> = [t0, t1]
+        .iter()
+        .map(|&t| Some((straight_value_sign(c0, c1, t, l)?, straight_value_sign(c0, c1, t, u)?)))
+        .collect();
+    if let Some(signs) = signs {
+        use std::cmp::Ordering::{Greater, Less};
+        return signs.iter().all(|&(lo, hi)| lo != Less && hi != Greater);
     }
     let q = |v: f64| BigRational::from_float(v);
     let (Some(c0), Some(c1), Some(a), Some(b), Some(l), Some(u)) =
