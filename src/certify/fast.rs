@@ -331,7 +331,7 @@ impl<const N: usize> RPoly<N> {
 
     /// The constant `[lo, hi]`: its midpoint exactly and a radius rounded up (0 for a
     /// point). A nonzero radius below [`RADIUS_FLOOR`] is raised to it, and a midpoint
-    /// below it becomes 0 with the radius 4·[`RADIUS_FLOOR`] (larger radii are sound; they
+    /// below it becomes 0 with the radius grown by [`RADIUS_FLOOR`] (larger radii are sound; they
     /// keep the products of running values in the relative model). `None` when not finite.
     fn interval(c: Interval) -> Option<Self> {
         let mut m = c.mid();
@@ -344,9 +344,10 @@ impl<const N: usize> RPoly<N> {
             rad = RADIUS_FLOOR;
         }
         if m != 0.0 && m.abs() < RADIUS_FLOOR {
-            // |m| + rad < 2·RADIUS_FLOOR
+            // [m − rad, m + rad] ⊆ [−(|m| + rad), |m| + rad] and |m| < RADIUS_FLOOR (the
+            // radius may be far larger than the midpoint: an interval straddling 0)
             m = 0.0;
-            rad = 4.0 * RADIUS_FLOOR;
+            rad = (rad + RADIUS_FLOOR).next_up().max(4.0 * RADIUS_FLOOR);
         }
         let mut p = Self::zero();
         p.v[0] = m;
@@ -1425,6 +1426,97 @@ mod tests {
             if let Some(sign) = straight_value_sign(c0, c1, t, l) {
                 let exact = (q(c0) + q(c1) * q(t) - q(l)).cmp(&BigRational::from_integer(0.into()));
                 prop_assert_eq!(sign, exact);
+            }
+        }
+    }
+
+    /// An interval straddling 0 with a midpoint below `RADIUS_FLOOR` and a far larger
+    /// radius keeps its radius (found by review: it was replaced by 0 ± 4·`RADIUS_FLOOR`).
+    #[test]
+    fn tiny_midpoint_with_a_wide_radius_is_enclosed() {
+        let (lo, hi) = (-pow2(-860), pow2(-860) + pow2(-910));
+        let iv = Interval::new(lo, hi);
+        assert!(iv.mid() != 0.0 && iv.mid().abs() < RADIUS_FLOOR);
+        let mut p = Poly::<Interval>::zero();
+        p.add_term(crate::poly::Monomial::one(), iv);
+        p.add_term(crate::poly::Monomial::var_pow(0, 1), Interval::point(1.0));
+        let compiled = Compiled::from_intervals(&p, 3);
+        let rows = vec![vec![0.0], vec![0.0]];
+        let piece = PieceRef { t0: 0.0, t1: 1.0, coeffs: &rows };
+        let sub = Substitution::new(piece, &Frame::centred(&[0.0, 0.0, 0.0])).unwrap();
+        let subs = sub.epolys::<CAPACITY>().unwrap();
+        let c0 = compiled.compose_r(&subs[..sub.len()]).expect("the f64 path").coeffs()[0];
+        let q = |v: f64| BigRational::from_float(v).unwrap();
+        assert!(q(c0.lo) <= q(lo) && q(hi) <= q(c0.hi), "[{lo:e}, {hi:e}] not in {c0:?}");
+    }
+
+    proptest! {
+        /// [`Compiled::compose_r`] at extreme scales and shapes of coefficient intervals
+        /// (points, one ulp, straddling 0, midpoints from 2⁻¹⁰⁰⁰ to 2⁶⁰), straight and
+        /// curved pieces, frame exponents ±200: every member's exact restriction is enclosed.
+        #[test]
+        fn mid_radius_restriction_encloses_members_at_extreme_scales(
+            coeffs in prop::collection::vec((-3f64..3.0, -1000i32..60, 0usize..6, -60i32..1, 0u32..7, 0u32..7, 0u32..4, 0usize..3), 1..20),
+            rows in prop::collection::vec((-3f64..3.0, -3f64..3.0, -1f64..1.0, 0usize..3, -200i32..200), 2),
+            t0 in -5f64..5.0, lh in -30i32..3, cx in prop::collection::vec(-3f64..3.0, 3), big in 0i32..40,
+            fe in prop::collection::vec(-200i32..200, 3),
+        ) {
+            let q = |v: f64| BigRational::from_float(v).unwrap();
+            let mut p = Poly::<Interval>::zero();
+            let mut members = vec![QPoly::zero(), QPoly::zero(), QPoly::zero()];
+            for &(m, e, kind, re, e1, e2, e3, pick) in &coeffs {
+                let mid = m * 2f64.powi(e);
+                let r = 2f64.powi(re) * mid.abs();
+                let iv = match kind {
+                    0 => Interval::point(mid),
+                    1 => Interval::new(mid - r, mid + r),
+                    2 => Interval::new(-mid.abs() * 2.0, mid.abs() * 2.0 + r * 1e-3),
+                    3 => Interval::new(mid, (mid + r).max(mid)),
+                    4 => Interval::new(mid.min(mid.next_up()), mid.next_up()),
+                    _ => Interval::new(-mid.abs(), mid.abs().next_up()),
+                };
+                if !(iv.lo.is_finite() && iv.hi.is_finite()) {
+                    return Ok(());
+                }
+                let mono = crate::poly::Monomial::from_pairs([(0, e1), (1, e2), (2, e3)].into_iter().filter(|x| x.1 > 0));
+                p.add_term(mono.clone(), iv);
+                for (i, member) in members.iter_mut().enumerate() {
+                    let v = match (i, pick) { (0, _) | (2, 0) => iv.lo, (1, _) | (2, 1) => iv.hi, _ => iv.mid().clamp(iv.lo, iv.hi) };
+                    member.add_term(mono.clone(), q(v));
+                }
+            }
+            let cx: Vec<f64> = cx
+                .iter()
+                .enumerate()
+                .map(|(d, &c)| if d < 2 { rows[d].0 * 2f64.powi(rows[d].4) + c * 2f64.powi(rows[d].4 - big) } else { c })
+                .collect();
+            let frame = Frame { center: cx.clone(), exponents: fe.clone() };
+            let compiled = Compiled::from_intervals(&p, 3);
+            let t1 = t0 + 2f64.powi(lh);
+            let rws: Vec<Vec<f64>> = rows
+                .iter()
+                .map(|&(a, b, c, deg, s)| {
+                    let sc = 2f64.powi(s);
+                    [a * sc, b * sc, c * sc][..=deg].to_vec()
+                })
+                .collect();
+            let piece = PieceRef { t0, t1, coeffs: &rws };
+            let Some(sub) = Substitution::new(piece, &frame) else { return Ok(()) };
+            let Some(subs) = sub.epolys::<CAPACITY>() else { return Ok(()) };
+            let Some(enc) = compiled.compose_r(&subs[..sub.len()]) else { return Ok(()) };
+            let two = BigRational::from_integer(2.into());
+            let exact_sub = |row: &[f64], c: f64, e: i32| {
+                let sc: BigRational = num_traits::Pow::pow(&two, -e);
+                crate::poly::UPoly::new(row.iter().map(|&v| q(v)).collect())
+                    .compose_affine(&q(t0), &(q(t1) - q(t0)))
+                    .sub(&crate::poly::UPoly::constant(q(c)))
+                    .map(|x| x * &sc)
+            };
+            let mut esubs: Vec<crate::poly::UPoly<BigRational>> = (0..2).map(|d| exact_sub(&rws[d], cx[d], fe[d])).collect();
+            esubs.push(exact_sub(&[0.0, 1.0], cx[2], fe[2]));
+            for member in &members {
+                let exact = member.compose_univariate(&esubs);
+                prop_assert!(encloses(enc.coeffs(), &exact).is_ok(), "{:?}", encloses(enc.coeffs(), &exact));
             }
         }
     }

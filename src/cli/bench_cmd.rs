@@ -105,33 +105,6 @@ fn git_rev() -> String {
 }
 
 fn run_paper(a: BenchArgs) -> Result<i32, CliError> {
-    struct D;
-    impl Drop for D {
-        fn drop(&mut self) {
-            let v: Vec<u64> =
-                crate::certify::bounds::DBG.iter().map(|x| x.load(std::sync::atomic::Ordering::Relaxed)).collect();
-            eprintln!(
-                "DBG ok {} {}us | mean {} {}us | above {} {}us | budget {} {}us | orders {:?}",
-                v[0],
-                v[1] / 1000,
-                v[2],
-                v[3] / 1000,
-                v[4],
-                v[5] / 1000,
-                v[6],
-                v[7] / 1000,
-                &v[8..13]
-            );
-            eprintln!("hint-fail {} probe-fail {} probe-time-passed {}us", v[13], v[14], v[15] / 1000);
-            let h = crate::certify::bounds::HIST.lock().unwrap();
-            let mut f = std::fs::File::create("/tmp/s19/hist.txt").unwrap();
-            use std::io::Write;
-            for x in h.iter() {
-                writeln!(f, "{} {} {} {}", x.0, x.1, x.2, x.3).unwrap();
-            }
-        }
-    }
-    let _d = D;
     let time_limit_s = a.time_limit.unwrap_or(60.0);
     let audit_samples = a.audit_samples.unwrap_or(20_000);
     let audit_times = a.audit_times.unwrap_or(50);
