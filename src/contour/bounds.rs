@@ -212,9 +212,113 @@ impl HigherMoments {
     }
 }
 
+/// The central moments of Z = P − E\[P\] up to [`MAX_MOMENT_ORDER`], generic over the
+/// coefficient ring: by independent parameter groups where Z splits into several
+/// ([`central_moments_by_groups`]), else by expanding the powers of Z.
+fn central_moments<C: crate::poly::Ring>(
+    z: &Poly<C>,
+    is_param: impl Fn(Var) -> bool + Copy,
+    moment: impl Fn(Var, u32) -> Option<C> + Copy,
+    name: impl Fn(Var) -> String,
+) -> (Vec<Poly<C>>, Option<HigherLimit>) {
+    if let Some(central) = central_moments_by_groups(z, is_param, moment) {
+        return (central, None);
+    }
+    central_moments_expanded(z, is_param, moment, name)
+}
+
+/// The central moments when Z's terms fall into two or more groups whose parameters are
+/// disjoint (the parameters are independent, as everywhere in riskplan: E[ω^β] is the product
+/// of each parameter's moment): Z = G₀ + G₁ + … + G_m with G₀ free of parameters and the G_i
+/// independent, so E[(S + G)^k] = Σ_l C(k,l)·E[S^l]·E[G^(k−l)] adds one group at a time —
+/// products of small polynomials in (x, t) instead of the expansion of Z^8 (which dominated the
+/// first plan of a scene of Gaussian disks: docs/benchmarks.md). `None` (the caller expands)
+/// with fewer than two parameter groups, a missing moment, or beyond the work budget. The
+/// first moment is set to 0 exactly (E[Z] = 0), as the expansion does.
+fn central_moments_by_groups<C: crate::poly::Ring>(
+    z: &Poly<C>,
+    is_param: impl Fn(Var) -> bool + Copy,
+    moment: impl Fn(Var, u32) -> Option<C> + Copy,
+) -> Option<Vec<Poly<C>>> {
+    // union-find over the parameters that occur together in a term
+    let mut parent: std::collections::BTreeMap<Var, Var> = std::collections::BTreeMap::new();
+    fn root(parent: &mut std::collections::BTreeMap<Var, Var>, v: Var) -> Var {
+        let mut r = v;
+        while let Some(&p) = parent.get(&r) {
+            if p == r {
+                break;
+            }
+            r = p;
+        }
+        parent.insert(v, r);
+        r
+    }
+    for (m, _) in z.terms() {
+        let params: Vec<Var> = m.pairs().iter().map(|p| p.0).filter(|&v| is_param(v)).collect();
+        for &v in &params {
+            parent.entry(v).or_insert(v);
+        }
+        for w in params.windows(2) {
+            let (a, b) = (root(&mut parent, w[0]), root(&mut parent, w[1]));
+            if a != b {
+                parent.insert(a, b);
+            }
+        }
+    }
+    let mut groups: std::collections::BTreeMap<Option<Var>, Poly<C>> = std::collections::BTreeMap::new();
+    for (m, c) in z.terms() {
+        let g = m.pairs().iter().map(|p| p.0).find(|&v| is_param(v)).map(|v| root(&mut parent, v));
+        groups.entry(g).or_insert_with(Poly::zero).add_term(m.clone(), c.clone());
+    }
+    let deterministic = groups.remove(&None).unwrap_or_else(Poly::zero);
+    if groups.len() < 2 {
+        return None;
+    }
+    let top = MAX_MOMENT_ORDER as usize;
+    let mut work = 0usize;
+    // E[S^k] for S = G₀: G₀^k itself
+    let mut acc: Vec<Poly<C>> = vec![Poly::constant(C::one())];
+    for k in 1..=top {
+        let next = acc[k - 1].mul(&deterministic);
+        acc.push(next);
+    }
+    for g in groups.values() {
+        // E[G^k], k = 0 … top
+        let mut eg: Vec<Poly<C>> = vec![Poly::constant(C::one())];
+        let mut power = Poly::constant(C::one());
+        for _ in 1..=top {
+            work += power.len() * g.len();
+            power = power.mul(g);
+            eg.push(power.expect(is_param, moment).ok()?);
+        }
+        let mut next: Vec<Poly<C>> = Vec::with_capacity(top + 1);
+        for k in 0..=top {
+            let mut sum = Poly::zero();
+            for l in 0..=k {
+                work += acc[l].len() * eg[k - l].len();
+                let binom = C::from_rational(&BigRational::from_integer(binomial_exact(k as u32, l as u32).into()));
+                sum = sum.add(&acc[l].mul(&eg[k - l]).scale(&binom));
+            }
+            next.push(sum);
+        }
+        if work > MAX_HIGHER_MOMENT_WORK {
+            return None;
+        }
+        acc = next;
+    }
+    let mut central = vec![Poly::constant(C::one()), Poly::zero()];
+    central.extend(acc.into_iter().skip(2));
+    Some(central)
+}
+
+/// `C(n, k)` exactly.
+fn binomial_exact(n: u32, k: u32) -> u64 {
+    (0..k).fold(1u64, |acc, i| acc * u64::from(n - i) / u64::from(i + 1))
+}
+
 /// Powers of Z = P − E\[P\] and their expectations, generic over the coefficient ring, within
 /// [`MAX_HIGHER_MOMENT_WORK`] term products.
-fn central_moments<C: crate::poly::Ring>(
+fn central_moments_expanded<C: crate::poly::Ring>(
     z: &Poly<C>,
     is_param: impl Fn(Var) -> bool + Copy,
     moment: impl Fn(Var, u32) -> Option<C> + Copy,
@@ -676,6 +780,46 @@ pub fn point_bounds(c: &RiskContour, xt: &[BigRational], support_negative: Optio
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Central moments by independent parameter groups equal the expansion of the powers of
+    /// Z, exactly (rationals), for Gaussian, uniform and discrete parameters in two to three
+    /// groups, one group with two coupled parameters, and a moving centre.
+    #[test]
+    fn moments_by_groups_equal_the_expansion_exactly() {
+        use crate::moments::Distribution;
+        use crate::poly::{parse, parse_decimal, VarTable};
+        let q = |v: &str| parse_decimal(v).unwrap();
+        // a contour in 2-D over named parameters (x1, x2, t, then the parameters)
+        let contour = |text: &str, params: &[(&str, Distribution)]| {
+            let mut names: Vec<String> = ["x1", "x2", "t"].map(String::from).to_vec();
+            names.extend(params.iter().map(|(n, _)| n.to_string()));
+            let vars = VarTable::new(names);
+            let p = parse(text, &mut |n: &str| vars.get(n).ok_or_else(|| n.to_string())).unwrap();
+            let moments: Vec<Vec<BigRational>> = params.iter().map(|(_, d)| d.raw_moments(64).unwrap()).collect();
+            let lookup = |v: Var, k: u32| moments.get(v as usize - 3).and_then(|m| m.get(k as usize)).cloned();
+            RiskContour::new(super::super::Layout { dim: 2 }, &p, &lookup, &|v| vars.name(v)).unwrap()
+        };
+        let n = || Distribution::Normal { mean: q("0.1"), std: q("0.05") };
+        let u = || Distribution::Uniform { low: q("0.3"), high: q("0.4") };
+        let cases: Vec<(&str, Vec<(&str, Distribution)>)> = vec![
+            ("0.09 - (x1 - 2 - a)^2 - (x2 - 2.7 - b)^2", vec![("a", n()), ("b", n())]),
+            ("r^2 - (x1 - a - 0.5*t)^2 - (x2 - b*t)^2", vec![("r", u()), ("a", n()), ("b", u())]),
+            ("r^2*(1 + a*b) - x1^2 - (x2 - c)^2", vec![("r", u()), ("a", n()), ("b", n()), ("c", n())]),
+        ];
+        for (text, params) in cases {
+            let c = contour(text, &params);
+            let layout = c.layout();
+            let z = c.poly.sub(&c.mean);
+            let moment = |v: Var, k: u32| c.raw_moment(v, k);
+            let by_groups = central_moments_by_groups(&z, |v| layout.is_param(v), moment).expect("two or more groups");
+            let (expanded, limit) = central_moments_expanded(&z, |v| layout.is_param(v), moment, |v| c.param_name(v));
+            assert!(limit.is_none(), "{text}: {limit:?}");
+            assert_eq!(by_groups.len(), expanded.len(), "{text}");
+            for (j, (g, e)) in by_groups.iter().zip(&expanded).enumerate() {
+                assert!(g.sub(e).is_zero(), "{text}: order {j} differs");
+            }
+        }
+    }
 
     /// Order 2 with the optimal shift b = −σ²/μ² is Cantelli's bound (docs/design.md §3.8).
     #[test]
