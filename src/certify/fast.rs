@@ -436,6 +436,27 @@ impl<const N: usize> RPoly<N> {
     }
 }
 
+/// Runs `$run::<N>(args…)` with the smallest stack capacity N (9, 17 or [`CAPACITY`])
+/// that holds `$len` coefficients: every product of a Horner walk zeroes and copies its
+/// whole buffer, so a straight piece's low orders should not pay for 33.
+macro_rules! by_capacity {
+    ($len:expr, $run:ident, $($arg:expr),*) => {
+        if $len <= 9 {
+            $run::<9>($($arg),*)
+        } else if $len <= 17 {
+            $run::<17>($($arg),*)
+        } else {
+            $run::<CAPACITY>($($arg),*)
+        }
+    };
+}
+pub(crate) use by_capacity;
+
+/// Coefficients of `c` restricted to a piece whose coordinates have degree ≤ `sub_degree`.
+pub(crate) fn restricted_len(c: &Compiled, sub_degree: usize) -> usize {
+    c.degree().saturating_mul(sub_degree.max(1)).saturating_add(1)
+}
+
 /// `c` composed with a [`Substitution`] in `f64` with a running error bound, as an
 /// enclosure in the smallest stack buffer that holds it.
 fn enclosed_e(c: &Compiled, sub: &Substitution) -> Option<UPoly<Interval>> {
@@ -446,14 +467,7 @@ fn enclosed_e(c: &Compiled, sub: &Substitution) -> Option<UPoly<Interval>> {
         let n = e.enclosure(&mut out)?;
         Some(UPoly::new(out[..n].to_vec()))
     }
-    let len = c.degree().saturating_mul(sub.degree().max(1)).saturating_add(1);
-    if len <= 9 {
-        run::<9>(c, sub)
-    } else if len <= 17 {
-        run::<17>(c, sub)
-    } else {
-        run::<CAPACITY>(c, sub)
-    }
+    by_capacity!(restricted_len(c, sub.degree()), run, c, sub)
 }
 
 /// The exact sign of `c0 + c1·t − l` (a straight coordinate's value at `t` against a

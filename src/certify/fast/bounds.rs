@@ -9,7 +9,7 @@
 //! ([`crate::contour::bounds::build_higher_of`]), and every later operation is outward
 //! rounded, so each restricted coefficient encloses the exact one.
 
-use super::{to_frame, Compiled, FPoly, Frame, Substitution, CAPACITY};
+use super::{by_capacity, restricted_len, to_frame, Compiled, FPoly, Frame, Substitution, CAPACITY};
 use crate::contour::bounds::build_higher_of;
 use crate::contour::{RiskContour, SupportForm};
 use crate::poly::{Interval, Poly, UPoly, Var};
@@ -169,18 +169,11 @@ impl CompiledBounds {
     /// [`CompiledBounds::central_one_on`] then).
     pub fn central_one_on_f64(&self, j: usize, sub: &Substitution) -> Option<UPoly<Interval>> {
         let c = self.central.get(j)?;
-        let len = c.degree().saturating_mul(sub.degree().max(1)).saturating_add(1);
         fn run<const N: usize>(c: &Compiled, sub: &Substitution) -> Option<UPoly<Interval>> {
             let subs = sub.epolys::<N>()?;
             c.compose_r(&subs[..sub.len()]).map(|f| UPoly::new(f.coeffs().to_vec()))
         }
-        if len <= 9 {
-            run::<9>(c, sub)
-        } else if len <= 17 {
-            run::<17>(c, sub)
-        } else {
-            run::<CAPACITY>(c, sub)
-        }
+        by_capacity!(restricted_len(c, sub.degree()), run, c, sub)
     }
 
     /// E\[P\] and E\[P²\] at a point given by its compiled coordinates `z`, in floating
@@ -210,15 +203,8 @@ impl CompiledBounds {
 /// coefficients, not [`CAPACITY`]): every product of the Horner walk zeroes and copies
 /// the whole buffer, which dominated the cost of the low orders.
 pub fn restricted(c: &Compiled, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {
-    let sub_degree = subs.iter().map(FPoly::degree).max().unwrap_or(0).max(1);
-    let len = c.degree().saturating_mul(sub_degree).saturating_add(1);
-    if len <= 9 {
-        restricted_in::<9>(c, subs)
-    } else if len <= 17 {
-        restricted_in::<17>(c, subs)
-    } else {
-        c.compose(subs).map(|f| UPoly::new(f.coeffs().to_vec()))
-    }
+    let sub_degree = subs.iter().map(FPoly::degree).max().unwrap_or(0);
+    by_capacity!(restricted_len(c, sub_degree), restricted_in, c, subs)
 }
 
 fn restricted_in<const N: usize>(c: &Compiled, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {
