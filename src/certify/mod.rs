@@ -16,6 +16,7 @@ pub mod fast;
 pub mod region;
 pub mod scene;
 pub mod sos;
+pub mod tail;
 #[cfg(any(test, feature = "test-support"))]
 pub mod sturm;
 mod verdict;

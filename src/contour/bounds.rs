@@ -104,6 +104,8 @@ pub enum BoundKind {
     Support,
     /// The shifted Markov bound on the moment of this even order (§3.8).
     Moment(u32),
+    /// A pedestrian's Gaussian tail bound (§3.11).
+    Tail,
 }
 
 impl BoundKind {
@@ -116,6 +118,7 @@ impl BoundKind {
             BoundKind::Moment(6) => "moment6",
             BoundKind::Moment(8) => "moment8",
             BoundKind::Moment(_) => "moment",
+            BoundKind::Tail => "tail",
         }
     }
 }
@@ -141,6 +144,7 @@ impl<'de> Deserialize<'de> for BoundKind {
             "moment4" => Ok(BoundKind::Moment(4)),
             "moment6" => Ok(BoundKind::Moment(6)),
             "moment8" => Ok(BoundKind::Moment(8)),
+            "tail" => Ok(BoundKind::Tail),
             other => Err(serde::de::Error::custom(format!("unknown bound kind '{other}'"))),
         }
     }

@@ -36,7 +36,7 @@ impl Problem {
 
     /// Whether any obstacle moves.
     pub fn is_dynamic(&self) -> bool {
-        self.scene.obstacles.iter().any(|o| o.contour.is_dynamic())
+        self.scene.obstacles.iter().any(|o| o.is_dynamic())
     }
 
     /// Checks the request: dimensions, workspace, a non-empty horizon (Δ is a

@@ -62,14 +62,18 @@ pub struct WorkspaceFile {
     pub upper: Vec<Num>,
 }
 
-/// One obstacle: `{x : poly >= 0}`.
+/// One obstacle: `{x : poly >= 0}`, or a pedestrian template (exactly one of the two).
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ObstacleFile {
     /// Unique id.
     pub id: String,
-    /// Polynomial text.
+    /// Polynomial text (empty for a pedestrian).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     pub poly: String,
+    /// A pedestrian (docs/formats.md §1.5.1) instead of a polynomial.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pedestrian: Option<super::pedestrian::PedestrianFile>,
 }
 
 fn zero() -> Num {

@@ -7,6 +7,7 @@
 
 mod file;
 mod num;
+mod pedestrian;
 mod trajectory;
 
 pub use file::{
@@ -14,6 +15,7 @@ pub use file::{
     TimeVaryingSosBlock, WidthBlock, WorkspaceFile, SCENE_FORMAT,
 };
 pub use num::{parse_num_text, Num};
+pub use pedestrian::{Pedestrian, PedestrianFile, RadiusFile, MAX_PEDESTRIAN_MAGNITUDE};
 pub use trajectory::{
     Piece, Trajectory, TrajectoryError, TrajectoryFile, CONTINUITY_TOLERANCE, MAX_PIECES, MAX_PIECE_DEGREE,
     TRAJECTORY_FORMAT,
@@ -120,12 +122,103 @@ pub struct Param {
 pub struct Obstacle {
     /// Unique id.
     pub id: String,
-    /// The polynomial text as given.
+    /// The polynomial text as given (empty for a pedestrian).
     pub text: String,
-    /// P(x, ω, t), exact.
+    /// P(x, ω, t), exact: in the scene's variables, or for a pedestrian in its own
+    /// (`x1..xn, t`, then [`Obstacle::own_params`]).
     pub poly: QPoly,
-    /// E\[P\], E\[P²\], built once (eqs. 10/12).
-    pub contour: Arc<RiskContour>,
+    /// E\[P\], E\[P²\], built once (eqs. 10/12): at once for a polynomial obstacle, on
+    /// first use for a pedestrian.
+    pub contour: ContourCell,
+    /// The pedestrian template this obstacle was made from, if any (docs/design.md §3.11).
+    pub pedestrian: Option<Arc<Pedestrian>>,
+}
+
+impl Obstacle {
+    /// The parameters that are this obstacle's own (a pedestrian's), with variables of
+    /// its polynomial; empty for a polynomial obstacle (its parameters are the scene's).
+    pub fn own_params(&self) -> &[Param] {
+        self.pedestrian.as_ref().map_or(&[], |p| &p.params)
+    }
+
+    /// Whether the obstacle moves.
+    pub fn is_dynamic(&self) -> bool {
+        match &self.pedestrian {
+            Some(p) => p.disk.sigma_v > 0.0 || p.disk.velocity.iter().any(|v| v.lo != 0.0 || v.hi != 0.0),
+            None => self.contour.is_dynamic(),
+        }
+    }
+}
+
+/// An obstacle's contour: built, or built on first use (a pedestrian's: most plans never
+/// need it). Dereferences to the [`RiskContour`]; clones share it.
+#[derive(Clone)]
+pub struct ContourCell(Arc<CellInner>);
+
+enum CellInner {
+    Ready(Arc<RiskContour>),
+    Lazy { cell: std::sync::OnceLock<Arc<RiskContour>>, pedestrian: Arc<Pedestrian>, dim: usize },
+}
+
+impl ContourCell {
+    /// A contour already built.
+    pub fn ready(c: Arc<RiskContour>) -> ContourCell {
+        ContourCell(Arc::new(CellInner::Ready(c)))
+    }
+
+    /// A pedestrian's contour, built on first use.
+    pub fn pedestrian(pedestrian: Arc<Pedestrian>, dim: usize) -> ContourCell {
+        ContourCell(Arc::new(CellInner::Lazy { cell: std::sync::OnceLock::new(), pedestrian, dim }))
+    }
+
+    /// The contour (built now if it was not).
+    pub fn get(&self) -> &Arc<RiskContour> {
+        match &*self.0 {
+            CellInner::Ready(c) => c,
+            CellInner::Lazy { cell, pedestrian, dim } => cell.get_or_init(|| Arc::new(pedestrian.contour(*dim))),
+        }
+    }
+
+    /// An identity of this contour: equal for clones (a contour taken unchanged into the
+    /// next revision of a scene), different for contours built apart.
+    pub fn key(&self) -> usize {
+        match &*self.0 {
+            CellInner::Ready(c) => Arc::as_ptr(c) as usize,
+            CellInner::Lazy { .. } => Arc::as_ptr(&self.0) as *const () as usize,
+        }
+    }
+
+    /// Whether it has been built.
+    pub fn is_built(&self) -> bool {
+        match &*self.0 {
+            CellInner::Ready(_) => true,
+            CellInner::Lazy { cell, .. } => cell.get().is_some(),
+        }
+    }
+
+    /// The contour if built (never builds).
+    pub fn peek(&self) -> Option<&Arc<RiskContour>> {
+        match &*self.0 {
+            CellInner::Ready(c) => Some(c),
+            CellInner::Lazy { cell, .. } => cell.get(),
+        }
+    }
+}
+
+impl std::ops::Deref for ContourCell {
+    type Target = RiskContour;
+    fn deref(&self) -> &RiskContour {
+        self.get()
+    }
+}
+
+impl std::fmt::Debug for ContourCell {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.peek() {
+            Some(c) => c.fmt(f),
+            None => f.write_str("ContourCell(not built)"),
+        }
+    }
 }
 
 /// A validated scene.
@@ -186,6 +279,17 @@ impl Scene {
     /// (and adding the ones built now). A scene update that moves one obstacle thus
     /// rebuilds only that obstacle's E\[P\] and E\[P²\].
     pub fn from_file_cached(file: SceneFile, cache: &ContourCache) -> Result<Scene, SceneError> {
+        Scene::from_file_reusing(file, cache, None)
+    }
+
+    /// [`Scene::from_file_cached`], taking every pedestrian whose template is unchanged
+    /// (same id, same fields) from `previous` as it is — with its contour if one was built
+    /// — so that an update of some pedestrians costs only theirs (docs/design.md §3.11).
+    pub fn from_file_reusing(
+        file: SceneFile,
+        cache: &ContourCache,
+        previous: Option<&Scene>,
+    ) -> Result<Scene, SceneError> {
         if file.format != SCENE_FORMAT {
             return Err(err("format", format!("must be \"{SCENE_FORMAT}\", got \"{}\"", file.format)));
         }
@@ -206,13 +310,29 @@ impl Scene {
         };
         let (vars, params) = validate_params(&file, dim)?;
         let layout = Layout { dim };
-        let polys = parse_obstacles(&file, &vars, dim)?;
+        let parsed = parse_obstacles(&file, &vars, dim, previous)?;
+        let polys: Vec<QPoly> =
+            parsed.iter().filter_map(|p| if let Parsed::Poly(q) = p { Some(q.clone()) } else { None }).collect();
         let moments = needed_moments(&polys, &params)?;
         let supports: Vec<(Var, BigRational, BigRational)> =
             params.iter().filter_map(|p| p.dist.support().map(|(lo, hi)| (p.var, lo, hi))).collect();
         let name = |v: Var| vars.name(v);
-        let mut obstacles = Vec::with_capacity(polys.len());
-        for (i, (o, poly)) in file.obstacles.iter().zip(polys).enumerate() {
+        let mut obstacles = Vec::with_capacity(parsed.len());
+        for (i, (o, parsed)) in file.obstacles.iter().zip(parsed).enumerate() {
+            let poly = match parsed {
+                Parsed::Poly(q) => q,
+                Parsed::Pedestrian(p, cell) => {
+                    let contour = cell.unwrap_or_else(|| ContourCell::pedestrian(p.clone(), dim));
+                    obstacles.push(Obstacle {
+                        id: o.id.clone(),
+                        text: String::new(),
+                        poly: p.poly.clone(),
+                        contour,
+                        pedestrian: Some(p),
+                    });
+                    continue;
+                }
+            };
             let key = ContourCache::key(dim, &o.poly, &poly, &file.params, &vars);
             let contour = match cache.get(&key) {
                 Some(c) => c,
@@ -224,7 +344,13 @@ impl Scene {
                     cache.insert(key, Arc::new(c))
                 }
             };
-            obstacles.push(Obstacle { id: o.id.clone(), text: o.poly.clone(), poly, contour });
+            obstacles.push(Obstacle {
+                id: o.id.clone(),
+                text: o.poly.clone(),
+                poly,
+                contour: ContourCell::ready(contour),
+                pedestrian: None,
+            });
         }
         if let Some(b) = &file.planner {
             validate_planner_block(b)?;
@@ -283,9 +409,29 @@ impl Scene {
             samplers.push((p.var, s));
         }
         let center = self.center();
-        let polys =
-            self.obstacles.iter().map(|o| crate::poly::shift(&o.poly, &center).map_coeffs(rational_to_f64)).collect();
-        Ok(McModel::new(self.layout(), self.vars.len(), polys, samplers, center))
+        // a pedestrian's own parameters become variables after the scene's
+        let mut nvars = self.vars.len();
+        let mut polys = Vec::with_capacity(self.obstacles.len());
+        for o in &self.obstacles {
+            let own = o.own_params();
+            let poly = if own.is_empty() {
+                o.poly.clone()
+            } else {
+                let base = nvars;
+                nvars += own.len();
+                let map: Vec<(Var, Var)> = own.iter().enumerate().map(|(k, p)| (p.var, (base + k) as Var)).collect();
+                for (k, p) in own.iter().enumerate() {
+                    let s = p.dist.sampler().map_err(|e| SceneError {
+                        path: format!("obstacles.{}.pedestrian", o.id),
+                        kind: e.into(),
+                    })?;
+                    samplers.push(((base + k) as Var, s));
+                }
+                o.poly.subst(&|v| map.iter().find(|m| m.0 == v).map(|m| crate::poly::Poly::var(m.1)))
+            };
+            polys.push(crate::poly::shift(&poly, &center).map_coeffs(rational_to_f64));
+        }
+        Ok(McModel::new(self.layout(), nvars, polys, samplers, center))
     }
 }
 
@@ -373,7 +519,7 @@ impl ContourCache {
     /// Keeps only the contours used by `scenes` (called after updates).
     pub fn retain_used<'a>(&self, scenes: impl IntoIterator<Item = &'a Scene>) {
         let live: Vec<*const RiskContour> =
-            scenes.into_iter().flat_map(|s| s.obstacles.iter().map(|o| Arc::as_ptr(&o.contour))).collect();
+            scenes.into_iter().flat_map(|s| s.obstacles.iter().filter_map(|o| o.contour.peek().map(Arc::as_ptr))).collect();
         if let Ok(mut m) = self.map.lock() {
             m.retain(|_, c| live.contains(&Arc::as_ptr(c)));
         }
@@ -481,7 +627,19 @@ fn moment_err(path: &str, e: MomentError) -> SceneError {
     }
 }
 
-fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<QPoly>, SceneError> {
+/// One obstacle as parsed: a polynomial in the scene's variables, or a pedestrian (with
+/// its contour cell when taken unchanged from the previous scene).
+enum Parsed {
+    Poly(QPoly),
+    Pedestrian(Arc<Pedestrian>, Option<ContourCell>),
+}
+
+fn parse_obstacles(
+    file: &SceneFile,
+    vars: &VarTable,
+    dim: usize,
+    previous: Option<&Scene>,
+) -> Result<Vec<Parsed>, SceneError> {
     if file.obstacles.len() > MAX_OBSTACLES {
         return Err(err("obstacles", format!("at most {MAX_OBSTACLES} obstacles, got {}", file.obstacles.len())));
     }
@@ -496,6 +654,27 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
         }
         if let Some(j) = seen.insert(o.id.clone(), i) {
             return Err(err(format!("obstacles[{i}].id"), format!("'{}' is already the id of obstacles[{j}]", o.id)));
+        }
+        match (&o.pedestrian, o.poly.is_empty()) {
+            (Some(pf), true) => {
+                let reused = previous.and_then(|s| s.obstacle(&o.id)).and_then(|old| {
+                    let p = old.pedestrian.as_ref().filter(|p| p.file == *pf && s_dim(previous) == dim)?;
+                    Some((p.clone(), old.contour.clone()))
+                });
+                out.push(match reused {
+                    Some((p, cell)) => Parsed::Pedestrian(p, Some(cell)),
+                    None => Parsed::Pedestrian(
+                        Arc::new(Pedestrian::new(pf, dim, &format!("obstacles[{i}].pedestrian"))?),
+                        None,
+                    ),
+                });
+                continue;
+            }
+            (Some(_), false) => {
+                return Err(err(format!("obstacles[{i}]"), "give either 'poly' or 'pedestrian', not both"));
+            }
+            (None, true) => return Err(err(format!("obstacles[{i}].poly"), "an obstacle needs 'poly' (or 'pedestrian')")),
+            (None, false) => {}
         }
         let path = format!("obstacles[{i}].poly");
         let mut resolve = |n: &str| -> Result<Var, String> {
@@ -534,9 +713,13 @@ fn parse_obstacles(file: &SceneFile, vars: &VarTable, dim: usize) -> Result<Vec<
                 ));
             }
         }
-        out.push(poly);
+        out.push(Parsed::Poly(poly));
     }
     Ok(out)
+}
+
+fn s_dim(s: Option<&Scene>) -> usize {
+    s.map_or(0, |s| s.dim)
 }
 
 /// Raw moments of every parameter up to `2·max deg` over the obstacles (§2.1: E\[P²\]).

@@ -173,6 +173,9 @@ pub fn verify_obstacle_with(
     settings: &sos::SosSettings,
     bounds: BoundChoice,
 ) -> ObstacleReport {
+    if let (Some(p), true) = (&o.pedestrian, bounds.beyond_cantelli()) {
+        return verify_pedestrian(o, p, piece, delta, method);
+    }
     let mut constraints = Vec::with_capacity(2);
     let mut status = Status::Safe;
     decide_obstacle(o, compiled, piece, delta.rational(), method, settings, |name, vs| {
@@ -244,6 +247,29 @@ pub fn verify_obstacle_with(
     report
 }
 
+/// A pedestrian over one piece by its Gaussian tail bound, exactly (docs/design.md
+/// §3.11): one constraint, `tail`, `‖x − m(t)‖² − r(t)² > 0` on the piece.
+fn verify_pedestrian(o: &Obstacle, p: &crate::scene::Pedestrian, piece: PieceRef<'_>, delta: &RiskLevel, method: Method) -> ObstacleReport {
+    let v = crate::certify::tail::piece_clear_exact(p, delta.rational(), piece);
+    let r = method_report(&v, piece);
+    let safe = r.status == Status::Safe;
+    ObstacleReport {
+        id: o.id.clone(),
+        status: r.status,
+        constraints: vec![ConstraintReport {
+            name: "tail".into(),
+            status: r.status,
+            margin: r.margin,
+            witness: r.witness,
+            reason: r.reason,
+            method: method.as_str().to_string(),
+            methods: None,
+        }],
+        bounds: if safe { vec![BoundPartReport { t0: piece.t0, t1: piece.t1, bound: BoundKind::Tail }] } else { Vec::new() },
+        not_covered: (!safe).then(|| "the piece comes within the pedestrian's Δ-radius (tail bound)".to_string()),
+    }
+}
+
 /// Verifies a trajectory against a scene (or its [`SceneKernel`], to reuse its
 /// compiled contours) at risk level `delta`.
 pub fn verify(
@@ -285,11 +311,12 @@ pub fn verify_until(
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
         let workspace = check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr);
         let mut obstacles = Vec::with_capacity(scene.obstacles.len());
-        for (o, c) in scene.obstacles.iter().zip(compiled.iter()) {
+        for (i, o) in scene.obstacles.iter().enumerate() {
             if stop() {
                 return Err(Interrupted);
             }
-            obstacles.push(verify_obstacle_with(o, Some(c), pr, delta, method, settings, bounds));
+            let c = o.pedestrian.is_none().then(|| compiled.get(i));
+            obstacles.push(verify_obstacle_with(o, c, pr, delta, method, settings, bounds));
         }
         let safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
         pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
@@ -375,7 +402,7 @@ pub fn final_check(
             return Err(Interrupted);
         }
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
-        if !piece_passes_verify_path(scene, &framed, near, pr, deltas, bounds, compiled.as_deref().map(|c| c.as_slice())) {
+        if !piece_passes_verify_path(scene, &framed, near, pr, deltas, bounds, compiled.as_deref()) {
             return Ok(done(Some(FinalFailure::NotProven(i))));
         }
     }

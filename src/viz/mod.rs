@@ -282,7 +282,14 @@ fn mean_obstacle_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64) -> Vec<f64> {
         .iter()
         .map(|o| {
             let mut q = o.poly.map_coeffs(crate::poly::rational_to_f64);
-            for (v, m) in &means {
+            // a pedestrian's polynomial is in its own parameters (scene::Pedestrian)
+            let own: Vec<(u16, f64)> = o
+                .own_params()
+                .iter()
+                .filter_map(|p| p.dist.mean().ok().map(|m| (p.var, crate::poly::rational_to_f64(&m))))
+                .collect();
+            let params = if o.pedestrian.is_some() { &own } else { &means };
+            for (v, m) in params {
                 q = q.partial_eval(*v, m);
             }
             q

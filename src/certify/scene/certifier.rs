@@ -4,11 +4,12 @@
 use super::decide::{combine, decide_obstacle, point_obstacle_safe_at, point_status, Method, PointStatus, Status};
 use super::framed::piece_passes_verify_path;
 use super::index::{piece_bbox, SceneIndex};
-use super::kernel::SceneKernel;
+use super::kernel::{CompiledSet, SceneKernel};
 use super::workspace::check_workspace;
-use crate::certify::fast::{straight_value_sign, CompiledContour, Substitution};
+use crate::certify::fast::{straight_value_sign, Substitution};
 use crate::certify::bounds::{Level, PieceBounds};
-use crate::certify::{bernstein, restrict_exact, sos, PieceRef, Verdict};
+use crate::certify::{bernstein, restrict_exact, sos, tail, PieceRef, Verdict};
+use crate::contour::tail::tail_kappa;
 use crate::contour::{BoundChoice, RiskLevel};
 use crate::motion::{Motion, MotionChecker, Termination};
 use crate::poly::Interval;
@@ -36,7 +37,7 @@ pub struct SceneCertifier {
     one_minus: Vec<(f64, bool)>,
     method: Method,
     settings: sos::SosSettings,
-    compiled: Arc<Vec<CompiledContour>>,
+    compiled: Arc<CompiledSet>,
     index: OnceLock<Arc<SceneIndex>>,
     /// Whether the fast path (covers, compiled restriction) is used; without it every
     /// obstacle is decided on every piece by the verify path (the final check's).
@@ -45,6 +46,8 @@ pub struct SceneCertifier {
     bounds: BoundChoice,
     /// Each obstacle's Δᵢ as the cover search uses it, converted once.
     levels: Vec<Level>,
+    /// Each pedestrian's tail threshold κ at its Δᵢ (docs/design.md §3.11).
+    kappas: Vec<Option<f64>>,
 }
 
 impl SceneCertifier {
@@ -71,6 +74,12 @@ impl SceneCertifier {
             .collect();
         let compiled = kernel.compiled();
         let levels = deltas.iter().map(|d| Level::new(d.rational())).collect();
+        let kappas = scene
+            .obstacles
+            .iter()
+            .zip(&deltas)
+            .map(|(o, d)| o.pedestrian.as_ref().and_then(|p| tail_kappa(p.disk.dim(), d.rational())))
+            .collect();
         SceneCertifier {
             kernel,
             scene,
@@ -83,6 +92,7 @@ impl SceneCertifier {
             fast: true,
             bounds: BoundChoice::default(),
             levels,
+            kappas,
         }
     }
 
@@ -136,6 +146,10 @@ impl SceneCertifier {
     /// covered by sub-intervals proven by other bounds (docs/design.md §5.13).
     fn obstacle_safe(&self, i: usize, pr: PieceRef<'_>, subs: Option<&Substitution>) -> bool {
         let o = &self.scene.obstacles[i];
+        if let (Some(p), true) = (&o.pedestrian, self.bounds.beyond_cantelli()) {
+            // a pedestrian: its Gaussian tail bound (docs/design.md §3.11)
+            return self.kappas[i].is_some_and(|k| tail::piece_clear(&p.disk, k, pr).is_safe());
+        }
         let delta = self.deltas[i].rational();
         // Cantelli: Ok(()) proven; Err(None) g₂ fails (E[P] ≥ 0 somewhere: no bound can
         // help); Err(Some(hint)) only g₁ fails or is undecided (hint: a local time, if known)
@@ -146,7 +160,7 @@ impl SceneCertifier {
         let cantelli: Result<(), Option<Option<f64>>> = 'cantelli: {
             if self.method == Method::Exact {
                 let fast = subs.and_then(|subs| {
-                    self.compiled[i].with_constraints(subs, self.one_minus[i], |g2, g1| {
+                    self.compiled.get(i).with_constraints(subs, self.one_minus[i], |g2, g1| {
                         for (k, g) in [g2, g1].into_iter().enumerate() {
                             match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
                                 Verdict::Safe { .. } => {}
@@ -181,7 +195,7 @@ impl SceneCertifier {
                 }
             }
             let mut result = Ok(());
-            decide_obstacle(o, Some(&self.compiled[i]), pr, delta, self.method, &self.settings, |name, vs| {
+            decide_obstacle(o, Some(self.compiled.get(i)), pr, delta, self.method, &self.settings, |name, vs| {
                 match combine(&vs) {
                     Status::Safe => true,
                     st => {
@@ -197,7 +211,7 @@ impl SceneCertifier {
             Ok(()) => true,
             Err(Some(hint)) if self.bounds.beyond_cantelli() => {
                 let pb = if self.fast {
-                    PieceBounds::for_piece_compiled(&o.contour, &self.compiled[i], pr, self.levels[i])
+                    PieceBounds::for_piece_compiled(&o.contour, self.compiled.get(i), pr, self.levels[i])
                         .with_substitution(subs)
                         .with_cantelli_restrictions(restricted)
                 } else {
@@ -287,10 +301,7 @@ impl MotionChecker for SceneCertifier {
         }
         let mut cands = Vec::new();
         self.index().candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
-        let subs = match (cands.is_empty(), self.compiled.first()) {
-            (false, Some(c)) => Substitution::new(pr, c.frame()),
-            _ => None,
-        };
+        let subs = if cands.is_empty() { None } else { Substitution::new(pr, self.compiled.frame()) };
         for i in cands {
             if !self.obstacle_safe(i, pr, subs.as_ref()) {
                 return Motion::Rejected;
@@ -327,7 +338,8 @@ impl MotionChecker for SceneCertifier {
         let mut xf = x.to_vec();
         xf.push(t);
         for i in cands {
-            let compiled = self.fast.then(|| (&self.compiled[i], &xf[..]));
+            let compiled =
+                (self.fast && self.scene.obstacles[i].pedestrian.is_none()).then(|| (self.compiled.get(i), &xf[..]));
             if !point_obstacle_safe_at(&self.scene.obstacles[i], &xt, &self.deltas[i], Some(self.levels[i]), compiled, self.bounds)
             {
                 return Motion::Rejected;

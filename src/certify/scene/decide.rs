@@ -180,6 +180,17 @@ pub fn point_obstacle_safe_at(
     compiled: Option<(&CompiledContour, &[f64])>,
     bounds: BoundChoice,
 ) -> bool {
+    // a pedestrian with `auto`: its Gaussian tail bound, exactly (docs/design.md §3.11)
+    if let (Some(p), true) = (&o.pedestrian, bounds.beyond_cantelli()) {
+        let dim = p.file.position.len();
+        if xt.len() != dim + 1 {
+            return false;
+        }
+        let f: Vec<f64> = xt.iter().map(crate::poly::rational_to_f64).collect();
+        let coeffs: Vec<Vec<f64>> = f[..dim].iter().map(|&v| vec![v]).collect();
+        let pr = PieceRef { t0: f[dim], t1: f[dim], coeffs: &coeffs };
+        return crate::certify::tail::piece_clear_exact(p, delta.rational(), pr).is_safe();
+    }
     let one_minus = BigRational::from_integer(1.into()) - delta.rational();
     let r = o.contour.risk_at(xt);
     let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;

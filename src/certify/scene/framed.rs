@@ -1,6 +1,5 @@
 //! The verify path's own frame for the final check (docs/design.md §5.12).
 
-use crate::certify::fast::CompiledContour;
 use super::decide::Interrupted;
 use super::workspace::{check_workspace, interval_hull};
 use super::Status;
@@ -26,7 +25,10 @@ use std::sync::OnceLock;
 pub struct FramedContours {
     center: Vec<f64>,
     inv_scale: Vec<f64>,
-    polys: Option<Vec<(crate::poly::Poly<Interval>, crate::poly::Poly<Interval>)>>,
+    /// The substitution into the frame (`None`: the scene's own coordinates) and each
+    /// obstacle's framed polynomials, made on first use (a pedestrian decided by its tail
+    /// bound never needs them).
+    polys: Option<(Vec<crate::poly::QPoly>, Vec<FramedPair>)>,
     /// With more than [`FramedContours::NEAR_MIN_OBSTACLES`] obstacles in at most
     /// [`FramedContours::NEAR_MAX_DIM`] dimensions: each obstacle's contour polynomials
     /// rewritten exactly around a point of its own, for a box test that clears distant
@@ -34,6 +36,8 @@ pub struct FramedContours {
     /// finite). Built by the first final check that needs it, asking its `stop`.
     near: OnceLock<Option<Vec<Option<Near>>>>,
 }
+
+type FramedPair = OnceLock<(crate::poly::Poly<Interval>, crate::poly::Poly<Interval>)>;
 
 /// One obstacle's contour polynomials around a point of its own (`y = x − c`), with
 /// interval coefficients: evaluated over a piece's bounding box they bound E\[P\] and
@@ -97,6 +101,11 @@ impl FramedContours {
             if stop() {
                 return Err(Interrupted);
             }
+            if o.pedestrian.is_some() {
+                // decided by its tail bound (or, with `cantelli`, by the composition)
+                near.push(None);
+                continue;
+            }
             let center = super::index::obstacle_center(&o.contour, &region);
             // the same exact values substituted and subtracted; a point that is not a
             // finite float gets no box test
@@ -159,11 +168,9 @@ impl FramedContours {
                     .add(&crate::poly::Poly::constant(BigRational::from_float(c).unwrap_or_default()))
             })
             .collect();
-        let frame =
-            |p: &crate::poly::QPoly| p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational);
-        let polys = scene.obstacles.iter().map(|o| (frame(&o.contour.mean), frame(&o.contour.second))).collect();
+        let polys = scene.obstacles.iter().map(|_| OnceLock::new()).collect();
         let inv_scale = exps.iter().map(|&e| crate::certify::fast::pow2(-e)).collect();
-        FramedContours { center, inv_scale, polys: Some(polys), near: OnceLock::new() }
+        FramedContours { center, inv_scale, polys: Some((subs, polys)), near: OnceLock::new() }
     }
 
     /// The constraints of obstacle `o` (the scene's `i`-th) restricted to a piece, in
@@ -189,7 +196,13 @@ impl FramedContours {
             UPoly::linear(t0 - Interval::point(self.center[n - 1]), h).scale(&Interval::point(self.inv_scale[n - 1])),
         );
         let (m, s) = match &self.polys {
-            Some(p) => (&p[i].0, &p[i].1),
+            Some((subs, p)) => {
+                let frame = |p: &crate::poly::QPoly| {
+                    p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational)
+                };
+                let pair = p[i].get_or_init(|| (frame(&o.contour.mean), frame(&o.contour.second)));
+                (&pair.0, &pair.1)
+            }
             None => o.contour.interval_polys(),
         };
         let e1 = m.compose_univariate(&subs);
@@ -214,7 +227,7 @@ pub(crate) fn piece_passes_verify_path(
     pr: PieceRef<'_>,
     deltas: &[RiskLevel],
     bounds: BoundChoice,
-    compiled: Option<&[CompiledContour]>,
+    compiled: Option<&super::kernel::CompiledSet>,
 ) -> bool {
     if !pr.is_finite() || check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe {
         return false;
@@ -223,6 +236,10 @@ pub(crate) fn piece_passes_verify_path(
     // the box tests of distant obstacles
     let bbox = near.and_then(|_| interval_hull(pr));
     scene.obstacles.iter().zip(deltas).enumerate().all(|(i, (o, d))| {
+        if let (Some(p), true) = (&o.pedestrian, bounds.beyond_cantelli()) {
+            // the tail bound in exact arithmetic (docs/design.md §3.11)
+            return crate::certify::tail::piece_clear_exact(p, d.rational(), pr).is_safe();
+        }
         let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational()));
         if let (Some((Some(n), g1)), Some(b)) = (near.map(|(n, c)| (&n[i], &c[i])), &bbox) {
             if n.clears(b, Interval::new(pr.t0, pr.t1), g1.get_or_init(|| n.cantelli(omd))) {
@@ -245,7 +262,7 @@ pub(crate) fn piece_passes_verify_path(
                 let hint = if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None };
                 let level = Level::new(d.rational());
                 PieceBounds::for_piece(&o.contour, pr, level).cover(hint).is_ok()
-                    || compiled.and_then(|c| c.get(i)).is_some_and(|c| {
+                    || compiled.map(|c| c.get(i)).is_some_and(|c| {
                         PieceBounds::for_piece_compiled(&o.contour, c, pr, level).cover(hint).is_ok()
                     })
             }

@@ -14,7 +14,9 @@ use crate::certify::region::{unsafe_cover, ConstraintBounds, Cover};
 use crate::certify::PieceRef;
 use crate::contour::RiskLevel;
 use crate::poly::Interval;
-use crate::scene::Scene;
+use crate::contour::tail::tail_kappa;
+use crate::scene::{ContourCell, Scene};
+use std::sync::Arc;
 
 /// Time slabs per horizon for a moving obstacle's covers: a piece is tested against
 /// the covers of the slabs it spans; more slabs give tighter boxes at more set-up cost.
@@ -50,7 +52,8 @@ struct Slab {
 }
 
 /// An obstacle's covers: per slab (static obstacles: one slab for all time), or none
-/// (always checked).
+/// (always checked). A moving obstacle's slabs are equal in length, from `slabs[0].t.0`,
+/// so that the slabs a piece spans are found by division.
 #[derive(Clone, Debug)]
 struct ObstacleCovers {
     slabs: Option<Vec<Slab>>,
@@ -58,12 +61,46 @@ struct ObstacleCovers {
     timeless: bool,
 }
 
+/// Most time slabs of a pedestrian's covers over the horizon (docs/design.md §3.11):
+/// its slabs are as long as it takes to walk its own reach (so that a slab's box is a
+/// few times the disk), at least [`TIME_SLABS`], at most this many.
+pub const PEDESTRIAN_MAX_SLABS: usize = 4096;
+
+/// A pedestrian's covers from its tail bound at threshold `kappa`: per slab, the box of
+/// [`GaussianDisk::slab_box`](crate::contour::tail::GaussianDisk::slab_box) — microseconds,
+/// no search.
+fn pedestrian_covers(p: &crate::scene::Pedestrian, kappa: f64, horizon: (f64, f64)) -> ObstacleCovers {
+    let d = &p.disk;
+    let (h0, h1) = horizon;
+    let speed = d.velocity.iter().map(|v| v.lo.abs().max(v.hi.abs())).fold(0.0, f64::max);
+    let len = h1 - h0;
+    let wanted = if speed > 0.0 && d.reach > 0.0 { (len * speed / d.reach).ceil() } else { TIME_SLABS as f64 };
+    let n = if wanted.is_finite() { (wanted as usize).clamp(TIME_SLABS, PEDESTRIAN_MAX_SLABS) } else { PEDESTRIAN_MAX_SLABS };
+    let slabs = (0..n)
+        .map(|k| {
+            let a = if k == 0 { h0 } else { h0 + len * k as f64 / n as f64 };
+            let b = if k + 1 == n { h1 } else { h0 + len * (k + 1) as f64 / n as f64 };
+            let cover = d.slab_box(a, b, kappa);
+            let finite = cover.iter().all(|c| c.0.is_finite() && c.1.is_finite());
+            // a box that is not finite covers everything
+            let cover = if finite { cover } else { vec![(f64::NEG_INFINITY, f64::INFINITY); d.dim()] };
+            Slab { t: (a, b), cover: Some(cover) }
+        })
+        .collect();
+    ObstacleCovers { slabs: Some(slabs), timeless: false }
+}
+
 /// Covers and a grid for one scene and one risk level per obstacle.
 #[derive(Debug)]
 pub struct SceneIndex {
     covers: Vec<ObstacleCovers>,
+    /// Each obstacle's contour cell and risk level the covers were built for (to take
+    /// them over in the next revision of the scene when both are unchanged). The cells
+    /// are held, so that their identities cannot be reused by other contours.
+    keys: Vec<(ContourCell, RiskLevel)>,
     lower: Vec<f64>,
     upper: Vec<f64>,
+    horizon: (f64, f64),
     grid: Option<Grid>,
     /// Seconds spent building the covers.
     pub build_seconds: f64,
@@ -122,18 +159,53 @@ impl SceneIndex {
     /// Builds the covers of every obstacle at its risk level (`deltas[i]`), asking
     /// `stop` between obstacles: obstacles left without a cover are always checked.
     pub fn build(scene: &Scene, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> SceneIndex {
+        SceneIndex::build_reusing(scene, deltas, stop, &[])
+    }
+
+    /// [`SceneIndex::build`], taking the covers of every obstacle whose contour and risk
+    /// level are unchanged from one of `previous` (indexes of the previous revision of
+    /// the scene, same workspace and horizon): an update of some obstacles rebuilds only
+    /// theirs.
+    pub fn build_reusing(
+        scene: &Scene,
+        deltas: &[RiskLevel],
+        stop: &dyn Fn() -> bool,
+        previous: &[Arc<SceneIndex>],
+    ) -> SceneIndex {
         let start = std::time::Instant::now();
+        let same_box = |p: &SceneIndex| {
+            p.lower == scene.workspace.lower && p.upper == scene.workspace.upper && p.horizon == scene.horizon
+        };
+        let previous: Vec<&Arc<SceneIndex>> = previous.iter().filter(|p| same_box(p)).collect();
+        let mut keys = Vec::with_capacity(scene.obstacles.len());
         let ws = &scene.workspace;
         let center = scene.center();
         let (h0, h1) = scene.horizon;
         let mut cells = 0;
         let mut covers = Vec::with_capacity(scene.obstacles.len());
         for (o, delta) in scene.obstacles.iter().zip(deltas) {
+            let key = (o.contour.clone(), delta.clone());
+            let reused = previous.iter().find_map(|p| {
+                let j = p.keys.iter().position(|k| k.0.key() == key.0.key() && k.1 == key.1)?;
+                p.covers[j].slabs.is_some().then(|| p.covers[j].clone())
+            });
+            keys.push(key);
+            if let Some(c) = reused {
+                covers.push(c);
+                continue;
+            }
             if stop() {
                 covers.push(ObstacleCovers { slabs: None, timeless: false });
                 continue;
             }
-            let dynamic = o.contour.is_dynamic();
+            if let Some(p) = &o.pedestrian {
+                match tail_kappa(p.disk.dim(), delta.rational()) {
+                    Some(k) => covers.push(pedestrian_covers(p, k, scene.horizon)),
+                    None => covers.push(ObstacleCovers { slabs: None, timeless: false }),
+                }
+                continue;
+            }
+            let dynamic = o.is_dynamic();
             let mut split: Vec<bool> = vec![true; scene.dim];
             split.push(dynamic);
             let slab_times: Vec<(f64, f64)> = if dynamic {
@@ -183,6 +255,8 @@ impl SceneIndex {
         let grid = (scene.obstacles.len() >= GRID_MIN_OBSTACLES).then(|| build_grid(scene, &covers));
         SceneIndex {
             covers,
+            keys,
+            horizon: scene.horizon,
             lower: ws.lower.clone(),
             upper: ws.upper.clone(),
             grid,
@@ -209,7 +283,21 @@ impl SceneIndex {
         if !(t0 >= first && t1 <= last) {
             return false;
         }
-        slabs.iter().filter(|s| s.t.0 <= t1 && t0 <= s.t.1).all(|s| s.cover.as_ref().is_none_or(|b| !overlaps(b, bbox)))
+        // the slabs are equal in length: the ones the piece spans by division, one more
+        // on each side against rounding (more slabs only skip less)
+        let n = slabs.len();
+        let w = (last - first) / n as f64;
+        let index = |t: f64| ((t - first) / w).floor();
+        let (a, b) = (index(t0), index(t1));
+        let (a, b) = if a.is_finite() && b.is_finite() && w > 0.0 {
+            ((a.max(1.0) as usize - 1).min(n - 1), (b.max(0.0) as usize + 1).min(n - 1))
+        } else {
+            (0, n - 1)
+        };
+        slabs[a..=b]
+            .iter()
+            .filter(|s| s.t.0 <= t1 && t0 <= s.t.1)
+            .all(|s| s.cover.as_ref().is_none_or(|b| !overlaps(b, bbox)))
     }
 
     /// The obstacles a piece must be checked against, given a proven spatial bounding

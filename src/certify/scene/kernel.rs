@@ -8,7 +8,7 @@
 
 use super::framed::FramedContours;
 use super::index::{scene_frame, SceneIndex};
-use crate::certify::fast::CompiledContour;
+use crate::certify::fast::{CompiledContour, Frame};
 use crate::contour::RiskLevel;
 use crate::scene::Scene;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -24,16 +24,19 @@ pub struct SceneKernel {
 
 struct Inner {
     scene: Arc<Scene>,
-    compiled: OnceLock<Arc<Vec<CompiledContour>>>,
+    compiled: OnceLock<Arc<CompiledSet>>,
     framed: OnceLock<Arc<FramedContours>>,
     indexes: Mutex<Vec<(Vec<RiskLevel>, Arc<SceneIndex>)>>,
+    /// The indexes of the scene's previous revision, whose covers of unchanged obstacles
+    /// the indexes built here take over.
+    previous: Vec<Arc<SceneIndex>>,
 }
 
 impl std::fmt::Debug for SceneKernel {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("SceneKernel")
             .field("scene", &self.inner.scene.name)
-            .field("compiled", &self.inner.compiled.get().map(|c| c.len()))
+            .field("compiled", &self.inner.compiled.get().map(|c| c.built()))
             .finish()
     }
 }
@@ -73,6 +76,34 @@ impl SceneKernel {
                 compiled: OnceLock::new(),
                 framed: OnceLock::new(),
                 indexes: Mutex::new(Vec::new()),
+                previous: Vec::new(),
+            }),
+        }
+    }
+
+    /// A kernel for `scene`, the next revision of this kernel's scene: what this kernel
+    /// built for obstacles that are unchanged (same contour; compiled contours, covers at
+    /// the same risk level) is taken over, so that an update of some obstacles costs only
+    /// theirs (docs/design.md §5.10, §3.11). Sound for any `scene`: only what depends on
+    /// nothing but an unchanged contour, the workspace and the horizon is reused, and those
+    /// are compared.
+    pub fn successor(&self, scene: Arc<Scene>) -> SceneKernel {
+        let compiled = OnceLock::new();
+        if let Some(old) = self.inner.compiled.get() {
+            let _ = compiled.set(Arc::new(CompiledSet::reusing(scene.clone(), old)));
+        }
+        let mut previous: Vec<Arc<SceneIndex>> =
+            self.inner.indexes.lock().map(|v| v.iter().map(|e| e.1.clone()).collect()).unwrap_or_default();
+        if previous.is_empty() {
+            previous = self.inner.previous.clone();
+        }
+        SceneKernel {
+            inner: Arc::new(Inner {
+                scene,
+                compiled,
+                framed: OnceLock::new(),
+                indexes: Mutex::new(Vec::new()),
+                previous,
             }),
         }
     }
@@ -82,16 +113,11 @@ impl SceneKernel {
         &self.inner.scene
     }
 
-    /// The scene's compiled contours (built once, shared by every checker of the scene).
-    pub fn compiled(&self) -> Arc<Vec<CompiledContour>> {
+    /// The scene's compiled contours (each built on first use, shared by every checker
+    /// of the scene).
+    pub fn compiled(&self) -> Arc<CompiledSet> {
         let scene = &self.inner.scene;
-        self.inner
-            .compiled
-            .get_or_init(|| {
-                let frame = scene_frame(scene);
-                Arc::new(scene.obstacles.iter().map(|o| CompiledContour::new(&o.contour, &frame)).collect())
-            })
-            .clone()
+        self.inner.compiled.get_or_init(|| Arc::new(CompiledSet::new(scene.clone()))).clone()
     }
 
     /// The scene's contours in the verify path's own frame (built once, shared by every
@@ -112,7 +138,7 @@ impl SceneKernel {
         if let Some(i) = self.peek_index(deltas) {
             return i;
         }
-        let built = Arc::new(SceneIndex::build(&self.inner.scene, deltas, stop));
+        let built = Arc::new(SceneIndex::build_reusing(&self.inner.scene, deltas, stop, &self.inner.previous));
         if built.complete() {
             if let Ok(mut v) = self.inner.indexes.lock() {
                 v.retain(|(d, _)| d != deltas);
@@ -123,5 +149,71 @@ impl SceneKernel {
             }
         }
         built
+    }
+}
+
+/// A scene's compiled contours (docs/design.md §5.10), one per obstacle, each compiled
+/// on first use: an obstacle no edge comes near, or a pedestrian decided by its tail
+/// bound (§3.11), is never compiled.
+pub struct CompiledSet {
+    scene: Arc<Scene>,
+    frame: Frame,
+    items: Vec<OnceLock<Arc<CompiledContour>>>,
+}
+
+impl std::fmt::Debug for CompiledSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CompiledSet").field("obstacles", &self.items.len()).field("built", &self.built()).finish()
+    }
+}
+
+impl CompiledSet {
+    /// Nothing compiled yet.
+    pub fn new(scene: Arc<Scene>) -> CompiledSet {
+        let frame = scene_frame(&scene);
+        let items = scene.obstacles.iter().map(|_| OnceLock::new()).collect();
+        CompiledSet { scene, frame, items }
+    }
+
+    /// The frame of every compiled contour of the scene.
+    pub fn frame(&self) -> &Frame {
+        &self.frame
+    }
+
+    /// Nothing compiled yet but what `old` (the previous revision's) compiled for the same
+    /// contour in the same frame.
+    pub fn reusing(scene: Arc<Scene>, old: &CompiledSet) -> CompiledSet {
+        let set = CompiledSet::new(scene);
+        if set.frame == old.frame {
+            for (o, item) in set.scene.obstacles.iter().zip(&set.items) {
+                let key = o.contour.key();
+                let found = old.scene.obstacles.iter().zip(&old.items).find(|(p, _)| p.contour.key() == key);
+                if let Some(c) = found.and_then(|(_, c)| c.get()) {
+                    let _ = item.set(c.clone());
+                }
+            }
+        }
+        set
+    }
+
+    /// Obstacle `i`'s compiled contour (compiled now if it was not). `i` must be an
+    /// obstacle of the scene.
+    pub fn get(&self, i: usize) -> &CompiledContour {
+        self.items[i].get_or_init(|| Arc::new(CompiledContour::new(&self.scene.obstacles[i].contour, &self.frame)))
+    }
+
+    /// How many are compiled.
+    pub fn built(&self) -> usize {
+        self.items.iter().filter(|c| c.get().is_some()).count()
+    }
+
+    /// Number of obstacles.
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    /// Whether the scene has no obstacle.
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
     }
 }

@@ -28,7 +28,7 @@ pub static SPEC: PlannerSpec = PlannerSpec {
         Ok(Built { planner, checker: Box::new(checker) })
     },
     paper_runs: |scene| {
-        let dynamic = scene.obstacles.iter().any(|o| o.contour.is_dynamic());
+        let dynamic = scene.obstacles.iter().any(|o| o.is_dynamic());
         let key = (!dynamic).then_some("monte_carlo_rrt_feasible");
         vec![PaperRun { label: "mc-rrt", improve: false, paper_key: key }]
     },

@@ -34,7 +34,7 @@ pub static PAPER: PlannerSpec = PlannerSpec {
     certified: true,
     build: |s| build(s, true),
     paper_runs: |scene: &Scene| {
-        if scene.obstacles.iter().any(|o| o.contour.is_dynamic()) {
+        if scene.obstacles.iter().any(|o| o.is_dynamic()) {
             vec![PaperRun { label: "rrt-sos-paper", improve: false, paper_key: Some("rrt_sos") }]
         } else {
             vec![
