@@ -57,6 +57,28 @@ pub struct PlanRequest {
     /// (the paper's; docs/design.md §3.7–§3.10, §5.13). `None`: the scene's
     /// `planner.bound`, else `auto` ([`BoundChoice`]).
     pub bound: Option<BoundChoice>,
+    /// A receding-horizon request (docs/design.md §6.9): plan from the robot's current
+    /// state over a window; `None`: the scene's start at its horizon's start to the goal
+    /// at its end.
+    pub receding: Option<RecedingRequest>,
+}
+
+/// The robot's state and the window of a receding-horizon request (docs/design.md §6.9).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecedingRequest {
+    /// The current time (inside the scene's horizon).
+    pub t_now: f64,
+    /// The robot's position at `t_now`.
+    pub position: Vec<f64>,
+    /// Its velocity at `t_now` (`None`: at rest).
+    pub velocity: Option<Vec<f64>>,
+    /// The window's length H (> 0): the plan covers `[t_now, t_now + H]`, cut at the
+    /// scene's horizon.
+    pub horizon: f64,
+    /// The goal.
+    pub goal: Vec<f64>,
+    /// The previous plan, to continue where it still holds.
+    pub warm_start: Option<Arc<crate::scene::Trajectory>>,
 }
 
 /// The time limit of a request that gives none (the service's default).
@@ -78,6 +100,7 @@ impl Default for PlanRequest {
             smooth: true,
             risk_mode: RiskMode::PerObstacle,
             bound: None,
+            receding: None,
         }
     }
 }
@@ -118,7 +141,9 @@ impl PreparedPlan {
         let mut fc = FinalCheckStats::default();
         let stop = || term.expired_by(FINAL_CHECK_GRACE);
         while let Some(traj) = out.trajectory.as_ref().filter(|_| out.certified) {
-            let ends = (self.problem.start.as_slice(), self.problem.goal.as_slice());
+            // a receding plan that ends short of the goal (`progress`) ends anywhere
+            let goal = (out.status != PlanStatus::Progress).then_some(self.problem.goal.as_slice());
+            let ends = (self.problem.start.as_slice(), goal);
             let check = match final_check(&self.kernel, traj, ends, &self.deltas, self.bounds, &stop) {
                 Ok(c) => c,
                 Err(Interrupted) => {
@@ -163,6 +188,9 @@ impl PreparedPlan {
 impl PlanRequest {
     /// The problem this request poses on `scene`.
     pub fn problem(&self, scene: Arc<Scene>) -> Result<Problem, PlanError> {
+        if let Some(r) = &self.receding {
+            return self.receding_problem(scene, r);
+        }
         let mut p = match &self.endpoints {
             Some((start, goal)) => Problem {
                 horizon: scene.horizon,
@@ -171,6 +199,9 @@ impl PlanRequest {
                 goal: goal.clone(),
                 scene,
                 seed: self.seed,
+                receding: false,
+                start_velocity: None,
+                warm_start: None,
             },
             None => Problem::from_scene(scene, self.seed)?,
         };
@@ -178,6 +209,57 @@ impl PlanRequest {
             p.delta = d.clone();
         }
         Ok(p)
+    }
+
+    fn receding_problem(&self, scene: Arc<Scene>, r: &RecedingRequest) -> Result<Problem, PlanError> {
+        let bad = |field: &str, message: String| PlanError::InvalidRequest { field: field.into(), message };
+        let (h0, h1) = scene.horizon;
+        if !(r.t_now >= h0 && r.t_now < h1) {
+            return Err(bad("t_now", format!("{} is outside the scene's horizon [{h0}, {h1})", r.t_now)));
+        }
+        if !(r.horizon > 0.0 && r.horizon.is_finite()) {
+            return Err(bad("horizon", format!("must be a positive number of time units, got {}", r.horizon)));
+        }
+        let end = (r.t_now + r.horizon).min(h1);
+        if end <= r.t_now {
+            return Err(bad("horizon", format!("the window [{}, {end}] is empty", r.t_now)));
+        }
+        if let Some(v) = &r.velocity {
+            if v.len() != scene.dim || v.iter().any(|c| !c.is_finite()) {
+                return Err(bad("velocity", format!("needs {} finite coordinates, got {v:?}", scene.dim)));
+            }
+        }
+        if r.position.len() != scene.dim {
+            return Err(bad("position", format!("needs {} coordinates, got {}", scene.dim, r.position.len())));
+        }
+        Ok(Problem {
+            horizon: (r.t_now, end),
+            delta: self.delta.clone().unwrap_or_else(|| scene.risk.clone()),
+            start: r.position.clone(),
+            goal: r.goal.clone(),
+            scene,
+            seed: self.seed,
+            receding: true,
+            start_velocity: r.velocity.clone(),
+            warm_start: r.warm_start.clone(),
+        })
+    }
+
+    /// The planner this request runs: a receding request runs the receding-horizon
+    /// planner (named or by default), and no other.
+    pub fn planner_kind(&self) -> Result<PlannerKind, PlanError> {
+        match (&self.receding, self.planner) {
+            (Some(_), PlannerKind::RrtSos | PlannerKind::Receding) => Ok(PlannerKind::Receding),
+            (Some(_), other) => Err(PlanError::InvalidOption {
+                option: "planner".into(),
+                message: format!("{other} does not plan receding-horizon requests (use the default, receding)"),
+            }),
+            (None, PlannerKind::Receding) => Err(PlanError::InvalidOption {
+                option: "planner".into(),
+                message: "receding needs a receding-horizon request (t_now, position, horizon)".into(),
+            }),
+            (None, k) => Ok(k),
+        }
     }
 
     /// The problem, the planner and the checker, with every option checked, on a scene
@@ -196,7 +278,7 @@ impl PlanRequest {
         };
         let deltas = allocate(&kernel, &problem, self.risk_mode, bound)?;
         let setup = Setup { problem: &problem, kernel: &kernel, deltas: &deltas, options: &options };
-        let Built { planner, checker } = self.planner.build(&setup)?;
+        let Built { planner, checker } = self.planner_kind()?.build(&setup)?;
         let allocation = (self.risk_mode != RiskMode::PerObstacle)
             .then(|| problem.scene.obstacles.iter().zip(&deltas).map(|(o, d)| (o.id.clone(), d.to_f64())).collect());
         Ok(PreparedPlan { problem, planner, checker, allocation, deltas, kernel, bounds: bound })

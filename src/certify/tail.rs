@@ -94,7 +94,8 @@ pub fn piece_clear_exact(p: &Pedestrian, delta: &BigRational, pr: PieceRef<'_>) 
             }
             g = if g == 0.0 { f64::MIN_POSITIVE } else { g.next_up() * (1.0 + 1e-15) };
         }
-        None
+        // a guess out of the float range's reach (tiny or huge κ²·s): √(a² + b²) ≤ a + b
+        Some(&reach + &kappa * (&sp + &sv * num_traits::Signed::abs(&tau)))
     };
     let (Some(ra), Some(rb)) = (radius(&t0), radius(&t1)) else {
         return Verdict::Undecided(Undecided::NonFinite);

@@ -119,6 +119,7 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
         smooth: !a.no_smooth,
         risk_mode: a.risk_mode,
         bound: a.bound,
+        receding: None,
     };
     let mut prepared = request.prepare(scene.clone()).map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
     let term = request.termination(None);
@@ -136,6 +137,7 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
             PlanStatus::DeadlineReached => "no plan before the time limit",
             PlanStatus::Cancelled => "cancelled",
             PlanStatus::Exhausted => "no plan within the iteration limits",
+            PlanStatus::Progress => "plan towards the goal (not reached within the window)",
         },
         if outcome.certified { "certified" } else { "NOT certified" },
         s.planning_time_s,

@@ -23,6 +23,7 @@ mod problem;
 
 pub mod mc_rrt;
 pub mod opt;
+pub mod receding;
 pub mod rrt;
 #[cfg(any(test, feature = "test-support"))]
 pub mod testing;
@@ -31,7 +32,9 @@ pub use mc_rrt::{McChecker, McCheckerParams};
 pub use opt::moment::{MomentForm, MomentParams, MomentPlanner};
 pub use opt::tv_sos::{TvSos, TvSosParams};
 pub use opt::RungFailure;
-pub use outcome::{FinalCheckStats, LadderStep, NoPlanReason, PlanError, PlanOutcome, PlanStats, PlanStatus, SdpStats};
+pub use outcome::{
+    FinalCheckStats, LadderStep, NoPlanReason, PlanError, PlanOutcome, PlanStats, PlanStatus, Progress, SdpStats,
+};
 pub use path::{constant_speed, nearest, within_speed, SPEED_BOUND_ROUNDING, SPEED_SUBINTERVALS};
 pub(crate) use path::{taylor_shift, trajectory_length};
 pub use problem::Problem;
@@ -88,17 +91,21 @@ pub enum PlannerKind {
     /// The standard SOS planner over one polynomial trajectory of degree `d` (the
     /// scene's `planner.standard_sos.polynomial_trajectory_degree`, else 2).
     MomentPoly,
+    /// Receding-horizon planning from the robot's current state (docs/design.md §6.9):
+    /// what a receding request runs.
+    Receding,
 }
 
 impl PlannerKind {
     /// Every planner, in the order help texts list them.
-    pub const ALL: [PlannerKind; 6] = [
+    pub const ALL: [PlannerKind; 7] = [
         PlannerKind::RrtSos,
         PlannerKind::RrtSosPaper,
         PlannerKind::McRrt,
         PlannerKind::TvSos,
         PlannerKind::Moment,
         PlannerKind::MomentPoly,
+        PlannerKind::Receding,
     ];
 
     /// The name on the command line and on the wire.
@@ -110,6 +117,7 @@ impl PlannerKind {
             PlannerKind::TvSos => "tv-sos",
             PlannerKind::Moment => "moment",
             PlannerKind::MomentPoly => "moment-poly",
+            PlannerKind::Receding => "receding",
         }
     }
 
@@ -127,6 +135,7 @@ impl PlannerKind {
             PlannerKind::TvSos => &opt::tv_sos::SPEC,
             PlannerKind::Moment => &opt::moment::PIECEWISE_LINEAR,
             PlannerKind::MomentPoly => &opt::moment::POLYNOMIAL,
+            PlannerKind::Receding => &receding::SPEC,
         }
     }
 
@@ -342,6 +351,25 @@ pub fn check_endpoints(p: &Problem, checker: &dyn MotionChecker) -> Result<(), P
             let obstacle = checker.blocking_obstacle(x, t).unwrap_or_default();
             return Err(PlanError::UnsafeEndpoint { which: which.into(), point: x.clone(), t, obstacle });
         }
+    }
+    Ok(())
+}
+
+/// Checks a receding-horizon problem's start: the request's position inside the
+/// workspace and strictly inside every Δ-contour at `t_now` (an error naming the field
+/// `position` and the obstacle otherwise); the goal inside the workspace (it need not be
+/// safe at the window's end: the plan may end elsewhere).
+pub fn check_endpoints_receding(p: &Problem, checker: &dyn MotionChecker) -> Result<(), PlanError> {
+    p.validate().map_err(|e| match e {
+        PlanError::OutsideWorkspace { which, point } if which == "start" => {
+            PlanError::OutsideWorkspace { which: "position".into(), point }
+        }
+        other => other,
+    })?;
+    let (x, t) = (&p.start, p.horizon.0);
+    if checker.check_point(x, t) != Motion::Accepted {
+        let obstacle = checker.blocking_obstacle(x, t).unwrap_or_default();
+        return Err(PlanError::UnsafeEndpoint { which: "position".into(), point: x.clone(), t, obstacle });
     }
     Ok(())
 }

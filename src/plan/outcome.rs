@@ -17,6 +17,9 @@ pub enum PlanStatus {
     Cancelled,
     /// The planner's own limits (iterations, attempts) were spent.
     Exhausted,
+    /// A receding-horizon plan that does not reach the goal within its window: a
+    /// certified trajectory to the end point of best progress (docs/design.md §6.9).
+    Progress,
 }
 
 /// What a planner reports about its run.
@@ -73,6 +76,23 @@ pub struct PlanStats {
     /// uncertified planner or without a trajectory.
     #[serde(default)]
     pub final_check: Option<FinalCheckStats>,
+    /// What a receding-horizon plan achieved (docs/design.md §6.9); `None` otherwise.
+    #[serde(default)]
+    pub progress: Option<Progress>,
+}
+
+/// What a receding-horizon plan achieved: the goal, or how close it gets
+/// (docs/design.md §6.9; the progress measure is the Euclidean distance to the goal).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+pub struct Progress {
+    /// Whether the trajectory ends at the goal, at rest.
+    pub reached_goal: bool,
+    /// Distance from the start position to the goal.
+    pub start_distance: f64,
+    /// Distance from the trajectory's end to the goal (0 when reached).
+    pub remaining_distance: f64,
+    /// When the trajectory ends.
+    pub end_time: f64,
 }
 
 /// What the final check of a certified plan cost and found (docs/design.md §5.12).

@@ -20,6 +20,14 @@ pub struct Problem {
     pub delta: RiskLevel,
     /// Seed of the planner's RNG.
     pub seed: u64,
+    /// A receding-horizon problem (docs/design.md §6.9): `horizon` is the window
+    /// `[t_now, t_now + H]`, `start` the robot's position at `t_now`, and the plan may end
+    /// short of the goal.
+    pub receding: bool,
+    /// The robot's velocity at the start (receding problems; `None`: at rest).
+    pub start_velocity: Option<Vec<f64>>,
+    /// A previous plan to continue from, if it still holds (receding problems).
+    pub warm_start: Option<Arc<crate::scene::Trajectory>>,
 }
 
 impl Problem {
@@ -31,7 +39,17 @@ impl Problem {
                 message: format!("scene '{}' has no start and goal (a contour-only scene)", scene.name),
             });
         };
-        Ok(Problem { horizon: scene.horizon, delta: scene.risk.clone(), start, goal, scene, seed })
+        Ok(Problem {
+            horizon: scene.horizon,
+            delta: scene.risk.clone(),
+            start,
+            goal,
+            scene,
+            seed,
+            receding: false,
+            start_velocity: None,
+            warm_start: None,
+        })
     }
 
     /// Whether any obstacle moves.

@@ -64,6 +64,7 @@ fn plan_request(req: &PlanRequest, cap: Duration) -> Result<app::PlanRequest, Se
             None => app::RiskMode::PerObstacle,
         },
         bound: req.bound.as_deref().map(bound_of).transpose()?,
+        receding: None,
     })
 }
 

@@ -368,7 +368,7 @@ pub struct FinalCheck {
 pub fn final_check(
     kernel: &SceneKernel,
     traj: &Trajectory,
-    endpoints: (&[f64], &[f64]),
+    endpoints: (&[f64], Option<&[f64]>),
     deltas: &[RiskLevel],
     bounds: BoundChoice,
     stop: &dyn Fn() -> bool,
@@ -382,7 +382,8 @@ pub fn final_check(
     }
     let tol = crate::scene::CONTINUITY_TOLERANCE * diag.max(1.0);
     let (first, last) = (&traj.pieces[0], &traj.pieces[traj.pieces.len() - 1]);
-    for (which, at, want) in [("start", first.at(first.t0), endpoints.0), ("goal", last.at(last.t1), endpoints.1)] {
+    let ends = [("start", first.at(first.t0), Some(endpoints.0)), ("goal", last.at(last.t1), endpoints.1)];
+    for (which, at, want) in ends.iter().filter_map(|(w, a, e)| Some((*w, a, (*e)?))) {
         let gap = at.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         if at.len() != want.len() || gap.is_nan() || gap > tol {
             return Ok(done(Some(FinalFailure::Invalid(format!("the trajectory misses the {which} by {gap:e}")))));

@@ -301,7 +301,11 @@ impl MotionChecker for SceneCertifier {
         }
         let mut cands = Vec::new();
         self.index().candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
-        let subs = if cands.is_empty() { None } else { Substitution::new(pr, self.compiled.frame()) };
+        // the compiled substitution, for the candidates that use it (not the pedestrians
+        // decided by their tail bound)
+        let tail_only = self.bounds.beyond_cantelli();
+        let needs_subs = cands.iter().any(|&i| !(tail_only && self.scene.obstacles[i].pedestrian.is_some()));
+        let subs = if needs_subs { Substitution::new(pr, self.compiled.frame()) } else { None };
         for i in cands {
             if !self.obstacle_safe(i, pr, subs.as_ref()) {
                 return Motion::Rejected;

@@ -187,6 +187,10 @@ pub fn point_obstacle_safe_at(
             return false;
         }
         let f: Vec<f64> = xt.iter().map(crate::poly::rational_to_f64).collect();
+        // the exact check takes floats: a point that is not one is refused (sound)
+        if xt.iter().zip(&f).any(|(q, &v)| BigRational::from_float(v).as_ref() != Some(q)) {
+            return false;
+        }
         let coeffs: Vec<Vec<f64>> = f[..dim].iter().map(|&v| vec![v]).collect();
         let pr = PieceRef { t0: f[dim], t1: f[dim], coeffs: &coeffs };
         return crate::certify::tail::piece_clear_exact(p, delta.rational(), pr).is_safe();

@@ -235,9 +235,14 @@ pub(crate) fn piece_passes_verify_path(
     // the piece's bounding box (outward-rounded Bernstein hull of each coordinate), for
     // the box tests of distant obstacles
     let bbox = near.and_then(|_| interval_hull(pr));
+    let ped_hull = std::cell::OnceCell::new();
     scene.obstacles.iter().zip(deltas).enumerate().all(|(i, (o, d))| {
         if let (Some(p), true) = (&o.pedestrian, bounds.beyond_cantelli()) {
-            // the tail bound in exact arithmetic (docs/design.md §3.11)
+            // the tail bound (docs/design.md §3.11): a box test, then exact arithmetic
+            let hull = ped_hull.get_or_init(|| interval_hull(pr));
+            if hull.as_ref().is_some_and(|h| pedestrian_box_clear(p, d, h, pr.t0, pr.t1)) {
+                return true;
+            }
             return crate::certify::tail::piece_clear_exact(p, d.rational(), pr).is_safe();
         }
         let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational()));
@@ -269,4 +274,51 @@ pub(crate) fn piece_passes_verify_path(
             _ => false,
         }
     })
+}
+
+/// Whether a pedestrian is cleared for a piece by a box test, in the verify path's own
+/// arithmetic (docs/design.md §3.11, §5.12): the piece's hull `hull` (over `[t0, t1]`) and
+/// the box of the pedestrian's nominal centre over the same times are farther apart than
+/// an upper bound of `reach + κ·√s(t)` there (√s is largest at an end: it is convex).
+/// From the template's exact numbers, enclosed; independent of the planners' tail code.
+fn pedestrian_box_clear(p: &crate::scene::Pedestrian, d: &RiskLevel, hull: &[Interval], t0: f64, t1: f64) -> bool {
+    let dim = p.file.position.len();
+    let Some(kappa) = crate::contour::tail::tail_kappa(dim, d.rational()) else { return false };
+    if hull.len() != dim {
+        return false;
+    }
+    let e = |q: &BigRational| Interval::enclose_rational(q);
+    let t_ref = e(&p.file.time.0);
+    let zero = BigRational::from_integer(0.into());
+    let sp = e(p.file.position_std.as_ref().map_or(&zero, |n| &n.0));
+    let sv = e(p.file.velocity_std.as_ref().map_or(&zero, |n| &n.0));
+    let reach = e(&(&p.r_max + &p.body));
+    let radius = |t: f64| {
+        let tau = Interval::point(t) - t_ref;
+        let s = sp * sp + sv * sv * tau * tau;
+        // sqrt is correctly rounded: the next float up bounds √s.hi from above
+        let sd = s.hi.sqrt().next_up();
+        reach + Interval::point(kappa) * Interval::point(sd)
+    };
+    let r = radius(t0).hi.max(radius(t1).hi);
+    if !r.is_finite() {
+        return false;
+    }
+    let (ta, tb) = (Interval::point(t0) - t_ref, Interval::point(t1) - t_ref);
+    let mut gap2 = Interval::point(0.0);
+    for (i, side) in hull.iter().enumerate() {
+        let (pi, vi) = (e(&p.file.position[i].0), e(&p.file.velocity[i].0));
+        let (ca, cb) = (pi + vi * ta, pi + vi * tb);
+        let (lo, hi) = (ca.lo.min(cb.lo), ca.hi.max(cb.hi));
+        // a lower bound of the gap between [lo, hi] and the hull's side
+        let g = if side.lo > hi {
+            (Interval::point(side.lo) - Interval::point(hi)).lo.max(0.0)
+        } else if lo > side.hi {
+            (Interval::point(lo) - Interval::point(side.hi)).lo.max(0.0)
+        } else {
+            0.0
+        };
+        gap2 = gap2 + Interval::point(g) * Interval::point(g);
+    }
+    gap2.lo > (Interval::point(r) * Interval::point(r)).hi
 }

@@ -280,7 +280,7 @@ impl SceneIndex {
             return slabs.iter().all(|s| s.cover.as_ref().is_none_or(|b| !overlaps(b, bbox)));
         }
         let (first, last) = (slabs[0].t.0, slabs[slabs.len() - 1].t.1);
-        if !(t0 >= first && t1 <= last) {
+        if !(t0 <= t1 && t0 >= first && t1 <= last) {
             return false;
         }
         // the slabs are equal in length: the ones the piece spans by division, one more
@@ -294,10 +294,10 @@ impl SceneIndex {
         } else {
             (0, n - 1)
         };
-        slabs[a..=b]
-            .iter()
-            .filter(|s| s.t.0 <= t1 && t0 <= s.t.1)
-            .all(|s| s.cover.as_ref().is_none_or(|b| !overlaps(b, bbox)))
+        // the division is only a guess (a subnormal slab length is inexact): unless the
+        // slabs found span the piece, all of them are examined
+        let span = if a <= b && slabs[a].t.0 <= t0 && slabs[b].t.1 >= t1 { &slabs[a..=b] } else { &slabs[..] };
+        span.iter().filter(|s| s.t.0 <= t1 && t0 <= s.t.1).all(|s| s.cover.as_ref().is_none_or(|b| !overlaps(b, bbox)))
     }
 
     /// The obstacles a piece must be checked against, given a proven spatial bounding

@@ -1,0 +1,396 @@
+//! Receding-horizon planning (docs/design.md §6.9): from the robot's current state — a
+//! time `t_now`, a position and a velocity — a certified trajectory on
+//! `[t_now, t_now + H]` towards a goal, C¹ at the start (it leaves with the given
+//! velocity), within the speed and acceleration limits. It ends at the goal, at rest,
+//! when the goal is reachable within the window; otherwise at the end point of best
+//! progress, the vertex whose Euclidean distance to the goal is smallest (among the
+//! vertices that last the whole window, when there are any).
+//!
+//! The search is a kinodynamic tree over states `(x, v, t)`: every edge is a piece of
+//! constant acceleration over a fixed duration `H / steps` (C¹ by construction; its
+//! acceleration is bounded exactly by the limit; its speed, convex along the piece, is
+//! largest at an end), certified by the motion checker like every edge of every planner.
+//! From each new vertex the goal is tried with a cubic Hermite piece that arrives at rest.
+//! A previous plan (the warm start) that still holds from `t_now` is certified piece by
+//! piece and grafted onto the tree first. It is an anytime planner: at the deadline it
+//! answers with the best progress found so far.
+
+use super::path::{taylor_shift, within_speed};
+use super::{
+    check_endpoints_receding, Built, CheckCounter, MotionChecker, PlanError, PlanOutcome, PlanStats, PlanStatus,
+    Planner, PlannerSpec, Problem, Progress, Termination,
+};
+use crate::certify::scene::SceneCertifier;
+use crate::motion::{dist, Motion};
+use crate::scene::Piece;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::time::Instant;
+
+/// `receding`: the receding-horizon planner, every edge certified by the scene certifier.
+pub static SPEC: PlannerSpec = PlannerSpec {
+    certified: true,
+    build: |s| {
+        let k = s.kinematics();
+        k.validate()?;
+        Ok(Built {
+            planner: Box::new(Receding { params: RecedingParams::default(), kinematics: limits(s.problem, k)? }),
+            checker: Box::new(
+                SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier)
+                    .with_bounds(s.options.bounds),
+            ),
+        })
+    },
+    paper_runs: |_| Vec::new(),
+};
+
+/// Edges per window: each tree edge lasts `H / STEPS` (docs/design.md §6.9).
+pub const STEPS: usize = 8;
+
+/// Probability that a sample is the goal itself.
+pub const GOAL_BIAS: f64 = 0.2;
+
+/// Most vertices of the tree (a bound on memory; the deadline usually comes first).
+pub const MAX_VERTICES: usize = 20_000;
+
+/// The default speed limit when neither the request nor the scene gives one: the
+/// workspace's diagonal over the scene's horizon (derived, not absolute).
+pub fn default_speed(p: &Problem) -> f64 {
+    let ws = &p.scene.workspace;
+    let diag = ws.lower.iter().zip(&ws.upper).map(|(l, u)| (u - l) * (u - l)).sum::<f64>().sqrt();
+    diag / (p.scene.horizon.1 - p.scene.horizon.0)
+}
+
+/// The default acceleration limit: the speed limit reached from rest in a quarter of the
+/// window.
+pub fn default_accel(v: f64, window: f64) -> f64 {
+    v / (0.25 * window)
+}
+
+/// Parameters of the receding-horizon search.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecedingParams {
+    /// Edges per window.
+    pub steps: usize,
+    /// Probability of sampling the goal.
+    pub goal_bias: f64,
+    /// Most vertices.
+    pub max_vertices: usize,
+}
+
+impl Default for RecedingParams {
+    fn default() -> Self {
+        RecedingParams { steps: STEPS, goal_bias: GOAL_BIAS, max_vertices: MAX_VERTICES }
+    }
+}
+
+/// The speed and acceleration limits of a receding plan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    /// Speed limit.
+    pub speed: f64,
+    /// Acceleration limit.
+    pub accel: f64,
+}
+
+fn limits(p: &Problem, k: super::Kinematics) -> Result<Limits, PlanError> {
+    let speed = k.max_speed.unwrap_or_else(|| default_speed(p));
+    let accel = k.max_accel.unwrap_or_else(|| default_accel(speed, p.horizon.1 - p.horizon.0));
+    if !(speed > 0.0 && speed.is_finite() && accel > 0.0 && accel.is_finite()) {
+        return Err(PlanError::InvalidOption { option: "max_speed".into(), message: "must be a positive number".into() });
+    }
+    Ok(Limits { speed, accel })
+}
+
+/// The receding-horizon planner.
+pub struct Receding {
+    /// Search parameters.
+    pub params: RecedingParams,
+    /// Limits.
+    pub kinematics: Limits,
+}
+
+#[derive(Clone, Debug)]
+struct Vertex {
+    x: Vec<f64>,
+    v: Vec<f64>,
+    t: f64,
+    parent: Option<usize>,
+    piece: Option<Piece>,
+}
+
+/// A piece on `[t0, t0 + h]` given by its coefficients in local time `s = t − t0`, in
+/// absolute time (the trajectory format's).
+fn from_local(t0: f64, h: f64, local: &[Vec<f64>]) -> Piece {
+    Piece { t0, t1: t0 + h, coeffs: local.iter().map(|row| taylor_shift(row, -t0)).collect() }
+}
+
+/// Position and velocity of a piece at `t`.
+fn state_at(pc: &Piece, t: f64) -> (Vec<f64>, Vec<f64>) {
+    let x = pc.at(t);
+    let v = pc
+        .coeffs
+        .iter()
+        .map(|row| {
+            let mut acc = 0.0;
+            for (k, &c) in row.iter().enumerate().skip(1).rev() {
+                acc = acc * t + k as f64 * c;
+            }
+            // Horner over k ≥ 1 of k·c_k·t^(k−1)
+            acc
+        })
+        .collect();
+    (x, v)
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// Relative allowance on the limits for the rounding of the expanded coefficients.
+const LIMIT_SLACK: f64 = 1e-9;
+
+impl Receding {
+    /// The constant-acceleration piece from `(x, v)` at `t0` over `h` towards velocity
+    /// `vd` (acceleration clipped to the limit, end speed to the speed limit).
+    fn accelerate(&self, x: &[f64], v: &[f64], t0: f64, h: f64, vd: &[f64]) -> Piece {
+        let lim = self.kinematics;
+        let mut a: Vec<f64> = vd.iter().zip(v).map(|(d, v)| (d - v) / h).collect();
+        let an = norm(&a);
+        if an > lim.accel {
+            a.iter_mut().for_each(|c| *c *= lim.accel / an);
+        }
+        // the end speed: |v + a h| ≤ speed (v is within it; shrink a along itself)
+        let mut s = 1.0;
+        for _ in 0..40 {
+            let v1: Vec<f64> = v.iter().zip(&a).map(|(v, a)| v + s * a * h).collect();
+            if norm(&v1) <= lim.speed * (1.0 - LIMIT_SLACK) {
+                break;
+            }
+            s *= 0.8;
+        }
+        let local: Vec<Vec<f64>> =
+            x.iter().zip(v).zip(&a).map(|((&x, &v), &a)| vec![x, v, 0.5 * s * a]).collect();
+        from_local(t0, h, &local)
+    }
+
+    /// The cubic Hermite piece from `(x, v)` at `t0` to the goal at rest at `t0 + h`, when
+    /// within the limits (its acceleration is affine in time: largest at an end).
+    fn arrive(&self, x: &[f64], v: &[f64], t0: f64, h: f64, goal: &[f64]) -> Option<Piece> {
+        let lim = self.kinematics;
+        // x(s) = x + v s + c2 s² + c3 s³, x(h) = g, x'(h) = 0
+        let mut local = Vec::with_capacity(x.len());
+        let (mut a0, mut a1) = (0.0, 0.0);
+        for ((&x, &v), &g) in x.iter().zip(v).zip(goal) {
+            let d = g - x;
+            let c2 = (3.0 * d - 2.0 * v * h) / (h * h);
+            let c3 = (v * h - 2.0 * d) / (h * h * h);
+            a0 += (2.0 * c2).powi(2);
+            a1 += (2.0 * c2 + 6.0 * c3 * h).powi(2);
+            local.push(vec![x, v, c2, c3]);
+        }
+        if a0.sqrt().max(a1.sqrt()) > lim.accel * (1.0 + LIMIT_SLACK) {
+            return None;
+        }
+        let pc = from_local(t0, h, &local);
+        within_speed(&pc, lim.speed * (1.0 + LIMIT_SLACK)).then_some(pc)
+    }
+
+    fn path(verts: &[Vertex], mut i: usize) -> Vec<Piece> {
+        let mut pieces = Vec::new();
+        while let Some(p) = verts[i].parent {
+            if let Some(pc) = &verts[i].piece {
+                pieces.push(pc.clone());
+            }
+            i = p;
+        }
+        pieces.reverse();
+        pieces
+    }
+}
+
+impl Planner for Receding {
+    fn name(&self) -> &'static str {
+        "receding"
+    }
+
+    fn solve(&mut self, p: &Problem, checker: &dyn MotionChecker, term: &Termination) -> Result<PlanOutcome, PlanError> {
+        let started = Instant::now();
+        check_endpoints_receding(p, checker)?;
+        let lim = self.kinematics;
+        let dim = p.scene.dim;
+        let v0 = p.start_velocity.clone().unwrap_or_else(|| vec![0.0; dim]);
+        if v0.len() != dim || v0.iter().any(|c| !c.is_finite()) {
+            return Err(PlanError::InvalidRequest {
+                field: "velocity".into(),
+                message: format!("needs {dim} finite coordinates"),
+            });
+        }
+        if norm(&v0) > lim.speed * (1.0 + LIMIT_SLACK) {
+            return Err(PlanError::InvalidRequest {
+                field: "velocity".into(),
+                message: format!("speed {} exceeds max_speed {}", norm(&v0), lim.speed),
+            });
+        }
+        let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
+        checker.prepare(term);
+        let (t_now, t_end) = p.horizon;
+        let h = (t_end - t_now) / self.params.steps as f64;
+        let counter = CheckCounter::default();
+        let goal = p.goal.clone();
+        let mut verts = vec![Vertex { x: p.start.clone(), v: v0.clone(), t: t_now, parent: None, piece: None }];
+        let mut reached: Option<Vec<Piece>> = None;
+        // the warm start: the previous plan from t_now on, if it starts here
+        if let Some(prev) = &p.warm_start {
+            let mut at = 0usize;
+            for pc in prev.pieces.iter().filter(|pc| pc.t1 > t_now) {
+                let mut pc = pc.clone();
+                if pc.t0 < t_now {
+                    pc.t0 = t_now;
+                }
+                if at == 0 {
+                    let (x, v) = state_at(&pc, t_now);
+                    let tol = 1e-6 * (1.0 + norm(&p.start));
+                    if dist(&x, &p.start) > tol || dist(&v, &v0) > 1e-6 * (1.0 + lim.speed) {
+                        break;
+                    }
+                }
+                if pc.t1 > t_end || counter.check(checker, &pc) != Motion::Accepted {
+                    break;
+                }
+                let (x, v) = state_at(&pc, pc.t1);
+                verts.push(Vertex { x, v, t: pc.t1, parent: Some(at), piece: Some(pc) });
+                at = verts.len() - 1;
+            }
+            if at > 0 && dist(&verts[at].x, &goal) <= 1e-9 * (1.0 + norm(&goal)) && norm(&verts[at].v) == 0.0 {
+                reached = Some(Self::path(&verts, at));
+            }
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
+        let ws = &p.scene.workspace;
+        let mut iterations = 0u64;
+        // the goal straight from the root first
+        let try_goal = |i: usize, verts: &[Vertex], counter: &CheckCounter| -> Option<Piece> {
+            let vx = &verts[i];
+            let d = dist(&vx.x, &goal);
+            let base = (1.5 * d / lim.speed).max(h);
+            for f in [1.0, 1.5, 2.25] {
+                let dur = base * f;
+                if vx.t + dur > t_end {
+                    break;
+                }
+                if let Some(pc) = self.arrive(&vx.x, &vx.v, vx.t, dur, &goal) {
+                    if counter.check(checker, &pc) == Motion::Accepted {
+                        return Some(pc);
+                    }
+                }
+            }
+            None
+        };
+        if reached.is_none() {
+            if let Some(pc) = try_goal(0, &verts, &counter) {
+                reached = Some(vec![pc]);
+            }
+        }
+        while reached.is_none() && verts.len() < self.params.max_vertices {
+            if term.expired() {
+                break;
+            }
+            iterations += 1;
+            let target: Vec<f64> = if rng.random_bool(self.params.goal_bias) {
+                goal.clone()
+            } else {
+                (0..dim).map(|d| rng.random_range(ws.lower[d]..=ws.upper[d])).collect()
+            };
+            // the nearest vertex that can still grow, in space
+            let Some(i) = (0..verts.len())
+                .filter(|&i| verts[i].t + h <= t_end * (1.0 + f64::EPSILON) + f64::EPSILON)
+                .min_by(|&a, &b| dist(&verts[a].x, &target).total_cmp(&dist(&verts[b].x, &target)))
+            else {
+                break;
+            };
+            let vx = verts[i].clone();
+            let to = dist(&vx.x, &target);
+            let speed = match rng.random_range(0..10) {
+                0 | 1 => 0.0,
+                2 | 3 => rng.random_range(0.0..lim.speed),
+                _ => lim.speed,
+            };
+            let vd: Vec<f64> = if to > 0.0 {
+                vx.x.iter().zip(&target).map(|(a, b)| (b - a) / to * speed).collect()
+            } else {
+                vec![0.0; dim]
+            };
+            let t1 = if vx.t + h >= t_end { t_end } else { vx.t + h };
+            let pc = self.accelerate(&vx.x, &vx.v, vx.t, t1 - vx.t, &vd);
+            if counter.check(checker, &pc) != Motion::Accepted {
+                continue;
+            }
+            let (x, v) = state_at(&pc, pc.t1);
+            verts.push(Vertex { x, v, t: pc.t1, parent: Some(i), piece: Some(pc) });
+            let n = verts.len() - 1;
+            if let Some(g) = try_goal(n, &verts, &counter) {
+                let mut path = Self::path(&verts, n);
+                path.push(g);
+                reached = Some(path);
+            }
+        }
+        let (checked, accepted, secs) = counter.totals();
+        stats.iterations = iterations;
+        stats.vertices = verts.len() as u64;
+        stats.edges_checked = checked;
+        stats.edges_accepted = accepted;
+        stats.checker_time_s = secs;
+        let d_start = dist(&p.start, &goal);
+        let (pieces, reached_goal) = match reached {
+            Some(mut path) => {
+                // hold at the goal until the window ends, when that is certified
+                if let Some(last) = path.last() {
+                    if last.t1 < t_end {
+                        let hold = Piece::segment(&goal, &goal, last.t1, t_end);
+                        if counter.check(checker, &hold) == Motion::Accepted {
+                            path.push(hold);
+                        }
+                    }
+                }
+                (path, true)
+            }
+            None => {
+                // best progress: among the vertices that last the whole window if any
+                let full = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
+                let best = (1..verts.len())
+                    .filter(|&i| !full || verts[i].t >= t_end)
+                    .min_by(|&a, &b| dist(&verts[a].x, &goal).total_cmp(&dist(&verts[b].x, &goal)));
+                match best {
+                    Some(i) => (Self::path(&verts, i), false),
+                    None => (Vec::new(), false),
+                }
+            }
+        };
+        stats.planning_time_s = started.elapsed().as_secs_f64();
+        if pieces.is_empty() {
+            let status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::Exhausted };
+            let reason = super::NoPlanReason::from_status(status, &stats, term);
+            return Ok(PlanOutcome::no_plan(status, stats, reason));
+        }
+        let end = pieces.last().map(|pc| pc.at(pc.t1)).unwrap_or_default();
+        let remaining = dist(&end, &goal);
+        stats.path_length = Some(super::trajectory_length(&pieces));
+        stats.time_to_feasible_s = Some(stats.planning_time_s);
+        let progress = Progress {
+            reached_goal,
+            start_distance: d_start,
+            remaining_distance: if reached_goal { 0.0 } else { remaining },
+            end_time: pieces.last().map_or(t_now, |pc| pc.t1),
+        };
+        stats.progress = Some(progress);
+        Ok(PlanOutcome {
+            status: if reached_goal { PlanStatus::Exact } else { PlanStatus::Progress },
+            trajectory: Some(crate::scene::Trajectory::new(pieces)),
+            certified: checker.sound(),
+            stats,
+            tree: Vec::new(),
+            reason: None,
+        })
+    }
+}
