@@ -15,6 +15,7 @@
 //! instant (§3.1, §1.1).
 
 pub mod bounds;
+pub mod grow;
 pub mod tail;
 
 pub use bounds::{BoundChoice, BoundKind, HigherLimit, HigherMoments, PointBounds, SupportForm, UnknownBound};

@@ -104,13 +104,6 @@ impl GaussianDisk {
             })
             .collect()
     }
-
-    /// The same obstacle for a robot whose body is a disk/ball of radius `rho` (≥ 0):
-    /// contact of the body with the disk is contact of its centre with the disk grown
-    /// by `rho`, exactly (docs/design.md §3.12). `reach` rounded up.
-    pub fn grown(&self, rho: f64) -> GaussianDisk {
-        GaussianDisk { reach: (Interval::point(self.reach) + Interval::point(rho)).hi, ..self.clone() }
-    }
 }
 
 /// The natural logarithm of an upper bound of `Prob(χ²_n ≥ k²)` for k > 0: in 2-D the

@@ -9,7 +9,7 @@
 use crate::contour::Layout;
 use crate::moments::Sampler;
 use crate::poly::{Poly, Var};
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha12Rng;
 
 /// Default two-sided confidence level of reported intervals.
@@ -82,6 +82,72 @@ pub struct McModel {
     polys: Vec<Poly<f64>>,
     samplers: Vec<(Var, Sampler)>,
     center: Vec<f64>,
+    /// The robot's body radius: contact is `max_{‖y‖≤ρ} P(x + y) ≥ 0` (0: `P(x) ≥ 0`).
+    body: f64,
+}
+
+/// Directions on the circle (2-D) or sphere (3-D, a Fibonacci lattice), or random ones
+/// in other dimensions, at which the body's boundary is sampled; with the centre and a
+/// half-radius ring. 64 directions on the circle place every boundary point within
+/// π/64 of one: a disk touched within 0.12 % of ρ of the boundary point nearest it can be
+/// missed (docs/design.md §7.2).
+pub const BODY_DIRECTIONS: usize = 64;
+
+/// Points of the ball of radius `rho` in `dim` dimensions at which an audit looks for
+/// contact (see [`BODY_DIRECTIONS`]).
+pub fn ball_points(dim: usize, rho: f64) -> Vec<Vec<f64>> {
+    let mut out = vec![vec![0.0; dim]];
+    if rho <= 0.0 || dim == 0 {
+        return out;
+    }
+    let dirs: Vec<Vec<f64>> = match dim {
+        1 => vec![vec![1.0], vec![-1.0]],
+        2 => (0..BODY_DIRECTIONS)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / BODY_DIRECTIONS as f64;
+                vec![a.cos(), a.sin()]
+            })
+            .collect(),
+        3 => {
+            let n = 2 * BODY_DIRECTIONS;
+            let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+            (0..n)
+                .map(|k| {
+                    let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+                    let r = (1.0 - z * z).sqrt();
+                    let a = golden * k as f64;
+                    vec![r * a.cos(), r * a.sin(), z]
+                })
+                .collect()
+        }
+        _ => {
+            let mut rng = ChaCha12Rng::seed_from_u64(0x6f64);
+            let mut d: Vec<Vec<f64>> = (0..dim)
+                .flat_map(|i| {
+                    let mut a = vec![0.0; dim];
+                    a[i] = 1.0;
+                    let mut b = vec![0.0; dim];
+                    b[i] = -1.0;
+                    [a, b]
+                })
+                .collect();
+            for _ in 0..4 * BODY_DIRECTIONS {
+                let v: Vec<f64> = (0..dim).map(|_| rng.random_range(-1.0..1.0)).collect();
+                let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if n > 1e-3 {
+                    d.push(v.iter().map(|x| x / n).collect());
+                }
+            }
+            d
+        }
+    };
+    for (i, d) in dirs.iter().enumerate() {
+        out.push(d.iter().map(|c| c * rho).collect());
+        if i % 2 == 0 {
+            out.push(d.iter().map(|c| c * 0.5 * rho).collect());
+        }
+    }
+    out
 }
 
 impl McModel {
@@ -97,7 +163,16 @@ impl McModel {
         samplers: Vec<(Var, Sampler)>,
         center: Vec<f64>,
     ) -> Self {
-        McModel { layout, nvars, polys, samplers, center }
+        McModel { layout, nvars, polys, samplers, center, body: 0.0 }
+    }
+
+    /// The same model for a robot whose body is a ball of radius `rho` around its
+    /// reference point: a point counts as a contact when some point of the body meets an
+    /// obstacle (sampled by [`ball_points`]; the polynomials must be the obstacles
+    /// themselves, not grown).
+    pub fn with_body(mut self, rho: f64) -> Self {
+        self.body = rho;
+        self
     }
 
     /// Number of obstacles.
@@ -132,8 +207,26 @@ impl McModel {
     /// obstacle contains it (the joint event; parameters shared between obstacles are
     /// one random variable, so correlations are kept).
     pub fn hits_and_any(&self, points: &[Vec<f64>], samples: u64, seed: u64) -> (Vec<Vec<u64>>, Vec<u64>) {
-        let reduced: Vec<Vec<Vec<ParamTerm>>> =
-            points.iter().map(|xt| (0..self.polys.len()).map(|o| self.reduce(o, xt)).collect()).collect();
+        let ball = ball_points(self.layout.dim, self.body);
+        // per point, per obstacle, per point of the body: P reduced to the parameters
+        let reduced: Vec<Vec<Vec<Vec<ParamTerm>>>> = points
+            .iter()
+            .map(|xt| {
+                (0..self.polys.len())
+                    .map(|o| {
+                        ball.iter()
+                            .map(|y| {
+                                let mut z = xt.clone();
+                                for (zi, yi) in z.iter_mut().zip(y) {
+                                    *zi += yi;
+                                }
+                                self.reduce(o, &z)
+                            })
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect();
         let mut rng = ChaCha12Rng::seed_from_u64(seed);
         let mut w = vec![0.0; self.samplers.len()];
         let mut hits = vec![vec![0u64; self.polys.len()]; points.len()];
@@ -144,10 +237,15 @@ impl McModel {
             }
             for (pi, per_point) in reduced.iter().enumerate() {
                 let mut hit_any = false;
-                for (oi, terms) in per_point.iter().enumerate() {
-                    let v: f64 =
-                        terms.iter().map(|(c, m)| m.iter().fold(*c, |acc, &(i, e)| acc * w[i].powi(e as i32))).sum();
-                    if v >= 0.0 {
+                for (oi, per_offset) in per_point.iter().enumerate() {
+                    let hit = per_offset.iter().any(|terms| {
+                        let v: f64 = terms
+                            .iter()
+                            .map(|(c, m)| m.iter().fold(*c, |acc, &(i, e)| acc * w[i].powi(e as i32)))
+                            .sum();
+                        v >= 0.0
+                    });
+                    if hit {
                         hits[pi][oi] += 1;
                         hit_any = true;
                     }

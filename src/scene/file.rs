@@ -41,6 +41,10 @@ pub struct SceneFile {
     /// x(tf).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub goal: Option<Vec<Num>>,
+    /// The robot's body: the radius of the disk/ball around its reference point (≥ 0;
+    /// default 0, a point robot). Every obstacle is grown by it (docs/design.md §3.12).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot_radius: Option<Num>,
     /// Planner options and the paper's planner parameters (§1.6); strict.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub planner: Option<PlannerBlock>,

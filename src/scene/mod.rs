@@ -26,7 +26,7 @@ use crate::mc::McModel;
 use crate::moments::{Distribution, MomentError};
 use crate::poly::{parse_with_budget, rational_to_f64, QPoly, Var, VarTable};
 use num_rational::BigRational;
-use num_traits::Signed;
+use num_traits::{Signed, Zero};
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use thiserror::Error;
@@ -132,6 +132,10 @@ pub struct Obstacle {
     pub contour: ContourCell,
     /// The pedestrian template this obstacle was made from, if any (docs/design.md §3.11).
     pub pedestrian: Option<Arc<Pedestrian>>,
+    /// With a robot body (docs/design.md §3.12): the polynomial before it was grown (in
+    /// the same variables as `poly`, which is then the grown one), for the Monte Carlo
+    /// audit of body contact; `None` without a body.
+    pub original: Option<Arc<QPoly>>,
 }
 
 impl Obstacle {
@@ -248,6 +252,9 @@ pub struct Scene {
     pub vars: VarTable,
     /// The file as read (for re-serialising and for free-form blocks).
     pub file: SceneFile,
+    /// The robot's body radius (`robot_radius`, 0 for a point robot), exact; every
+    /// obstacle is grown by it (docs/design.md §3.12).
+    pub body: BigRational,
 }
 
 impl Scene {
@@ -310,30 +317,43 @@ impl Scene {
         };
         let (vars, params) = validate_params(&file, dim)?;
         let layout = Layout { dim };
+        let body = validate_body(&file, &workspace)?;
+        let previous = previous.filter(|p| p.body == body);
         let parsed = parse_obstacles(&file, &vars, dim, previous)?;
-        let polys: Vec<QPoly> =
-            parsed.iter().filter_map(|p| if let Parsed::Poly(q) = p { Some(q.clone()) } else { None }).collect();
+        // grown by the body (docs/design.md §3.12): (grown, original)
+        let parsed = grow_obstacles(parsed, &body, &vars, &params, &workspace, horizon)?;
+        let polys: Vec<QPoly> = parsed
+            .iter()
+            .filter_map(|p| if let Parsed::Poly(q, _) = p { Some(q.clone()) } else { None })
+            .collect();
         let moments = needed_moments(&polys, &params)?;
         let supports: Vec<(Var, BigRational, BigRational)> =
             params.iter().filter_map(|p| p.dist.support().map(|(lo, hi)| (p.var, lo, hi))).collect();
         let name = |v: Var| vars.name(v);
         let mut obstacles = Vec::with_capacity(parsed.len());
         for (i, (o, parsed)) in file.obstacles.iter().zip(parsed).enumerate() {
-            let poly = match parsed {
-                Parsed::Poly(q) => q,
-                Parsed::Pedestrian(p, cell) => {
-                    let contour = cell.unwrap_or_else(|| ContourCell::pedestrian(p.clone(), dim));
+            let (poly, original) = match parsed {
+                Parsed::Poly(q, original) => (q, original),
+                Parsed::Reused(old) => {
+                    obstacles.push(old);
+                    continue;
+                }
+                Parsed::Pedestrian(p, original) => {
                     obstacles.push(Obstacle {
                         id: o.id.clone(),
                         text: String::new(),
                         poly: p.poly.clone(),
-                        contour,
+                        contour: ContourCell::pedestrian(p.clone(), dim),
                         pedestrian: Some(p),
+                        original,
                     });
                     continue;
                 }
             };
-            let key = ContourCache::key(dim, &o.poly, &poly, &file.params, &vars);
+            let mut key = ContourCache::key(dim, &o.poly, &poly, &file.params, &vars);
+            if !body.is_zero() {
+                key = format!("{key}|body={body}");
+            }
             let contour = match cache.get(&key) {
                 Some(c) => c,
                 None => {
@@ -350,6 +370,7 @@ impl Scene {
                 poly,
                 contour: ContourCell::ready(contour),
                 pedestrian: None,
+                original,
             });
         }
         if let Some(b) = &file.planner {
@@ -373,7 +394,23 @@ impl Scene {
             goal,
             vars,
             file,
+            body,
         })
+    }
+
+    /// The same scene for a robot whose body has radius `rho` (a request's
+    /// `robot_radius`, replacing the scene's): every obstacle grown by it
+    /// (docs/design.md §3.12), contours shared through `cache`.
+    pub fn with_body(&self, rho: f64, cache: &ContourCache) -> Result<Scene, SceneError> {
+        let Some(r) = BigRational::from_float(rho) else {
+            return Err(err("robot_radius", format!("must be a finite number ≥ 0, got {rho}")));
+        };
+        if r == self.body {
+            return Ok(self.clone());
+        }
+        let mut file = self.file.clone();
+        file.robot_radius = Some(Num(r));
+        Scene::from_file_reusing(file, cache, Some(self))
     }
 
     /// The variable layout of this scene's polynomials.
@@ -414,8 +451,10 @@ impl Scene {
         let mut polys = Vec::with_capacity(self.obstacles.len());
         for o in &self.obstacles {
             let own = o.own_params();
+            // with a body: the obstacle itself, not grown (the model samples the body)
+            let source = o.original.as_deref().unwrap_or(&o.poly);
             let poly = if own.is_empty() {
-                o.poly.clone()
+                source.clone()
             } else {
                 let base = nvars;
                 nvars += own.len();
@@ -427,11 +466,11 @@ impl Scene {
                     })?;
                     samplers.push(((base + k) as Var, s));
                 }
-                o.poly.subst(&|v| map.iter().find(|m| m.0 == v).map(|m| crate::poly::Poly::var(m.1)))
+                source.subst(&|v| map.iter().find(|m| m.0 == v).map(|m| crate::poly::Poly::var(m.1)))
             };
             polys.push(crate::poly::shift(&poly, &center).map_coeffs(rational_to_f64));
         }
-        Ok(McModel::new(self.layout(), nvars, polys, samplers, center))
+        Ok(McModel::new(self.layout(), nvars, polys, samplers, center).with_body(rational_to_f64(&self.body)))
     }
 }
 
@@ -630,8 +669,12 @@ fn moment_err(path: &str, e: MomentError) -> SceneError {
 /// One obstacle as parsed: a polynomial in the scene's variables, or a pedestrian (with
 /// its contour cell when taken unchanged from the previous scene).
 enum Parsed {
-    Poly(QPoly),
-    Pedestrian(Arc<Pedestrian>, Option<ContourCell>),
+    /// A polynomial (grown by the body, with the original when there is one).
+    Poly(QPoly, Option<Arc<QPoly>>),
+    /// A new pedestrian (grown, with its original polynomial when there is a body).
+    Pedestrian(Arc<Pedestrian>, Option<Arc<QPoly>>),
+    /// An obstacle taken unchanged from the previous revision.
+    Reused(Obstacle),
 }
 
 fn parse_obstacles(
@@ -657,12 +700,11 @@ fn parse_obstacles(
         }
         match (&o.pedestrian, o.poly.is_empty()) {
             (Some(pf), true) => {
-                let reused = previous.and_then(|s| s.obstacle(&o.id)).and_then(|old| {
-                    let p = old.pedestrian.as_ref().filter(|p| p.file == *pf && s_dim(previous) == dim)?;
-                    Some((p.clone(), old.contour.clone()))
+                let reused = previous.and_then(|s| s.obstacle(&o.id)).filter(|old| {
+                    old.pedestrian.as_ref().is_some_and(|p| p.file == *pf) && s_dim(previous) == dim
                 });
                 out.push(match reused {
-                    Some((p, cell)) => Parsed::Pedestrian(p, Some(cell)),
+                    Some(old) => Parsed::Reused(old.clone()),
                     None => Parsed::Pedestrian(
                         Arc::new(Pedestrian::new(pf, dim, &format!("obstacles[{i}].pedestrian"))?),
                         None,
@@ -713,9 +755,105 @@ fn parse_obstacles(
                 ));
             }
         }
-        out.push(Parsed::Poly(poly));
+        out.push(Parsed::Poly(poly, None));
     }
     Ok(out)
+}
+
+/// `robot_radius`: a finite number ≥ 0 whose body fits the workspace (its diameter below
+/// the smallest side).
+fn validate_body(file: &SceneFile, ws: &Workspace) -> Result<BigRational, SceneError> {
+    let Some(r) = &file.robot_radius else { return Ok(BigRational::zero()) };
+    if r.0.is_negative() {
+        return Err(err("robot_radius", format!("must be ≥ 0, got {}", r.f64())));
+    }
+    let side = ws.lower.iter().zip(&ws.upper).map(|(l, u)| u - l).fold(f64::INFINITY, f64::min);
+    if 2.0 * r.f64() >= side || r.f64().is_nan() {
+        return Err(err(
+            "robot_radius",
+            format!("a body of radius {} does not fit the workspace (smallest side {side})", r.f64()),
+        ));
+    }
+    Ok(r.0.clone())
+}
+
+/// Points at which the body envelope takes the typical sizes of its terms: a grid over
+/// the workspace at three times, the parameters at their means (docs/design.md §3.12).
+fn envelope_samples(vars: &VarTable, params: &[Param], ws: &Workspace, horizon: (f64, f64)) -> Vec<Vec<f64>> {
+    let dim = ws.lower.len();
+    let per: usize = if dim <= 2 { 12 } else { 5 };
+    let total = per.pow(dim as u32);
+    let mut out = Vec::with_capacity(total * 3);
+    let means: Vec<(Var, f64)> =
+        params.iter().filter_map(|p| p.dist.mean().ok().map(|m| (p.var, rational_to_f64(&m)))).collect();
+    for ti in 0..3 {
+        let t = horizon.0 + (horizon.1 - horizon.0) * ti as f64 / 2.0;
+        for k in 0..total {
+            let mut v = vec![0.0; vars.len().max(dim + 1)];
+            let mut r = k;
+            for (d, slot) in v.iter_mut().enumerate().take(dim) {
+                let i = r % per;
+                r /= per;
+                *slot = ws.lower[d] + (ws.upper[d] - ws.lower[d]) * (i as f64 + 0.5) / per as f64;
+            }
+            v[dim] = t;
+            for &(var, m) in &means {
+                if let Some(slot) = v.get_mut(var as usize) {
+                    *slot = m;
+                }
+            }
+            out.push(v);
+        }
+    }
+    out
+}
+
+/// Grows every new obstacle by the body (nothing to do without one; docs/design.md §3.12).
+fn grow_obstacles(
+    parsed: Vec<Parsed>,
+    body: &BigRational,
+    vars: &VarTable,
+    params: &[Param],
+    ws: &Workspace,
+    horizon: (f64, f64),
+) -> Result<Vec<Parsed>, SceneError> {
+    if body.is_zero() {
+        return Ok(parsed);
+    }
+    let layout = Layout { dim: ws.lower.len() };
+    let ranges: Vec<crate::poly::Interval> = (0..vars.len())
+        .map(|v| {
+            params
+                .iter()
+                .find(|p| p.var as usize == v)
+                .and_then(|p| p.dist.support())
+                .map_or(crate::poly::Interval::ENTIRE, |(lo, hi)| {
+                    crate::poly::Interval::new(
+                        crate::poly::Interval::enclose_rational(&lo).lo,
+                        crate::poly::Interval::enclose_rational(&hi).hi,
+                    )
+                })
+        })
+        .collect();
+    let range = |v: Var| ranges.get(v as usize).copied().unwrap_or(crate::poly::Interval::ENTIRE);
+    let samples = std::cell::OnceCell::new();
+    parsed
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| match p {
+            Parsed::Poly(q, _) => {
+                let samples = samples.get_or_init(|| envelope_samples(vars, params, ws, horizon));
+                let g = crate::contour::grow::grow(&q, layout, body, &range, samples, (MAX_OBSTACLE_DEGREE, MAX_TERMS))
+                    .map_err(|e| err(format!("obstacles[{i}]"), format!("robot_radius: {e}")))?;
+                Ok(Parsed::Poly(g.poly, Some(Arc::new(q))))
+            }
+            Parsed::Pedestrian(p, _) => {
+                let original = Arc::new(p.poly.clone());
+                Ok(Parsed::Pedestrian(Arc::new(p.grown(body)), Some(original)))
+            }
+            reused @ Parsed::Reused(_) => Ok(reused),
+        })
+        .collect::<Result<Vec<_>, _>>()
 }
 
 fn s_dim(s: Option<&Scene>) -> usize {

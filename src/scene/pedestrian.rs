@@ -182,6 +182,28 @@ impl Pedestrian {
         Ok(Pedestrian { file: file.clone(), disk, params, poly, r_max, body: BigRational::zero() })
     }
 
+    /// The same pedestrian for a robot whose body is a disk/ball of radius `rho` ≥ 0
+    /// (docs/design.md §3.12): contact of the body with the pedestrian is contact of its
+    /// centre with the pedestrian grown by ρ, exactly — the radius R becomes R + ρ in the
+    /// polynomial, the reach of the tail bound grows by ρ (rounded up), and `body` records
+    /// ρ for the exact check. Growing twice adds the radii.
+    pub fn grown(&self, rho: &BigRational) -> Pedestrian {
+        let r: QPoly = match &self.file.radius {
+            RadiusFile::Fixed(r) => Poly::constant(r.0.clone() + &self.body),
+            RadiusFile::Random(_) => {
+                let v = self.params.iter().find(|p| p.name == "R").map(|p| p.var).unwrap_or_default();
+                Poly::var(v).add(&Poly::constant(self.body.clone()))
+            }
+        };
+        // (R + b + ρ)² − (R + b)² = 2ρ(R + b) + ρ²
+        let two = BigRational::from_integer(2.into());
+        let extra = r.scale(&(&two * rho)).add(&Poly::constant(rho * rho));
+        let body = &self.body + rho;
+        let mut disk = self.disk.clone();
+        disk.reach = Interval::enclose_rational(&(&self.r_max + &body)).hi;
+        Pedestrian { poly: self.poly.add(&extra), disk, body, ..self.clone() }
+    }
+
     /// Builds its contour (E\[P\], E\[P²\] and what the other bounds need) from its own
     /// parameters' moments. Should a moment be missing — impossible for the normal
     /// errors and a bounded radius, whose moments exist at every order — the contour of

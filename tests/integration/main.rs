@@ -15,6 +15,7 @@ mod certify_scenes;
 mod cli_core;
 #[cfg(feature = "cli")]
 mod cli_plan;
+mod crowd;
 mod extreme_scales;
 mod fuzz_replay;
 mod optimisation_planners;

@@ -50,6 +50,40 @@ pub const STEPS: usize = 8;
 /// Probability that a sample is the goal itself.
 pub const GOAL_BIAS: f64 = 0.2;
 
+/// Greedy rollouts before the random tree (docs/design.md §6.9), one per entry of
+/// [`ROLLOUT_SPEEDS`].
+pub const ROLLOUTS: usize = 5;
+
+/// The speed cap of each rollout, as a share of the speed limit: a fast rollout may run
+/// into a place it cannot brake out of within one edge; a slower one lasts the window.
+pub const ROLLOUT_SPEEDS: [f64; 5] = [1.0, 0.7, 0.45, 0.25, 0.1];
+
+/// Directions to try from the goal's: straight, then turned (2-D: ±30°, ±60°, ±90°;
+/// otherwise the goal's direction perturbed at random), for rollout `r` (odd rollouts
+/// turn the other way first).
+#[allow(clippy::type_complexity)]
+fn turns(dim: usize, r: usize, rng: &mut ChaCha8Rng) -> Vec<Box<dyn Fn(&[f64]) -> Vec<f64>>> {
+    let mut out: Vec<Box<dyn Fn(&[f64]) -> Vec<f64>>> = vec![Box::new(|d: &[f64]| d.to_vec())];
+    if dim == 2 {
+        let sign = if r % 2 == 0 { 1.0 } else { -1.0 };
+        for deg in [30.0f64, -30.0, 60.0, -60.0, 90.0, -90.0] {
+            let a = (sign * deg).to_radians();
+            out.push(Box::new(move |d: &[f64]| vec![d[0] * a.cos() - d[1] * a.sin(), d[0] * a.sin() + d[1] * a.cos()]));
+        }
+    } else {
+        for k in 0..6 {
+            let w: Vec<f64> = (0..dim).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let scale = 0.4 * (1 + k / 2) as f64;
+            out.push(Box::new(move |d: &[f64]| {
+                let v: Vec<f64> = d.iter().zip(&w).map(|(a, b)| a + scale * b).collect();
+                let n = norm(&v).max(f64::MIN_POSITIVE);
+                v.iter().map(|c| c / n).collect()
+            }));
+        }
+    }
+    out
+}
+
 /// Most vertices of the tree (a bound on memory; the deadline usually comes first).
 pub const MAX_VERTICES: usize = 20_000;
 
@@ -290,6 +324,48 @@ impl Planner for Receding {
         if reached.is_none() {
             if let Some(pc) = try_goal(0, &verts, &counter) {
                 reached = Some(vec![pc]);
+            }
+        }
+        // greedy rollouts first: towards the goal at full speed, turning away (±30°,
+        // ±60°, ±90° in 2-D; perturbed directions otherwise), slowing or stopping when an
+        // edge is refused — a good plan in a few dozen checks when one exists nearby
+        for r in 0..ROLLOUTS {
+            if reached.is_some() || term.expired() {
+                break;
+            }
+            let mut i = 0usize;
+            while verts[i].t + 0.5 * h < t_end && !term.expired() {
+                let vx = verts[i].clone();
+                let to = dist(&vx.x, &goal);
+                if to == 0.0 {
+                    break;
+                }
+                let dir: Vec<f64> = vx.x.iter().zip(&goal).map(|(a, b)| (b - a) / to).collect();
+                let t1 = if vx.t + h >= t_end { t_end } else { vx.t + h };
+                let mut next = None;
+                let dirs: Vec<Vec<f64>> = turns(dim, r, &mut rng).iter().map(|turn| turn(&dir)).collect();
+                let cap = ROLLOUT_SPEEDS[r % ROLLOUT_SPEEDS.len()] * lim.speed;
+                'turns: for speed in [cap, 0.5 * cap, 0.0] {
+                    for d in &dirs {
+                        let vd: Vec<f64> = d.iter().map(|c| c * speed.min(to / h)).collect();
+                        let pc = self.accelerate(&vx.x, &vx.v, vx.t, t1 - vx.t, &vd);
+                        iterations += 1;
+                        if counter.check(checker, &pc) == Motion::Accepted {
+                            next = Some(pc);
+                            break 'turns;
+                        }
+                    }
+                }
+                let Some(pc) = next else { break };
+                let (x, v) = state_at(&pc, pc.t1);
+                verts.push(Vertex { x, v, t: pc.t1, parent: Some(i), piece: Some(pc) });
+                i = verts.len() - 1;
+                if let Some(g) = try_goal(i, &verts, &counter) {
+                    let mut path = Self::path(&verts, i);
+                    path.push(g);
+                    reached = Some(path);
+                    break;
+                }
             }
         }
         while reached.is_none() && verts.len() < self.params.max_vertices {
