@@ -3,6 +3,8 @@
 //! place. The CLI, the service, the bench and the tests all go through
 //! [`PlanRequest`], so a planner added here is available to each of them at once.
 
+pub mod crowd;
+
 use crate::contour::{BoundChoice, RiskLevel};
 use crate::plan::{
     Built, FinalCheckStats, Kinematics, MotionChecker, NoPlanReason, PlanError, PlanOptions, PlanOutcome, PlanStatus,

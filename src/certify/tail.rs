@@ -101,13 +101,33 @@ pub fn piece_clear_exact(p: &Pedestrian, delta: &BigRational, pr: PieceRef<'_>) 
         return Verdict::Undecided(Undecided::NonFinite);
     };
     let h = &t1 - &t0;
-    let coords = super::coordinates_exact(pr);
-    let tau = UPoly::linear(&t0 - t_ref, h);
+    // the polynomial, exactly; decided in intervals first (its coefficients enclosed),
+    // exactly only where that is undecided (bernstein::check)
+    let exact = || {
+        let coords = super::coordinates_exact(pr);
+        let tau = UPoly::linear(&t0 - t_ref, h.clone());
+        let mut f = UPoly::zero();
+        for (i, x) in coords.iter().enumerate() {
+            let u = x.sub(&UPoly::constant(p.file.position[i].0.clone())).sub(&tau.scale(&p.file.velocity[i].0));
+            f = f.add(&u.mul(&u));
+        }
+        let r = UPoly::linear(ra.clone(), &rb - &ra);
+        f.sub(&r.mul(&r))
+    };
+    // (the template's numbers enclosed once, in `p.disk`)
+    let e = |q: &BigRational| Interval::enclose_rational(q);
+    let (it0, ih) = (Interval::point(pr.t0), Interval::point(pr.t1) - Interval::point(pr.t0));
+    let coords: Vec<UPoly<Interval>> = pr
+        .coeffs
+        .iter()
+        .map(|row| UPoly::new(row.iter().map(|&c| Interval::point(c)).collect()).compose_affine(&it0, &ih))
+        .collect();
+    let tau = UPoly::linear(it0 - p.disk.t_ref, ih);
     let mut f = UPoly::zero();
     for (i, x) in coords.iter().enumerate() {
-        let u = x.sub(&UPoly::constant(p.file.position[i].0.clone())).sub(&tau.scale(&p.file.velocity[i].0));
+        let u = x.sub(&UPoly::constant(p.disk.position[i])).sub(&tau.scale(&p.disk.velocity[i]));
         f = f.add(&u.mul(&u));
     }
-    let r = UPoly::linear(ra.clone(), rb - ra);
-    bernstein::check_exact(&f.sub(&r.mul(&r)), DEFAULT_MAX_DEPTH)
+    let r = UPoly::linear(e(&ra), e(&rb) - e(&ra));
+    bernstein::check(&f.sub(&r.mul(&r)), exact)
 }

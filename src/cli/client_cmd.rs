@@ -337,6 +337,7 @@ fn load_queries(client: &Client, scene: &str, id: usize, bare: bool, mix: bool) 
             id: format!("load-{id}"),
             poly: Some(format!("0.000025 - (x1 - {c:.3})^2 - (x2 + {c:.3})^2")),
             params: None,
+            pedestrian: None,
         }]),
         ..Default::default()
     };

@@ -9,6 +9,8 @@ mod plan_cmd;
 mod risk_cmd;
 #[cfg(feature = "service")]
 mod serve_cmd;
+#[cfg(feature = "service")]
+mod sim_cmd;
 mod util;
 mod verify_cmd;
 
@@ -41,6 +43,8 @@ enum Command {
     Router(serve_cmd::RouterArgs),
     #[cfg(feature = "service")]
     Client(client_cmd::ClientArgs),
+    #[cfg(feature = "service")]
+    Sim(sim_cmd::SimArgs),
 }
 
 /// Runs the CLI and returns the exit status.
@@ -64,6 +68,8 @@ pub fn run() -> i32 {
         Command::Router(a) => serve_cmd::run_router(a),
         #[cfg(feature = "service")]
         Command::Client(a) => client_cmd::run(a),
+        #[cfg(feature = "service")]
+        Command::Sim(a) => sim_cmd::run(a),
     };
     match result {
         Ok(code) => code,

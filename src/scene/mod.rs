@@ -125,8 +125,8 @@ pub struct Obstacle {
     /// The polynomial text as given (empty for a pedestrian).
     pub text: String,
     /// P(x, ω, t), exact: in the scene's variables, or for a pedestrian in its own
-    /// (`x1..xn, t`, then [`Obstacle::own_params`]).
-    pub poly: QPoly,
+    /// (`x1..xn, t`, then [`Obstacle::own_params`]; built on first use).
+    pub poly: ObstaclePoly,
     /// E\[P\], E\[P²\], built once (eqs. 10/12): at once for a polynomial obstacle, on
     /// first use for a pedestrian.
     pub contour: ContourCell,
@@ -134,11 +134,42 @@ pub struct Obstacle {
     pub pedestrian: Option<Arc<Pedestrian>>,
     /// With a robot body (docs/design.md §3.12): the polynomial before it was grown (in
     /// the same variables as `poly`, which is then the grown one), for the Monte Carlo
-    /// audit of body contact; `None` without a body.
+    /// audit of body contact; `None` without a body (and for a pedestrian, which keeps
+    /// its own: [`Obstacle::contact_poly`]).
     pub original: Option<Arc<QPoly>>,
 }
 
+/// An obstacle's polynomial: as parsed, or a pedestrian's, built on first use.
+/// Dereferences to the [`QPoly`].
+#[derive(Clone, Debug)]
+pub enum ObstaclePoly {
+    /// Parsed (and grown).
+    Ready(Arc<QPoly>),
+    /// A pedestrian's.
+    Pedestrian(Arc<Pedestrian>),
+}
+
+impl std::ops::Deref for ObstaclePoly {
+    type Target = QPoly;
+    fn deref(&self) -> &QPoly {
+        match self {
+            ObstaclePoly::Ready(p) => p,
+            ObstaclePoly::Pedestrian(p) => p.poly(),
+        }
+    }
+}
+
 impl Obstacle {
+    /// The obstacle itself, not grown by the body: what contact means (the Monte Carlo
+    /// audit samples the body against it).
+    pub fn contact_poly(&self) -> &QPoly {
+        match (&self.pedestrian, &self.original) {
+            (Some(p), _) => p.original_poly(),
+            (None, Some(o)) => o,
+            (None, None) => &self.poly,
+        }
+    }
+
     /// The parameters that are this obstacle's own (a pedestrian's), with variables of
     /// its polynomial; empty for a polynomial obstacle (its parameters are the scene's).
     pub fn own_params(&self) -> &[Param] {
@@ -342,7 +373,7 @@ impl Scene {
                     obstacles.push(Obstacle {
                         id: o.id.clone(),
                         text: String::new(),
-                        poly: p.poly.clone(),
+                        poly: ObstaclePoly::Pedestrian(p.clone()),
                         contour: ContourCell::pedestrian(p.clone(), dim),
                         pedestrian: Some(p),
                         original,
@@ -367,7 +398,7 @@ impl Scene {
             obstacles.push(Obstacle {
                 id: o.id.clone(),
                 text: o.poly.clone(),
-                poly,
+                poly: ObstaclePoly::Ready(Arc::new(poly)),
                 contour: ContourCell::ready(contour),
                 pedestrian: None,
                 original,
@@ -452,7 +483,7 @@ impl Scene {
         for o in &self.obstacles {
             let own = o.own_params();
             // with a body: the obstacle itself, not grown (the model samples the body)
-            let source = o.original.as_deref().unwrap_or(&o.poly);
+            let source = o.contact_poly();
             let poly = if own.is_empty() {
                 source.clone()
             } else {
@@ -847,10 +878,7 @@ fn grow_obstacles(
                     .map_err(|e| err(format!("obstacles[{i}]"), format!("robot_radius: {e}")))?;
                 Ok(Parsed::Poly(g.poly, Some(Arc::new(q))))
             }
-            Parsed::Pedestrian(p, _) => {
-                let original = Arc::new(p.poly.clone());
-                Ok(Parsed::Pedestrian(Arc::new(p.grown(body)), Some(original)))
-            }
+            Parsed::Pedestrian(p, _) => Ok(Parsed::Pedestrian(Arc::new(p.grown(body)), None)),
             reused @ Parsed::Reused(_) => Ok(reused),
         })
         .collect::<Result<Vec<_>, _>>()

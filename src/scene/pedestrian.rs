@@ -72,8 +72,10 @@ pub struct Pedestrian {
     pub disk: GaussianDisk,
     /// Its own parameters, in variable order (`Param::var` local to its polynomial).
     pub params: Vec<Param>,
-    /// P in its own variables (module docs).
-    pub poly: QPoly,
+    /// P in its own variables, grown by `body`: [`Pedestrian::poly`].
+    poly: std::sync::OnceLock<QPoly>,
+    /// P not grown: [`Pedestrian::original_poly`].
+    original: std::sync::OnceLock<QPoly>,
     /// The largest radius (the supremum of its support), exact.
     pub r_max: BigRational,
     /// The robot's body radius this pedestrian has been grown by (0 unless the scene
@@ -146,40 +148,72 @@ impl Pedestrian {
             sigma_p: up(&sp.0),
             sigma_v: up(&sv.0),
         };
-        // the polynomial, in its own variables: x_i = i, t = dim, a_i, b_i, R after
-        let layout = Layout { dim };
-        let t = Poly::var(layout.t()).sub(&Poly::constant(file.time.0.clone()));
+        // its own variables: x_i = i, t = dim, then a_i, b_i, R (the polynomial is built
+        // on first use: most updates never need it)
         let mut params = Vec::new();
         let mut next: Var = (dim + 1) as Var;
-        let mut param = |name: String, dist: Distribution| -> QPoly {
-            let v = next;
+        let mut param = |name: String, dist: Distribution| {
+            params.push(Param { name, var: next, dist });
             next += 1;
-            params.push(Param { name, var: v, dist });
-            Poly::var(v)
         };
         let normal = |s: &Num| Distribution::Normal { mean: BigRational::zero(), std: s.0.clone() };
-        let a: Vec<Option<QPoly>> =
-            (0..dim).map(|i| sp.0.is_positive().then(|| param(format!("a{}", i + 1), normal(&sp)))).collect();
-        let b: Vec<Option<QPoly>> =
-            (0..dim).map(|i| sv.0.is_positive().then(|| param(format!("b{}", i + 1), normal(&sv)))).collect();
-        let r = match &file.radius {
-            RadiusFile::Fixed(r) => Poly::constant(r.0.clone()),
-            RadiusFile::Random(_) => param("R".into(), radius),
+        if sp.0.is_positive() {
+            (0..dim).for_each(|i| param(format!("a{}", i + 1), normal(&sp)));
+        }
+        if sv.0.is_positive() {
+            (0..dim).for_each(|i| param(format!("b{}", i + 1), normal(&sv)));
+        }
+        if let RadiusFile::Random(_) = &file.radius {
+            param("R".into(), radius);
+        }
+        Ok(Pedestrian {
+            file: file.clone(),
+            disk,
+            params,
+            poly: std::sync::OnceLock::new(),
+            original: std::sync::OnceLock::new(),
+            r_max,
+            body: BigRational::zero(),
+        })
+    }
+
+    /// P in its own variables (module docs), grown by `body` (R → R + body), built once.
+    pub fn poly(&self) -> &QPoly {
+        self.poly.get_or_init(|| self.build_poly(&self.body))
+    }
+
+    /// P before any growth (the pedestrian itself: what a Monte Carlo audit of body
+    /// contact samples), built once.
+    pub fn original_poly(&self) -> &QPoly {
+        if self.body.is_zero() {
+            return self.poly();
+        }
+        self.original.get_or_init(|| self.build_poly(&BigRational::zero()))
+    }
+
+    fn build_poly(&self, body: &BigRational) -> QPoly {
+        let file = &self.file;
+        let dim = file.position.len();
+        let t = Poly::var(dim as Var).sub(&Poly::constant(file.time.0.clone()));
+        let var = |name: String| self.params.iter().find(|p| p.name == name).map(|p| Poly::var(p.var));
+        let r: QPoly = match &file.radius {
+            RadiusFile::Fixed(r) => Poly::constant(&r.0 + body),
+            RadiusFile::Random(_) => var("R".into()).unwrap_or_else(Poly::zero).add(&Poly::constant(body.clone())),
         };
         let mut poly = r.mul(&r);
         for i in 0..dim {
             let mut vel = Poly::constant(file.velocity[i].0.clone());
-            if let Some(b) = &b[i] {
-                vel = vel.add(b);
+            if let Some(b) = var(format!("b{}", i + 1)) {
+                vel = vel.add(&b);
             }
             let mut c = Poly::constant(file.position[i].0.clone()).add(&vel.mul(&t));
-            if let Some(a) = &a[i] {
-                c = c.add(a);
+            if let Some(a) = var(format!("a{}", i + 1)) {
+                c = c.add(&a);
             }
             let u = Poly::var(i as Var).sub(&c);
             poly = poly.sub(&u.mul(&u));
         }
-        Ok(Pedestrian { file: file.clone(), disk, params, poly, r_max, body: BigRational::zero() })
+        poly
     }
 
     /// The same pedestrian for a robot whose body is a disk/ball of radius `rho` ≥ 0
@@ -188,20 +222,18 @@ impl Pedestrian {
     /// polynomial, the reach of the tail bound grows by ρ (rounded up), and `body` records
     /// ρ for the exact check. Growing twice adds the radii.
     pub fn grown(&self, rho: &BigRational) -> Pedestrian {
-        let r: QPoly = match &self.file.radius {
-            RadiusFile::Fixed(r) => Poly::constant(r.0.clone() + &self.body),
-            RadiusFile::Random(_) => {
-                let v = self.params.iter().find(|p| p.name == "R").map(|p| p.var).unwrap_or_default();
-                Poly::var(v).add(&Poly::constant(self.body.clone()))
-            }
-        };
-        // (R + b + ρ)² − (R + b)² = 2ρ(R + b) + ρ²
-        let two = BigRational::from_integer(2.into());
-        let extra = r.scale(&(&two * rho)).add(&Poly::constant(rho * rho));
         let body = &self.body + rho;
         let mut disk = self.disk.clone();
         disk.reach = Interval::enclose_rational(&(&self.r_max + &body)).hi;
-        Pedestrian { poly: self.poly.add(&extra), disk, body, ..self.clone() }
+        Pedestrian {
+            file: self.file.clone(),
+            disk,
+            params: self.params.clone(),
+            poly: std::sync::OnceLock::new(),
+            original: std::sync::OnceLock::new(),
+            r_max: self.r_max.clone(),
+            body,
+        }
     }
 
     /// Builds its contour (E\[P\], E\[P²\] and what the other bounds need) from its own
@@ -218,7 +250,7 @@ impl Pedestrian {
         let name = |v: Var| self.params.iter().find(|p| p.var == v).map_or_else(|| format!("#{v}"), |p| p.name.clone());
         let supports: Vec<(Var, BigRational, BigRational)> =
             self.params.iter().filter_map(|p| p.dist.support().map(|(lo, hi)| (p.var, lo, hi))).collect();
-        match RiskContour::new(layout, &self.poly, &lookup, &name) {
+        match RiskContour::new(layout, self.poly(), &lookup, &name) {
             Ok(c) => c.with_support(&supports),
             Err(_) => RiskContour::new(layout, &Poly::constant(BigRational::from_integer(1.into())), &lookup, &name)
                 .expect("a constant polynomial needs no moment"),

@@ -35,6 +35,10 @@ fn plan_request(req: &PlanRequest, cap: Duration) -> Result<app::PlanRequest, Se
         None => app::DEFAULT_TIME_LIMIT,
     };
     let endpoints = match (&req.start, &req.goal) {
+        (Some(_), _) if req.t_now.is_some() => {
+            return Err(invalid("start", "a receding-horizon request starts at its position"))
+        }
+        (None, Some(_)) if req.t_now.is_some() => None,
         (Some(s), Some(g)) => Some((s.clone(), g.clone())),
         (None, None) => None,
         _ => {
@@ -64,8 +68,38 @@ fn plan_request(req: &PlanRequest, cap: Duration) -> Result<app::PlanRequest, Se
             None => app::RiskMode::PerObstacle,
         },
         bound: req.bound.as_deref().map(bound_of).transpose()?,
-        receding: None,
+        receding: receding_of(req)?,
     })
+}
+
+/// The receding-horizon part of a wire plan request (docs/design.md §6.9), if any.
+fn receding_of(req: &PlanRequest) -> Result<Option<app::RecedingRequest>, ServiceError> {
+    let Some(t_now) = req.t_now else {
+        for (field, given) in [
+            ("position", req.position.is_some()),
+            ("velocity", req.velocity.is_some()),
+            ("horizon", req.horizon.is_some()),
+            ("robot_id", req.robot_id.is_some()),
+            ("warm_start", req.warm_start.is_some()),
+        ] {
+            if given {
+                return Err(invalid(field, "belongs to a receding-horizon request: give t_now too"));
+            }
+        }
+        return Ok(None);
+    };
+    let position = req.position.clone().ok_or_else(|| invalid("position", "a receding-horizon request needs it"))?;
+    let horizon = req.horizon.ok_or_else(|| invalid("horizon", "a receding-horizon request needs it"))?;
+    let goal = req.goal.clone().ok_or_else(|| invalid("goal", "a receding-horizon request needs it"))?;
+    let warm_start = match &req.warm_start {
+        Some(p) if p.is_empty() => return Err(invalid("warm_start", "needs at least one piece")),
+        Some(p) if p.len() > crate::scene::MAX_PIECES => {
+            return Err(invalid("warm_start", format!("at most {} pieces", crate::scene::MAX_PIECES)))
+        }
+        Some(p) => Some(Arc::new(Trajectory::new(p.clone()))),
+        None => None,
+    };
+    Ok(Some(app::RecedingRequest { t_now, position, velocity: req.velocity.clone(), horizon, goal, warm_start }))
 }
 
 /// Replaces scene `name` or applies changes to it (an `apply` request); returns the
@@ -80,6 +114,7 @@ pub fn apply(registry: &Registry, name: &str, req: ApplyRequest) -> Result<u64, 
 
 /// Plans on a scene. `cap` bounds the time limit; `cancel` stops the planner early.
 pub fn plan(
+    registry: &Registry,
     entry: &Entry,
     req: &PlanRequest,
     cap: Duration,
@@ -93,7 +128,21 @@ pub fn plan(
         return Err(ServiceError::DeadlineExceeded("the plan's time limit passed while it waited for a worker".into()));
     }
     request.time_limit = left;
-    let (problem, out) = request.run(&entry.kernel, Some(cancel))?;
+    // the robot's kept plan, unless the request sends one
+    if let (Some(r), Some(id)) = (request.receding.as_mut(), req.robot_id.as_deref()) {
+        check_robot_id(id)?;
+        if r.warm_start.is_none() {
+            r.warm_start = registry.robot_plan(&entry.scene.name, id);
+        }
+    }
+    let kernel = match req.robot_radius {
+        Some(rho) => registry.with_body(entry, rho)?,
+        None => entry.kernel.clone(),
+    };
+    let (problem, out) = request.run(&kernel, Some(cancel))?;
+    if let (Some(id), Some(t)) = (req.robot_id.as_deref(), out.trajectory.as_ref()) {
+        registry.keep_robot_plan(&entry.scene.name, id, Arc::new(t.clone()));
+    }
     if let Some(n) = out.stats.final_check.as_ref().map(|f| f.disagreements).filter(|&n| n > 0) {
         #[cfg(feature = "service")]
         tracing::error!(
@@ -124,6 +173,14 @@ pub fn plan(
         scene: entry.scene.name.clone(),
         risk: problem.delta.to_f64(),
     })
+}
+
+/// A robot id: 1 to 128 characters, letters, digits, `-`, `_`, `.`.
+fn check_robot_id(id: &str) -> Result<(), ServiceError> {
+    if id.is_empty() || id.len() > 128 || !id.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c)) {
+        return Err(invalid("robot_id", "1 to 128 characters: letters, digits, '-', '_', '.'"));
+    }
+    Ok(())
 }
 
 /// Verifies a trajectory or one segment.

@@ -86,6 +86,9 @@ pub struct Change {
     /// Parameters it declares or replaces (put): `{name: distribution}`.
     #[serde(default)]
     pub params: Option<EmbeddedJson>,
+    /// A pedestrian template (put), instead of `poly` (docs/formats.md §1.5.1).
+    #[serde(default)]
+    pub pedestrian: Option<EmbeddedJson>,
 }
 
 /// `apply_reply`.
@@ -155,6 +158,30 @@ pub struct PlanRequest {
     /// (the paper's). Default: the scene's `planner.bound`, else `auto`.
     #[serde(default)]
     pub bound: Option<String>,
+    /// A receding-horizon request (docs/design.md §6.9): the current time. With it:
+    /// `position`, `horizon` and `goal` are required, `start` is not allowed.
+    #[serde(default)]
+    pub t_now: Option<f64>,
+    /// The robot's position at `t_now`.
+    #[serde(default)]
+    pub position: Option<Vec<f64>>,
+    /// The robot's velocity at `t_now` (default: at rest).
+    #[serde(default)]
+    pub velocity: Option<Vec<f64>>,
+    /// The window's length H: the plan covers `[t_now, t_now + H]` (cut at the scene's
+    /// horizon).
+    #[serde(default)]
+    pub horizon: Option<f64>,
+    /// The robot's id: the server keeps its last plan and continues from it (warm start).
+    #[serde(default)]
+    pub robot_id: Option<String>,
+    /// The previous plan's pieces, to continue from (instead of the one kept per robot).
+    #[serde(default)]
+    pub warm_start: Option<Vec<Piece>>,
+    /// The robot's body radius (default: the scene's `robot_radius`, else 0): every
+    /// obstacle is grown by it (docs/design.md §3.12).
+    #[serde(default)]
+    pub robot_radius: Option<f64>,
 }
 
 /// `plan_reply`: a trajectory in format v1 with its provenance.

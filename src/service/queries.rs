@@ -132,7 +132,11 @@ async fn dispatch(
             let rev = entry.revision;
             // the queue wait counts against the plan's time limit (handlers::plan); a plan
             // can never wait longer than the cap
-            let reply = state.jobs.run(arrival + cap, move || handlers::plan(&entry, &req, cap, arrival, cancel)).await;
+            let st = state.clone();
+            let reply = state
+                .jobs
+                .run(arrival + cap, move || handlers::plan(&st.registry, &entry, &req, cap, arrival, cancel))
+                .await;
             drop(guard);
             let reply = reply?;
             Ok((codec.encode(&reply), Some(rev)))

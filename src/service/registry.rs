@@ -34,6 +34,13 @@ impl Entry {
         let scene = Arc::new(scene);
         Entry { kernel: SceneKernel::new(scene.clone()), scene, revision, json }
     }
+
+    /// The next revision of a scene whose kernel was `previous`: what it built for
+    /// unchanged obstacles is taken over.
+    fn successor(previous: &SceneKernel, scene: Scene, revision: u64, json: serde_json::Value) -> Entry {
+        let scene = Arc::new(scene);
+        Entry { kernel: previous.successor(scene.clone()), scene, revision, json }
+    }
 }
 
 /// A committed change of one scene, as replicas follow it: the scene at `revision`,
@@ -89,7 +96,20 @@ pub struct Registry {
     history: Mutex<BTreeMap<String, (u64, bool)>>,
     /// What went wrong while loading the stored scenes (shown by `status`).
     problems: Mutex<Vec<String>>,
+    /// The last plan of each robot, by (scene, robot id), for receding-horizon warm
+    /// starts (docs/design.md §6.9); at most [`MAX_ROBOT_PLANS`].
+    robots: Mutex<std::collections::HashMap<(String, String), Arc<crate::scene::Trajectory>>>,
+    /// Scenes grown by a request's robot body, by (scene, revision, radius bits); the
+    /// last [`MAX_BODY_KERNELS`].
+    bodies: Mutex<Vec<((String, u64, u64), SceneKernel)>>,
 }
+
+/// Most robot plans kept for warm starts (a robot's entry is replaced by its next plan;
+/// past the limit the oldest-looking entries are dropped).
+pub const MAX_ROBOT_PLANS: usize = 4096;
+
+/// Scenes grown by a request's body radius kept (docs/design.md §3.12).
+pub const MAX_BODY_KERNELS: usize = 8;
 
 /// Revisions of a name created again after its file was lost start above
 /// `epoch · EPOCH_STRIDE`, above every revision handed out in earlier runs (which
@@ -128,7 +148,52 @@ impl Registry {
             store,
             history: Mutex::new(BTreeMap::new()),
             problems: Mutex::new(Vec::new()),
+            robots: Mutex::new(std::collections::HashMap::new()),
+            bodies: Mutex::new(Vec::new()),
         }
+    }
+
+    /// The last plan kept for `robot` on `scene`.
+    pub fn robot_plan(&self, scene: &str, robot: &str) -> Option<Arc<crate::scene::Trajectory>> {
+        self.robots.lock().ok()?.get(&(scene.to_string(), robot.to_string())).cloned()
+    }
+
+    /// Keeps `plan` as the last plan of `robot` on `scene`.
+    pub fn keep_robot_plan(&self, scene: &str, robot: &str, plan: Arc<crate::scene::Trajectory>) {
+        if let Ok(mut m) = self.robots.lock() {
+            let key = (scene.to_string(), robot.to_string());
+            if m.len() >= MAX_ROBOT_PLANS && !m.contains_key(&key) {
+                if let Some(k) = m.keys().next().cloned() {
+                    m.remove(&k);
+                }
+            }
+            m.insert(key, plan);
+        }
+    }
+
+    /// The kernel of `entry`'s scene for a robot body of radius `rho` (the entry's own
+    /// when the scene has that body): every obstacle grown by it (docs/design.md §3.12),
+    /// built once per revision and radius.
+    pub fn with_body(&self, entry: &Entry, rho: f64) -> Result<SceneKernel, ServiceError> {
+        let bad = |m: String| invalid("robot_radius", m);
+        let r = num_rational::BigRational::from_float(rho)
+            .filter(|r| !num_traits::Signed::is_negative(r))
+            .ok_or_else(|| bad(format!("must be a finite number ≥ 0, got {rho}")))?;
+        if r == entry.scene.body {
+            return Ok(entry.kernel.clone());
+        }
+        let key = (entry.scene.name.clone(), entry.revision, rho.to_bits());
+        if let Some(k) = self.bodies.lock().map_err(internal)?.iter().find(|e| e.0 == key).map(|e| e.1.clone()) {
+            return Ok(k);
+        }
+        let grown = entry.scene.with_body(rho, &self.cache).map_err(|e| bad(e.to_string()))?;
+        let kernel = SceneKernel::new(Arc::new(grown));
+        let mut v = self.bodies.lock().map_err(internal)?;
+        if v.len() >= MAX_BODY_KERNELS {
+            v.remove(0);
+        }
+        v.push((key, kernel.clone()));
+        Ok(kernel)
     }
 
     /// Loads every stored scene. Files that cannot be read, and scenes that no longer
@@ -206,6 +271,19 @@ impl Registry {
         Scene::from_json_cached(&json.to_string(), &self.cache).map_err(ServiceError::InvalidScene)
     }
 
+    /// [`Registry::build`] from the previous revision: unchanged pedestrians are taken
+    /// over (docs/design.md §3.11).
+    fn build_from(&self, json: &serde_json::Value, previous: Option<&Scene>) -> Result<Scene, ServiceError> {
+        let file: crate::scene::SceneFile = serde_path_to_error::deserialize(json).map_err(|e| {
+            let path = e.path().to_string();
+            ServiceError::InvalidScene(crate::scene::SceneError {
+                path: if path == "." { String::new() } else { path },
+                kind: crate::scene::SceneErrorKind::Syntax(e.into_inner().to_string()),
+            })
+        })?;
+        Scene::from_file_reusing(file, &self.cache, previous).map_err(ServiceError::InvalidScene)
+    }
+
     /// The scene `name`.
     pub fn get(&self, name: &str) -> Result<Entry, ServiceError> {
         check_name(name)?;
@@ -246,12 +324,12 @@ impl Registry {
         if let Some(o) = json.as_object_mut() {
             o.insert("name".into(), serde_json::Value::String(name.to_string()));
         }
-        let scene = self.build(&json)?;
+        let scene = self.build_from(&json, current.as_ref().map(|e| e.scene.as_ref()))?;
         let revision = match &current {
             Some(e) => e.revision + 1,
             None => self.history.lock().map_err(internal)?.get(name).map_or(0, |&(rev, _)| rev) + 1,
         };
-        self.commit_live(name, revision, json, scene)?;
+        self.commit_live(name, revision, json, scene, current.as_ref().map(|e| &e.kernel))?;
         Ok(revision)
     }
 
@@ -263,12 +341,17 @@ impl Registry {
         revision: u64,
         json: serde_json::Value,
         scene: Scene,
+        previous: Option<&SceneKernel>,
     ) -> Result<(), ServiceError> {
         self.store.save(name, revision, &json).map_err(|e| internal(format!("cannot persist scene '{name}': {e}")))?;
         self.notify(name, revision, Some(&json));
         self.history.lock().map_err(internal)?.remove(name);
         let mut m = self.scenes.write().map_err(internal)?;
-        m.insert(name.to_string(), Entry::new(scene, revision, json));
+        let entry = match previous {
+            Some(k) => Entry::successor(k, scene, revision, json),
+            None => Entry::new(scene, revision, json),
+        };
+        m.insert(name.to_string(), entry);
         self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
         Ok(())
     }
@@ -372,7 +455,11 @@ impl Registry {
                 return Ok(false);
             }
             match &c.json {
-                Some(json) => self.commit_live(&c.name, c.revision, json.clone(), self.build(json)?)?,
+                Some(json) => {
+                    let current = self.scenes.read().map_err(internal)?.get(&c.name).cloned();
+                    let scene = self.build_from(json, current.as_ref().map(|e| e.scene.as_ref()))?;
+                    self.commit_live(&c.name, c.revision, json.clone(), scene, current.as_ref().map(|e| &e.kernel))?
+                }
                 None => self.commit_deleted(&c.name, c.revision)?,
             }
             Ok(true)
@@ -396,15 +483,25 @@ impl Registry {
             let mut json = cur.cloned().ok_or_else(|| ServiceError::UnknownScene(name.to_string()))?;
             for (i, c) in changes.iter().enumerate() {
                 match c.op.as_str() {
-                    "put" => {
-                        let poly = c
-                            .poly
-                            .clone()
-                            .ok_or_else(|| invalid(&format!("changes[{i}].poly"), "a put needs 'poly'"))?;
-                        put_obstacle_json(&mut json, &c.id, &poly, c.params.as_ref(), &format!("changes[{i}]"))?;
-                    }
+                    "put" => match (&c.poly, &c.pedestrian) {
+                        (Some(poly), None) => {
+                            put_obstacle_json(&mut json, &c.id, poly, c.params.as_ref(), &format!("changes[{i}]"))?
+                        }
+                        (None, Some(EmbeddedJson(p))) => {
+                            if c.params.is_some() {
+                                return Err(invalid(&format!("changes[{i}].params"), "a pedestrian has no params"));
+                            }
+                            put_pedestrian_json(&mut json, &c.id, p, &format!("changes[{i}]"))?
+                        }
+                        _ => {
+                            return Err(invalid(
+                                &format!("changes[{i}].poly"),
+                                "a put needs exactly one of 'poly' and 'pedestrian'",
+                            ))
+                        }
+                    },
                     "delete" => {
-                        if c.poly.is_some() || c.params.is_some() {
+                        if c.poly.is_some() || c.params.is_some() || c.pedestrian.is_some() {
                             return Err(invalid(&format!("changes[{i}]"), "a delete takes only 'op' and 'id'"));
                         }
                         delete_obstacle_json(&mut json, &c.id, &format!("changes[{i}].id"))?
@@ -479,6 +576,27 @@ fn put_obstacle_json(
         .and_then(|o| o.as_array_mut())
         .ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
     let entry = serde_json::json!({"id": id, "poly": poly});
+    match obstacles.iter_mut().find(|o| o["id"] == id) {
+        Some(o) => *o = entry,
+        None => obstacles.push(entry),
+    }
+    Ok(())
+}
+
+fn put_pedestrian_json(
+    json: &mut serde_json::Value,
+    id: &str,
+    pedestrian: &serde_json::Value,
+    path: &str,
+) -> Result<(), ServiceError> {
+    if id.is_empty() {
+        return Err(invalid(&format!("{path}.id"), "an obstacle id must not be empty"));
+    }
+    let obstacles = json
+        .get_mut("obstacles")
+        .and_then(|o| o.as_array_mut())
+        .ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
+    let entry = serde_json::json!({"id": id, "pedestrian": pedestrian});
     match obstacles.iter_mut().find(|o| o["id"] == id) {
         Some(o) => *o = entry,
         None => obstacles.push(entry),

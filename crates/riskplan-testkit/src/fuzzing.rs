@@ -124,7 +124,7 @@ mod request_target {
                 let entry = reg.get(fixture).expect("fixture");
                 let cancel = Arc::new(AtomicBool::new(false));
                 let t = Instant::now();
-                check(handlers::plan(&entry, &req, JOB_BUDGET, t, cancel).map(|r| codec.encode(&r)));
+                check(handlers::plan(reg, &entry, &req, JOB_BUDGET, t, cancel).map(|r| codec.encode(&r)));
             }
             "verify" => {
                 let Ok(req) = codec.decode::<VerifyRequest>(rest) else { return };

@@ -191,6 +191,12 @@ pub fn point_obstacle_safe_at(
         if xt.iter().zip(&f).any(|(q, &v)| BigRational::from_float(v).as_ref() != Some(q)) {
             return false;
         }
+        // the interval test first (sound), then the exact one
+        if let Some(k) = crate::contour::tail::tail_kappa(dim, delta.rational()) {
+            if crate::certify::tail::point_clear(&p.disk, k, &f[..dim], f[dim]) {
+                return true;
+            }
+        }
         let coeffs: Vec<Vec<f64>> = f[..dim].iter().map(|&v| vec![v]).collect();
         let pr = PieceRef { t0: f[dim], t1: f[dim], coeffs: &coeffs };
         return crate::certify::tail::piece_clear_exact(p, delta.rational(), pr).is_safe();

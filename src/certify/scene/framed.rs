@@ -287,12 +287,10 @@ fn pedestrian_box_clear(p: &crate::scene::Pedestrian, d: &RiskLevel, hull: &[Int
     if hull.len() != dim {
         return false;
     }
-    let e = |q: &BigRational| Interval::enclose_rational(q);
-    let t_ref = e(&p.file.time.0);
-    let zero = BigRational::from_integer(0.into());
-    let sp = e(p.file.position_std.as_ref().map_or(&zero, |n| &n.0));
-    let sv = e(p.file.velocity_std.as_ref().map_or(&zero, |n| &n.0));
-    let reach = e(&(&p.r_max + &p.body));
+    // the template's numbers, enclosed once (`p.disk`: the stds and the reach rounded up)
+    let t_ref = p.disk.t_ref;
+    let (sp, sv) = (Interval::new(0.0, p.disk.sigma_p), Interval::new(0.0, p.disk.sigma_v));
+    let reach = Interval::new(0.0, p.disk.reach);
     let radius = |t: f64| {
         let tau = Interval::point(t) - t_ref;
         let s = sp * sp + sv * sv * tau * tau;
@@ -307,7 +305,7 @@ fn pedestrian_box_clear(p: &crate::scene::Pedestrian, d: &RiskLevel, hull: &[Int
     let (ta, tb) = (Interval::point(t0) - t_ref, Interval::point(t1) - t_ref);
     let mut gap2 = Interval::point(0.0);
     for (i, side) in hull.iter().enumerate() {
-        let (pi, vi) = (e(&p.file.position[i].0), e(&p.file.velocity[i].0));
+        let (pi, vi) = (p.disk.position[i], p.disk.velocity[i]);
         let (ca, cb) = (pi + vi * ta, pi + vi * tb);
         let (lo, hi) = (ca.lo.min(cb.lo), ca.hi.max(cb.hi));
         // a lower bound of the gap between [lo, hi] and the hull's side

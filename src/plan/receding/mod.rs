@@ -274,6 +274,8 @@ impl Planner for Receding {
         let goal = p.goal.clone();
         let mut verts = vec![Vertex { x: p.start.clone(), v: v0.clone(), t: t_now, parent: None, piece: None }];
         let mut reached: Option<Vec<Piece>> = None;
+        // the last vertex of the warm start's chain (0: none)
+        let mut warm_end = 0usize;
         // the warm start: the previous plan from t_now on, if it starts here
         if let Some(prev) = &p.warm_start {
             let mut at = 0usize;
@@ -299,6 +301,7 @@ impl Planner for Receding {
             if at > 0 && dist(&verts[at].x, &goal) <= 1e-9 * (1.0 + norm(&goal)) && norm(&verts[at].v) == 0.0 {
                 reached = Some(Self::path(&verts, at));
             }
+            warm_end = at;
         }
         let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
         let ws = &p.scene.workspace;
@@ -329,11 +332,21 @@ impl Planner for Receding {
         // greedy rollouts first: towards the goal at full speed, turning away (±30°,
         // ±60°, ±90° in 2-D; perturbed directions otherwise), slowing or stopping when an
         // edge is refused — a good plan in a few dozen checks when one exists nearby
-        for r in 0..ROLLOUTS {
-            if reached.is_some() || term.expired() {
+        // from the warm start's end first (continuing the previous plan), then from the
+        // robot's state
+        let origins: Vec<(usize, usize)> = (0..ROLLOUTS)
+            .filter(|_| warm_end > 0)
+            .map(|r| (warm_end, r))
+            .chain((0..ROLLOUTS).map(|r| (0, r)))
+            .collect();
+        for (origin, r) in origins {
+            // a rollout that lasted the window is the answer's candidate: the faster
+            // rollouts come first, so the first one that lasts makes the most progress
+            let lasted = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
+            if reached.is_some() || term.expired() || lasted {
                 break;
             }
-            let mut i = 0usize;
+            let mut i = origin;
             while verts[i].t + 0.5 * h < t_end && !term.expired() {
                 let vx = verts[i].clone();
                 let to = dist(&vx.x, &goal);
@@ -368,7 +381,10 @@ impl Planner for Receding {
                 }
             }
         }
-        while reached.is_none() && verts.len() < self.params.max_vertices {
+        // the random tree, only when no rollout lasted the window (a robot replans in a
+        // tenth of a second: a plan now beats a slightly better one later)
+        let lasted = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
+        while reached.is_none() && !lasted && verts.len() < self.params.max_vertices {
             if term.expired() {
                 break;
             }
@@ -379,9 +395,13 @@ impl Planner for Receding {
                 (0..dim).map(|d| rng.random_range(ws.lower[d]..=ws.upper[d])).collect()
             };
             // the nearest vertex that can still grow, in space
-            let Some(i) = (0..verts.len())
-                .filter(|&i| verts[i].t + h <= t_end * (1.0 + f64::EPSILON) + f64::EPSILON)
-                .min_by(|&a, &b| dist(&verts[a].x, &target).total_cmp(&dist(&verts[b].x, &target)))
+            let d2 = |x: &[f64]| x.iter().zip(&target).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+            let Some((i, _)) = verts
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.t + h <= t_end * (1.0 + f64::EPSILON) + f64::EPSILON)
+                .map(|(i, v)| (i, d2(&v.x)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
             else {
                 break;
             };

@@ -1,0 +1,328 @@
+//! `riskplan sim crowd`: the closed-loop crowd simulation against a running service,
+//! over Zenoh, exactly as a robot would use it (docs/design.md §6.10).
+
+use super::util::CliError;
+use crate::app::crowd::{self, Crowd, CrowdParams, STEP};
+use crate::scene::{Trajectory, TRAJECTORY_FORMAT};
+use crate::service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
+use crate::service::Client;
+use clap::{Args, Subcommand};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Simulations that use the running service as a robot would.
+#[derive(Args, Debug)]
+pub struct SimArgs {
+    #[command(subcommand)]
+    command: SimCommand,
+}
+
+#[derive(Subcommand, Debug)]
+enum SimCommand {
+    /// A robot crossing a corridor (16 × 6) among walking pedestrians, replanning every
+    /// 0.1 s: each step sends the pedestrians' predictions (measured position, nominal
+    /// velocity, Gaussian errors; their true velocities are drawn from those
+    /// distributions) as one `apply`, then a receding-horizon plan request from the
+    /// robot's state, and moves the robot along the answer (keeping the previous plan
+    /// when a replan fails, stopping at the end of a plan). The last line of output is
+    /// one JSON object: episodes, reached_goal, collisions, time_to_goal_s_median,
+    /// replan_ms_p50, replan_ms_p99 (client-measured update + plan), no_plan.
+    Crowd(CrowdArgs),
+}
+
+/// `riskplan sim crowd`.
+#[derive(Args, Debug)]
+pub struct CrowdArgs {
+    /// Pedestrians in the corridor.
+    #[arg(long, default_value_t = 30)]
+    pedestrians: usize,
+    /// Episodes.
+    #[arg(long, default_value_t = 10)]
+    episodes: usize,
+    /// Seed (episode k uses seed + k).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Risk level Δ per pedestrian and instant.
+    #[arg(long, default_value_t = 0.01)]
+    delta: f64,
+    /// The robot's body radius.
+    #[arg(long, default_value_t = 0.25)]
+    robot_radius: f64,
+    /// The robot's speed limit (its acceleration limit: reaching it in a quarter second
+    /// times... see --max-accel).
+    #[arg(long, default_value_t = 1.5)]
+    max_speed: f64,
+    /// The robot's acceleration limit (default: twice the speed limit per second).
+    #[arg(long)]
+    max_accel: Option<f64>,
+    /// The planning window H, seconds.
+    #[arg(long, default_value_t = 3.0)]
+    window: f64,
+    /// Each replan's time limit, seconds.
+    #[arg(long, default_value_t = 0.04)]
+    plan_time: f64,
+    /// The service's endpoint.
+    #[arg(long, default_value = "tcp/127.0.0.1:7447")]
+    endpoint: String,
+    /// Write an animation of the first episode (animated SVG).
+    #[arg(long)]
+    animate: Option<PathBuf>,
+}
+
+pub fn run(a: SimArgs) -> Result<i32, CliError> {
+    match a.command {
+        SimCommand::Crowd(c) => run_crowd(c),
+    }
+}
+
+/// One frame of the animation.
+struct Frame {
+    robot: [f64; 2],
+    plan: Vec<[f64; 2]>,
+    walkers: Vec<([f64; 2], f64, f64)>,
+}
+
+fn run_crowd(a: CrowdArgs) -> Result<i32, CliError> {
+    let bad = |m: String| CliError(m);
+    if !(a.delta > 0.0 && a.delta < 1.0) {
+        return Err(bad(format!("--delta must be in (0, 1), got {}", a.delta)));
+    }
+    if !(a.robot_radius >= 0.0 && a.robot_radius < crowd::CORRIDOR_WIDTH / 4.0) {
+        return Err(bad(format!(
+            "--robot-radius must be in [0, {}), got {}",
+            crowd::CORRIDOR_WIDTH / 4.0,
+            a.robot_radius
+        )));
+    }
+    if !(a.max_speed > 0.0 && a.max_speed.is_finite()) || !(a.window > STEP) || !(a.plan_time > 0.0) {
+        return Err(bad("--max-speed, --window (> 0.1) and --plan-time must be positive".into()));
+    }
+    if a.pedestrians > 200 || a.episodes == 0 || a.episodes > 10_000 {
+        return Err(bad("--pedestrians at most 200, --episodes between 1 and 10000".into()));
+    }
+    let accel = a.max_accel.unwrap_or(2.0 * a.max_speed);
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .map_err(|e| CliError(e.to_string()))?;
+    rt.block_on(async move {
+        let client = Client::connect(&a.endpoint, Duration::from_secs(10), Codec::Bincode)
+            .await
+            .map_err(|e| CliError(e.to_string()))?;
+        let r = episodes(&client, &a, accel).await;
+        client.close().await;
+        r
+    })
+}
+
+async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, CliError> {
+    let (start, goal) = crowd::start_goal();
+    let straight = (goal[0] - start[0]).hypot(goal[1] - start[1]);
+    // an episode lasts at most four times the straight crossing at full speed
+    let t_max = 4.0 * straight / a.max_speed;
+    let (lo, hi) = crowd::bounds();
+    let (mut reached, mut collisions, mut no_plan) = (0usize, 0usize, 0usize);
+    let mut times = Vec::new();
+    let mut lat = Vec::new();
+    let mut upd = Vec::new();
+    let mut frames: Vec<Frame> = Vec::new();
+    for ep in 0..a.episodes {
+        let params = CrowdParams::default();
+        let clear = 2.0 * (params.radius.1 + a.robot_radius) + 1.0;
+        let mut world = Crowd::new(a.pedestrians, a.seed.wrapping_add(ep as u64), params, start, clear);
+        let name = format!("sim-crowd-{}", a.seed.wrapping_add(ep as u64));
+        let obstacles: Vec<serde_json::Value> = (0..world.walkers.len())
+            .map(|i| serde_json::json!({"id": world.walkers[i].id.clone(), "pedestrian": world.prediction(i, 0.0)}))
+            .collect();
+        let scene = serde_json::json!({"format": "riskplan-scene/1", "name": name, "dim": 2,
+            "workspace": {"lower": lo, "upper": hi}, "horizon": [0.0, t_max + a.window], "risk": a.delta,
+            "robot_radius": a.robot_radius, "obstacles": obstacles,
+            "planner": {"max_speed": a.max_speed, "max_accel": accel}});
+        client
+            .apply(&name, &ApplyRequest { scene: Some(EmbeddedJson(scene)), ..Default::default() })
+            .await
+            .map_err(|e| CliError(format!("episode {ep}: cannot put the scene: {e}")))?;
+        let (mut x, mut v) = (start, [0.0, 0.0]);
+        let mut plan: Option<Trajectory> = None;
+        let mut t = 0.0;
+        let mut outcome = "timeout";
+        let mut removed: Vec<String> = Vec::new();
+        while t < t_max {
+            // the predictions (and the pedestrians that left)
+            let mut changes: Vec<Change> = removed
+                .drain(..)
+                .map(|id| Change { op: "delete".into(), id, poly: None, params: None, pedestrian: None })
+                .collect();
+            for i in 0..world.walkers.len() {
+                let p = world.prediction(i, t);
+                changes.push(Change {
+                    op: "put".into(),
+                    id: world.walkers[i].id.clone(),
+                    poly: None,
+                    params: None,
+                    pedestrian: Some(EmbeddedJson(p)),
+                });
+            }
+            let began = Instant::now();
+            let applied = client.apply(&name, &ApplyRequest { changes: Some(changes), ..Default::default() }).await;
+            upd.push(began.elapsed().as_secs_f64() * 1e3);
+            if let Err(e) = applied {
+                return Err(CliError(format!("episode {ep} at t = {t:.1}: the update failed: {e}")));
+            }
+            let req = PlanRequest {
+                goal: Some(goal.to_vec()),
+                time_limit: Some(a.plan_time),
+                seed: Some(1 + (t / STEP).round() as u64),
+                t_now: Some(t),
+                position: Some(x.to_vec()),
+                velocity: Some(v.to_vec()),
+                horizon: Some(a.window),
+                robot_id: Some("sim-robot".into()),
+                ..Default::default()
+            };
+            let reply = client.plan(&name, &req).await;
+            lat.push(began.elapsed().as_secs_f64() * 1e3);
+            let failed_last = match reply {
+                Ok(r) => {
+                    plan = Some(Trajectory { format: TRAJECTORY_FORMAT.into(), pieces: r.pieces });
+                    false
+                }
+                Err(_) => {
+                    no_plan += 1;
+                    true
+                }
+            };
+            // move along the plan (at rest where none is left)
+            let follow = |s: f64| -> [f64; 2] {
+                match &plan {
+                    Some(p) => crowd::follow(p, s).0,
+                    None => x,
+                }
+            };
+            if ep == 0 && a.animate.is_some() {
+                let plan_pts = plan
+                    .as_ref()
+                    .map(|p| {
+                        let (t0, t1) = (t, p.pieces.last().map_or(t, |q| q.t1));
+                        (0..=20).map(|k| crowd::follow(p, t0 + (t1 - t0) * k as f64 / 20.0).0).collect()
+                    })
+                    .unwrap_or_default();
+                frames.push(Frame {
+                    robot: x,
+                    plan: plan_pts,
+                    walkers: world.walkers.iter().map(|w| (w.x, w.radius, delta_radius(&params, a, 1.0))).collect(),
+                });
+            }
+            if let Some(id) = world.contact(&follow, t, STEP, a.robot_radius) {
+                collisions += 1;
+                outcome = "collision";
+                let end = plan.as_ref().and_then(|p| p.pieces.last()).map_or(t, |p| p.t1);
+                eprintln!(
+                    "episode {ep}: contact with {id} at t = {t:.1} (robot at {x:?}, speed {:.2}; its plan ends at {end:.2}; last replan {})",
+                    v[0].hypot(v[1]),
+                    if failed_last { "failed" } else { "succeeded" }
+                );
+                break;
+            }
+            let next = t + STEP;
+            let (nx, nv) = match &plan {
+                Some(p) => crowd::follow(p, next),
+                None => (x, [0.0, 0.0]),
+            };
+            x = nx;
+            v = nv;
+            t = next;
+            removed = world.step(STEP, x, clear);
+            if (x[0] - goal[0]).hypot(x[1] - goal[1]) <= 1e-6 * straight {
+                reached += 1;
+                times.push(t);
+                outcome = "goal";
+                break;
+            }
+        }
+        println!("episode {ep}: {outcome} at t = {t:.1} s");
+    }
+    if let Some(path) = &a.animate {
+        std::fs::write(path, animation(&frames, a)).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    }
+    let pct = |v: &mut Vec<f64>, q: f64| -> Option<f64> {
+        v.sort_by(f64::total_cmp);
+        (!v.is_empty()).then(|| v[((v.len() - 1) as f64 * q).round() as usize])
+    };
+    let summary = serde_json::json!({
+        "episodes": a.episodes, "reached_goal": reached, "collisions": collisions,
+        "time_to_goal_s_median": pct(&mut times, 0.5), "replan_ms_p50": pct(&mut lat, 0.5),
+        "replan_ms_p99": pct(&mut lat, 0.99), "no_plan": no_plan, "replans": lat.len(),
+        "update_ms_p50": pct(&mut upd, 0.5), "update_ms_p99": pct(&mut upd, 0.99),
+        "pedestrians": a.pedestrians, "delta": a.delta, "robot_radius": a.robot_radius,
+    });
+    println!("{summary}");
+    Ok(0)
+}
+
+/// The radius of a pedestrian's Δ-contour `tau` seconds after its prediction (the
+/// largest radius, the body and κ·√s; for the animation).
+fn delta_radius(p: &CrowdParams, a: &CrowdArgs, tau: f64) -> f64 {
+    let k = crate::contour::tail::tail_kappa(2, &num_rational::BigRational::from_float(a.delta).unwrap_or_default())
+        .unwrap_or(0.0);
+    p.radius.1 + a.robot_radius + k * (p.position_std.powi(2) + (p.velocity_std * tau).powi(2)).sqrt()
+}
+
+/// An animated SVG of the frames: pedestrians (grey) with their Δ-contour one second
+/// ahead (dashed), the robot (blue) with its body, its current plan (blue line).
+fn animation(frames: &[Frame], a: &CrowdArgs) -> String {
+    let (lo, hi) = crowd::bounds();
+    let scale = 50.0;
+    let (w, h) = ((hi[0] - lo[0]) * scale, (hi[1] - lo[1]) * scale);
+    let px = |p: [f64; 2]| ((p[0] - lo[0]) * scale, (hi[1] - p[1]) * scale);
+    let dur = frames.len() as f64 * STEP;
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n\
+         <rect width=\"{w}\" height=\"{h}\" fill=\"#fafafa\" stroke=\"#333\"/>\n"
+    );
+    let (_, goal) = crowd::start_goal();
+    let g = px(goal);
+    s += &format!(
+        "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"6\" fill=\"none\" stroke=\"green\" stroke-width=\"2\"/>\n",
+        g.0, g.1
+    );
+    for (k, f) in frames.iter().enumerate() {
+        let begin = k as f64 * STEP;
+        s += &format!(
+            "<g visibility=\"hidden\"><set attributeName=\"visibility\" to=\"visible\" begin=\"{begin:.1}s;loop.end+{begin:.1}s\" dur=\"{STEP}s\"/>\n"
+        );
+        for (x, r, dr) in &f.walkers {
+            let c = px(*x);
+            s += &format!("<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" fill=\"#999\"/>", c.0, c.1, r * scale);
+            s += &format!(
+                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" fill=\"none\" stroke=\"#c33\" stroke-dasharray=\"3 3\"/>\n",
+                c.0,
+                c.1,
+                dr * scale
+            );
+        }
+        if f.plan.len() > 1 {
+            let pts: Vec<String> = f.plan.iter().map(|p| px(*p)).map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
+            s += &format!(
+                "<polyline points=\"{}\" fill=\"none\" stroke=\"#1f5fbf\" stroke-width=\"2\"/>\n",
+                pts.join(" ")
+            );
+        }
+        let r = px(f.robot);
+        s += &format!(
+            "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" fill=\"#1f5fbf\" fill-opacity=\"0.8\"/>\n</g>\n",
+            r.0,
+            r.1,
+            a.robot_radius * scale
+        );
+    }
+    s += &format!(
+        "<rect width=\"0\" height=\"0\"><animate id=\"loop\" attributeName=\"width\" from=\"0\" to=\"0\" begin=\"0s;loop.end\" dur=\"{dur:.1}s\"/></rect>\n"
+    );
+    s += &format!(
+        "<text x=\"8\" y=\"16\" font-family=\"sans-serif\" font-size=\"12\">riskplan sim crowd: {} pedestrians, Δ = {}, robot radius {} (dashed: Δ-contours 1 s ahead)</text>\n</svg>\n",
+        a.pedestrians, a.delta, a.robot_radius
+    );
+    s
+}
