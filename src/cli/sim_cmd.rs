@@ -59,7 +59,7 @@ pub struct CrowdArgs {
     #[arg(long, default_value_t = 3.0)]
     window: f64,
     /// Each replan's time limit, seconds.
-    #[arg(long, default_value_t = 0.04)]
+    #[arg(long, default_value_t = 0.03)]
     plan_time: f64,
     /// The service's endpoint.
     #[arg(long, default_value = "tcp/127.0.0.1:7447")]
@@ -241,7 +241,11 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
                 break;
             }
         }
-        println!("episode {ep}: {outcome} at t = {t:.1} s");
+        let left = (x[0] - goal[0]).hypot(x[1] - goal[1]);
+        println!(
+            "episode {ep}: {outcome} at t = {t:.1} s (robot at [{:.2}, {:.2}], {left:.2} from the goal)",
+            x[0], x[1]
+        );
     }
     if let Some(path) = &a.animate {
         std::fs::write(path, animation(&frames, a)).map_err(|e| CliError(format!("{}: {e}", path.display())))?;

@@ -77,7 +77,7 @@ pub struct ObstacleFile {
     pub poly: String,
     /// A pedestrian (docs/formats.md §1.5.1) instead of a polynomial.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub pedestrian: Option<super::pedestrian::PedestrianFile>,
+    pub pedestrian: Option<PedestrianFile>,
 }
 
 fn zero() -> Num {
@@ -378,4 +378,36 @@ pub struct MonteCarloRrtBlock {
     /// The authors' code (free text).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub code: Option<String>,
+}
+
+/// `obstacles[i].pedestrian` as written.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PedestrianFile {
+    /// Predicted (nominal) centre at `time`.
+    pub position: Vec<Num>,
+    /// Predicted (nominal) velocity.
+    pub velocity: Vec<Num>,
+    /// The time of the prediction (`t_ref`).
+    pub time: Num,
+    /// The radius: a number, or a distribution with a bounded support (`uniform`,
+    /// `beta`, `discrete`).
+    pub radius: RadiusFile,
+    /// Standard deviation of each coordinate of the position error at `time` (≥ 0;
+    /// default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_std: Option<Num>,
+    /// Standard deviation of each coordinate of the velocity error (≥ 0; default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity_std: Option<Num>,
+}
+
+/// A pedestrian's radius: fixed, or a distribution with a bounded support.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum RadiusFile {
+    /// A fixed radius.
+    Fixed(Num),
+    /// A random radius.
+    Random(ParamFile),
 }

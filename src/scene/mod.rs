@@ -11,11 +11,11 @@ mod pedestrian;
 mod trajectory;
 
 pub use file::{
-    BoxBlock, MonteCarloRrtBlock, ObstacleFile, ParamFile, PlannerBlock, RrtSosBlock, SceneFile, StandardSosBlock,
+    PedestrianFile, RadiusFile, BoxBlock, MonteCarloRrtBlock, ObstacleFile, ParamFile, PlannerBlock, RrtSosBlock, SceneFile, StandardSosBlock,
     TimeVaryingSosBlock, WidthBlock, WorkspaceFile, SCENE_FORMAT,
 };
 pub use num::{parse_num_text, Num};
-pub use pedestrian::{Pedestrian, PedestrianFile, RadiusFile, MAX_PEDESTRIAN_MAGNITUDE};
+pub use pedestrian::{Pedestrian, MAX_PEDESTRIAN_MAGNITUDE};
 pub use trajectory::{
     Piece, Trajectory, TrajectoryError, TrajectoryFile, CONTINUITY_TOLERANCE, MAX_PIECES, MAX_PIECE_DEGREE,
     TRAJECTORY_FORMAT,

@@ -14,7 +14,7 @@
 //! something asks for them; the certifier decides it by the Gaussian tail bound of
 //! [`GaussianDisk`] instead (§3.11), which costs nothing to set up.
 
-use super::file::ParamFile;
+use super::file::{PedestrianFile, RadiusFile};
 use super::num::Num;
 use super::{err, Param, SceneError};
 use crate::contour::tail::GaussianDisk;
@@ -23,39 +23,6 @@ use crate::moments::Distribution;
 use crate::poly::{rational_to_f64, Interval, Poly, QPoly, Var};
 use num_rational::BigRational;
 use num_traits::{Signed, Zero};
-use serde::{Deserialize, Serialize};
-
-/// `obstacles[i].pedestrian` as written.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct PedestrianFile {
-    /// Predicted (nominal) centre at `time`.
-    pub position: Vec<Num>,
-    /// Predicted (nominal) velocity.
-    pub velocity: Vec<Num>,
-    /// The time of the prediction (`t_ref`).
-    pub time: Num,
-    /// The radius: a number, or a distribution with a bounded support (`uniform`,
-    /// `beta`, `discrete`).
-    pub radius: RadiusFile,
-    /// Standard deviation of each coordinate of the position error at `time` (≥ 0;
-    /// default 0).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub position_std: Option<Num>,
-    /// Standard deviation of each coordinate of the velocity error (≥ 0; default 0).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub velocity_std: Option<Num>,
-}
-
-/// A pedestrian's radius: fixed, or a distribution with a bounded support.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(untagged)]
-pub enum RadiusFile {
-    /// A fixed radius.
-    Fixed(Num),
-    /// A random radius.
-    Random(ParamFile),
-}
 
 /// Largest |coordinate|, |velocity|, |time| or standard deviation of a pedestrian, as
 /// a float: beyond it the tail bound's products would overflow and every piece near the

@@ -101,8 +101,11 @@ pub struct Registry {
     robots: Mutex<std::collections::HashMap<(String, String), Arc<crate::scene::Trajectory>>>,
     /// Scenes grown by a request's robot body, by (scene, revision, radius bits); the
     /// last [`MAX_BODY_KERNELS`].
-    bodies: Mutex<Vec<((String, u64, u64), SceneKernel)>>,
+    bodies: Mutex<Vec<(BodyKey, SceneKernel)>>,
 }
+
+/// A grown scene's key: (scene, revision, the body radius's bits).
+type BodyKey = (String, u64, u64);
 
 /// Most robot plans kept for warm starts (a robot's entry is replaced by its next plan;
 /// past the limit the oldest-looking entries are dropped).

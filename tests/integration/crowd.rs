@@ -177,7 +177,7 @@ fn bodies_are_certified_on_static_moving_and_3d_scenes() {
     w.as_object_mut().unwrap().remove("robot_radius");
     w["obstacles"][0]["poly"] = "(0.3 + 1/4)^2 - (x1 - (t + 0.4 + w1))^2 - (x2 - 1)^2".into();
     let by_hand = Scene::from_json(&w.to_string()).unwrap();
-    assert_eq!(grown.obstacles[0].poly, by_hand.obstacles[0].poly);
+    assert_eq!(*grown.obstacles[0].poly, *by_hand.obstacles[0].poly);
 }
 
 /// Without its body the audit of a plan made for a point robot finds contact above Δ

@@ -104,8 +104,20 @@ fn conformance_of_every_planner_kind() {
     let s = Arc::new(common::scene("illustrative-3"));
     let endpoints = (vec![-0.9, -0.9], vec![-0.9, 0.9]);
     for kind in PlannerKind::ALL {
-        let request =
+        let mut request =
             PlanRequest { planner: kind, seed: 3, endpoints: Some(endpoints.clone()), ..PlanRequest::default() };
+        if kind == PlannerKind::Receding {
+            // the same problem as a receding-horizon request over the whole horizon
+            request.endpoints = None;
+            request.receding = Some(riskplan::app::RecedingRequest {
+                t_now: s.horizon.0,
+                position: endpoints.0.clone(),
+                velocity: None,
+                horizon: s.horizon.1 - s.horizon.0,
+                goal: endpoints.1.clone(),
+                warm_start: None,
+            });
+        }
         let mut prepared = request.prepare(s.clone()).unwrap_or_else(|e| panic!("{kind}: {e}"));
         assert_eq!(prepared.checker.sound(), kind.certifies(), "{kind}: its spec says whether it certifies");
         let (p, checker) = (&prepared.problem, prepared.checker.as_ref());

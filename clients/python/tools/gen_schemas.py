@@ -164,6 +164,20 @@ DEFS = {
         "minLength": 1,
         "description": "polynomial text: numbers (0.3, 1e-3, 37/300), identifiers (x1..x{dim}, t, parameters), + - * ^, parentheses, unary minus; ^ takes a non-negative integer literal; / divides by a numeric constant only. The obstacle is the set where poly >= 0.",
     },
+    "pedestrian": {
+        "description": "a pedestrian (docs/formats.md §1.5.1): a moving disk/ball predicted at `time` with isotropic Gaussian errors of position and velocity and a radius with a bounded support; certified by its Gaussian tail bound (docs/design.md §3.11)",
+        "type": "object",
+        "required": ["position", "velocity", "time", "radius"],
+        "additionalProperties": False,
+        "properties": {
+            "position": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "maxItems": 8},
+            "velocity": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "maxItems": 8},
+            "time": {"$ref": "#/$defs/exact_number"},
+            "radius": {"oneOf": [{"$ref": "#/$defs/exact_number"}, {"$ref": "#/$defs/distribution"}], "description": "a number > 0, or a distribution with a bounded support (uniform, beta, discrete)"},
+            "position_std": {"$ref": "#/$defs/exact_number"},
+            "velocity_std": {"$ref": "#/$defs/exact_number"},
+        },
+    },
     "obstacle_id": {
         "type": "string",
         "minLength": 1,
@@ -196,12 +210,23 @@ DEFS = {
                 "type": "array",
                 "maxItems": 512,
                 "items": {
-                    "type": "object",
-                    "required": ["id", "poly"],
-                    "additionalProperties": False,
-                    "properties": {"id": {"$ref": "#/$defs/obstacle_id"}, "poly": {"$ref": "#/$defs/polynomial"}},
+                    "oneOf": [
+                        {
+                            "type": "object",
+                            "required": ["id", "poly"],
+                            "additionalProperties": False,
+                            "properties": {"id": {"$ref": "#/$defs/obstacle_id"}, "poly": {"$ref": "#/$defs/polynomial"}},
+                        },
+                        {
+                            "type": "object",
+                            "required": ["id", "pedestrian"],
+                            "additionalProperties": False,
+                            "properties": {"id": {"$ref": "#/$defs/obstacle_id"}, "pedestrian": {"$ref": "#/$defs/pedestrian"}},
+                        },
+                    ],
                 },
             },
+            "robot_radius": {"$ref": "#/$defs/exact_number", "description": "the robot's body: the radius of the disk/ball around its reference point (>= 0, below half the workspace's smallest side); every obstacle is grown by it (docs/design.md §3.12). Default 0"},
             "start": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "maxItems": 8, "description": "x(t0); absent in contour-only scenes"},
             "goal": {"type": "array", "items": {"$ref": "#/$defs/exact_number"}, "minItems": 1, "maxItems": 8, "description": "x(tf); absent in contour-only scenes"},
             "planner": {"description": "free form: planner parameters (the rrt_sos block is read by the planner)"},
@@ -347,6 +372,12 @@ CHANGE_PUT = {
         "params": {**ref("params"), "description": "declares or replaces the parameters the obstacle introduces (scene format parameter syntax)"},
     },
 }
+CHANGE_PEDESTRIAN = {
+    "type": "object",
+    "required": ["op", "id", "pedestrian"],
+    "additionalProperties": False,
+    "properties": {"op": {"const": "put"}, "id": ref("obstacle_id"), "pedestrian": ref("pedestrian")},
+}
 CHANGE_DELETE = {
     "type": "object",
     "required": ["op", "id"],
@@ -362,7 +393,7 @@ MESSAGES = {
         "additionalProperties": False,
         "properties": {
             "scene": ref("scene"),
-            "changes": {"type": "array", "maxItems": 512, "items": {"oneOf": [CHANGE_PUT, CHANGE_DELETE]}},
+            "changes": {"type": "array", "maxItems": 512, "items": {"oneOf": [CHANGE_PUT, CHANGE_PEDESTRIAN, CHANGE_DELETE]}},
             "deadline_ms": DEADLINE_MS,
         },
         "oneOf": [{"required": ["scene"]}, {"required": ["changes"]}],
@@ -402,6 +433,13 @@ MESSAGES = {
             "smooth": {"type": "boolean", "description": "shortcut and blend the path into C¹ pieces of degree ≤ 2, each certified (default true; rrt-sos and mc-rrt)"},
             "bound": {"enum": ["auto", "cantelli"], "description": "which risk bounds may prove safety: auto (Cantelli, then zero risk from bounded support and shifted moment bounds of orders 4, 6, 8 on sub-intervals; docs/design.md §3.7–§3.10, §5.13) or cantelli (the paper's eq. (10), (12)). Default: the scene's planner.bound, else auto"},
             "risk_mode": {"enum": ["per-obstacle", "joint", "joint-weighted"], "description": "per-obstacle (the paper's: each obstacle ≤ Δ at each instant); joint: any obstacle ≤ Δ at each instant, Δ split evenly (Boole); joint-weighted: split by need at start and goal, then by closeness to the start–goal line. The Δᵢ used are in stats.risk_allocation."},
+            "t_now": {"type": "number", "description": "a receding-horizon request (docs/design.md §6.9): the current time, inside the scene's horizon; with it position, horizon and goal are required and start is not allowed"},
+            "position": {**VECTOR, "description": "the robot's position at t_now (strictly inside every Δ-contour)"},
+            "velocity": {**VECTOR, "description": "the robot's velocity at t_now (default: at rest); its speed at most max_speed"},
+            "horizon": {"type": "number", "exclusiveMinimum": 0, "description": "the window H: the plan covers [t_now, t_now + H], cut at the scene's horizon"},
+            "robot_id": {"type": "string", "pattern": "^[A-Za-z0-9._-]{1,128}$", "description": "the server keeps this robot's last plan and continues from it (warm start)"},
+            "warm_start": {"type": "array", "minItems": 1, "maxItems": 10000, "items": ref("piece"), "description": "the previous plan's pieces to continue from (instead of the one kept per robot_id)"},
+            "robot_radius": {"type": "number", "minimum": 0, "description": "the robot's body radius (default: the scene's robot_radius, else 0): every obstacle grown by it (docs/design.md §3.12)"},
         },
     },
     "plan_reply": {

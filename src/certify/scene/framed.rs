@@ -227,7 +227,7 @@ pub(crate) fn piece_passes_verify_path(
     pr: PieceRef<'_>,
     deltas: &[RiskLevel],
     bounds: BoundChoice,
-    compiled: Option<&super::kernel::CompiledSet>,
+    compiled: Option<&super::compiled::CompiledSet>,
 ) -> bool {
     if !pr.is_finite() || check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe {
         return false;

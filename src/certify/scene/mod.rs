@@ -8,6 +8,7 @@
 //! Only a proof counts as safe: an undecided constraint makes the piece unsafe.
 
 mod certifier;
+mod compiled;
 mod decide;
 mod framed;
 mod index;

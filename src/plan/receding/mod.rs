@@ -267,6 +267,11 @@ impl Planner for Receding {
             });
         }
         let mut stats = PlanStats { checker: checker.name().to_string(), seed: p.seed, ..Default::default() };
+        if term.should_stop() {
+            let status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
+            let reason = super::NoPlanReason::from_status(status, &stats, term);
+            return Ok(PlanOutcome::no_plan(status, stats, reason));
+        }
         checker.prepare(term);
         let (t_now, t_end) = p.horizon;
         let h = (t_end - t_now) / self.params.steps as f64;
@@ -311,7 +316,7 @@ impl Planner for Receding {
             let vx = &verts[i];
             let d = dist(&vx.x, &goal);
             let base = (1.5 * d / lim.speed).max(h);
-            for f in [1.0, 1.5, 2.25] {
+            for f in [1.0, 1.5, 2.25, 3.4, 5.0] {
                 let dur = base * f;
                 if vx.t + dur > t_end {
                     break;
@@ -343,11 +348,11 @@ impl Planner for Receding {
             // a rollout that lasted the window is the answer's candidate: the faster
             // rollouts come first, so the first one that lasts makes the most progress
             let lasted = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
-            if reached.is_some() || term.expired() || lasted {
+            if reached.is_some() || term.should_stop() || lasted {
                 break;
             }
             let mut i = origin;
-            while verts[i].t + 0.5 * h < t_end && !term.expired() {
+            while verts[i].t + 0.5 * h < t_end && !term.should_stop() {
                 let vx = verts[i].clone();
                 let to = dist(&vx.x, &goal);
                 if to == 0.0 {
@@ -385,7 +390,7 @@ impl Planner for Receding {
         // tenth of a second: a plan now beats a slightly better one later)
         let lasted = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
         while reached.is_none() && !lasted && verts.len() < self.params.max_vertices {
-            if term.expired() {
+            if term.should_stop() {
                 break;
             }
             iterations += 1;
@@ -452,11 +457,13 @@ impl Planner for Receding {
                 (path, true)
             }
             None => {
-                // best progress: among the vertices that last the whole window if any
-                let full = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
-                let best = (1..verts.len())
-                    .filter(|&i| !full || verts[i].t >= t_end)
-                    .min_by(|&a, &b| dist(&verts[a].x, &goal).total_cmp(&dist(&verts[b].x, &goal)));
+                // best progress among the vertices that last the whole window; when none
+                // does, the plan that lasts longest (a robot runs out of a short plan and
+                // stops), then best progress
+                let latest = verts.iter().skip(1).map(|v| v.t).fold(f64::NEG_INFINITY, f64::max);
+                let best = (1..verts.len()).filter(|&i| verts[i].t >= latest.min(t_end)).min_by(|&a, &b| {
+                    dist(&verts[a].x, &goal).total_cmp(&dist(&verts[b].x, &goal))
+                });
                 match best {
                     Some(i) => (Self::path(&verts, i), false),
                     None => (Vec::new(), false),

@@ -345,6 +345,51 @@ class Client:
                            timeout=timeout if timeout is not None else self.plan_timeout(time_limit))
         return Plan(reply)
 
+    def replan(self, name: str, t_now: float, position: Sequence[float], goal: Sequence[float],
+               horizon: float, velocity: Optional[Sequence[float]] = None, *,
+               robot_id: Optional[str] = None, warm_start: Union[None, Json, Trajectory] = None,
+               time_limit: Optional[float] = 0.05, timeout: Optional[float] = None, **options: Any) -> Plan:
+        """A receding-horizon plan (docs/design.md §6.9): from the robot's state at
+        ``t_now`` (``position``, ``velocity``; at rest when ``None``) over
+        ``[t_now, t_now + horizon]`` towards ``goal``. The trajectory leaves with the given
+        velocity (C¹) and ends at the goal at rest, or short of it at the point of best
+        progress: ``plan.progress`` (``{"reached_goal", "remaining_distance", ...}``).
+        ``robot_id``: the server keeps the robot's last plan and continues from it;
+        ``warm_start``: send the previous plan instead. ``options`` as for :meth:`plan`
+        (``delta``, ``max_speed``, ``max_accel``, ``robot_radius``, ``seed``, ...)."""
+        request: Json = {
+            "t_now": float(t_now),
+            "position": [float(v) for v in position],
+            "goal": [float(v) for v in goal],
+            "horizon": float(horizon),
+        }
+        if velocity is not None:
+            request["velocity"] = [float(v) for v in velocity]
+        if robot_id is not None:
+            request["robot_id"] = _check_chunk(robot_id, "robot id")
+        if warm_start is not None:
+            pieces = warm_start.pieces if hasattr(warm_start, "pieces") else warm_start["pieces"]
+            request["warm_start"] = [dict(p) if isinstance(p, dict) else p for p in pieces]
+        if time_limit is not None:
+            request["time_limit"] = float(time_limit)
+        for k, v in options.items():
+            if v is not None:
+                request[k] = v
+        reply = self.query(scene_key(name, "plan"), request,
+                           timeout=timeout if timeout is not None else self.plan_timeout(time_limit))
+        return Plan(reply)
+
+    def update_pedestrians(self, name: str, predictions: Dict[str, Json],
+                           remove: Sequence[str] = (), *, timeout: Optional[float] = None) -> int:
+        """Sends pedestrians' predictions as one acknowledged ``apply``: ``predictions``
+        maps an obstacle id to a pedestrian template (``{"position", "velocity", "time",
+        "radius", "position_std"?, "velocity_std"?}``, docs/formats.md §1.5.1); ``remove``
+        lists ids to delete. Only the pedestrians that changed are rebuilt on the server.
+        Returns the new revision."""
+        changes: List[Json] = [{"op": "delete", "id": str(i)} for i in remove]
+        changes += [{"op": "put", "id": str(i), "pedestrian": p} for i, p in predictions.items()]
+        return self.apply(name, changes=changes, timeout=timeout)
+
     def verify(self, name: str, trajectory: Union[None, Json, Trajectory] = None,
                segment: Union[None, Json, Sequence] = None, method: Optional[str] = None,
                delta: Optional[float] = None, *, summary: Optional[bool] = None,

@@ -1,7 +1,7 @@
 """A plan returned by the service: the raw ``plan_reply`` dict plus numpy helpers."""
 from __future__ import annotations
 
-from typing import Any, Dict, List, Tuple, Union
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 from numpy.polynomial import polynomial as P
@@ -58,6 +58,16 @@ class Trajectory:
                 out[mask, d] = P.polyval(ts[mask], row)
         return out[0] if np.ndim(t) == 0 else out
 
+    def velocity(self, t: float) -> np.ndarray:
+        """Velocity at time ``t`` (clamped to ``[t0, t1]``; zero after the end, where a
+        robot following the plan stops)."""
+        tt = float(t)
+        if tt > self.t1:
+            return np.zeros(self.dim)
+        tt = min(max(tt, self.t0), self.t1)
+        i = min(int(np.searchsorted(self._t1, tt, side="left")), len(self._coeffs) - 1)
+        return np.array([P.polyval(tt, P.polyder(row)) if len(row) > 1 else 0.0 for row in self._coeffs[i]])
+
     def waypoints(self) -> np.ndarray:
         """The piece end points: an ``(pieces + 1, dim)`` array (start, the junctions, end)."""
         pts = [self.position(float(t)) for t in self._t0]
@@ -111,6 +121,12 @@ class Plan(Trajectory):
     @property
     def risk(self) -> float:
         return float(self.raw["risk"])
+
+    @property
+    def progress(self) -> Optional[Dict[str, Any]]:
+        """What a receding-horizon plan achieved (``reached_goal``, ``start_distance``,
+        ``remaining_distance``, ``end_time``); ``None`` for other plans."""
+        return self.stats.get("progress")
 
     def __repr__(self) -> str:
         return (
