@@ -48,8 +48,7 @@ pub struct CrowdArgs {
     /// The robot's body radius.
     #[arg(long, default_value_t = 0.25)]
     robot_radius: f64,
-    /// The robot's speed limit (its acceleration limit: reaching it in a quarter second
-    /// times... see --max-accel).
+    /// The robot's speed limit.
     #[arg(long, default_value_t = 1.5)]
     max_speed: f64,
     /// The robot's acceleration limit (default: twice the speed limit per second).
@@ -84,18 +83,20 @@ struct Frame {
 
 fn run_crowd(a: CrowdArgs) -> Result<i32, CliError> {
     let bad = |m: String| CliError(m);
-    if !(a.delta > 0.0 && a.delta < 1.0) {
+    let within = |v: f64, lo: f64, hi: f64| v.is_finite() && v > lo && v < hi;
+    if !within(a.delta, 0.0, 1.0) {
         return Err(bad(format!("--delta must be in (0, 1), got {}", a.delta)));
     }
-    if !(a.robot_radius >= 0.0 && a.robot_radius < crowd::CORRIDOR_WIDTH / 4.0) {
-        return Err(bad(format!(
-            "--robot-radius must be in [0, {}), got {}",
-            crowd::CORRIDOR_WIDTH / 4.0,
-            a.robot_radius
-        )));
+    let body_max = crowd::CORRIDOR_WIDTH / 4.0;
+    if !(a.robot_radius == 0.0 || within(a.robot_radius, 0.0, body_max)) {
+        return Err(bad(format!("--robot-radius must be in [0, {body_max}), got {}", a.robot_radius)));
     }
-    if !(a.max_speed > 0.0 && a.max_speed.is_finite()) || !(a.window > STEP) || !(a.plan_time > 0.0) {
-        return Err(bad("--max-speed, --window (> 0.1) and --plan-time must be positive".into()));
+    let positive = |v: f64| within(v, 0.0, f64::INFINITY);
+    if !positive(a.max_speed) || !within(a.window, STEP, f64::INFINITY) || !positive(a.plan_time) {
+        return Err(bad("--max-speed and --plan-time must be positive, --window above 0.1".into()));
+    }
+    if a.max_accel.is_some_and(|v| !positive(v)) {
+        return Err(bad("--max-accel must be positive".into()));
     }
     if a.pedestrians > 200 || a.episodes == 0 || a.episodes > 10_000 {
         return Err(bad("--pedestrians at most 200, --episodes between 1 and 10000".into()));
