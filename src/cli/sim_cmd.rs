@@ -127,6 +127,7 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
     let mut times = Vec::new();
     let mut lat = Vec::new();
     let mut upd = Vec::new();
+    let mut reasons: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
     let mut frames: Vec<Frame> = Vec::new();
     for ep in 0..a.episodes {
         let params = CrowdParams::default();
@@ -189,8 +190,13 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
                     plan = Some(Trajectory { format: TRAJECTORY_FORMAT.into(), pieces: r.pieces });
                     false
                 }
-                Err(_) => {
+                Err(e) => {
                     no_plan += 1;
+                    let code = match &e {
+                        crate::service::ClientError::Server(r) => r.code.clone(),
+                        other => other.to_string(),
+                    };
+                    *reasons.entry(code).or_insert(0usize) += 1;
                     true
                 }
             };
@@ -258,7 +264,7 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
     let summary = serde_json::json!({
         "episodes": a.episodes, "reached_goal": reached, "collisions": collisions,
         "time_to_goal_s_median": pct(&mut times, 0.5), "replan_ms_p50": pct(&mut lat, 0.5),
-        "replan_ms_p99": pct(&mut lat, 0.99), "no_plan": no_plan, "replans": lat.len(),
+        "replan_ms_p99": pct(&mut lat, 0.99), "no_plan": no_plan, "no_plan_reasons": reasons, "replans": lat.len(),
         "update_ms_p50": pct(&mut upd, 0.5), "update_ms_p99": pct(&mut upd, 0.99),
         "pedestrians": a.pedestrians, "delta": a.delta, "robot_radius": a.robot_radius,
     });
