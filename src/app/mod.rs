@@ -146,7 +146,8 @@ impl PreparedPlan {
             // a receding plan that ends short of the goal (`progress`) ends anywhere
             let goal = (out.status != PlanStatus::Progress).then_some(self.problem.goal.as_slice());
             let ends = (self.problem.start.as_slice(), goal);
-            let check = match final_check(&self.kernel, traj, ends, &self.deltas, self.bounds, &stop) {
+            let t_start = self.problem.horizon.0;
+            let check = match final_check(&self.kernel, traj, ends, t_start, &self.deltas, self.bounds, &stop) {
                 Ok(c) => c,
                 Err(Interrupted) => {
                     let status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };

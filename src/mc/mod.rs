@@ -89,8 +89,9 @@ pub struct McModel {
 /// Directions on the circle (2-D) or sphere (3-D, a Fibonacci lattice), or random ones
 /// in other dimensions, at which the body's boundary is sampled; with the centre and a
 /// half-radius ring. 64 directions on the circle place every boundary point within
-/// π/64 of one: a disk touched within 0.12 % of ρ of the boundary point nearest it can be
-/// missed (docs/design.md §7.2).
+/// π/64 of one: a large obstacle grazing the body less than 0.12 % of ρ deep can be missed
+/// in 2-D, 2.8 % in 3-D (128 directions), and an obstacle smaller than about ρ/4 lying
+/// wholly inside the body between the rings (docs/design.md §7.2).
 pub const BODY_DIRECTIONS: usize = 64;
 
 /// Points of the ball of radius `rho` in `dim` dimensions at which an audit looks for
@@ -143,7 +144,7 @@ pub fn ball_points(dim: usize, rho: f64) -> Vec<Vec<f64>> {
     };
     for (i, d) in dirs.iter().enumerate() {
         out.push(d.iter().map(|c| c * rho).collect());
-        if i % 2 == 0 {
+        if i % 2 == 0 || dim == 1 {
             out.push(d.iter().map(|c| c * 0.5 * rho).collect());
         }
     }

@@ -868,14 +868,33 @@ fn grow_obstacles(
         .collect();
     let range = |v: Var| ranges.get(v as usize).copied().unwrap_or(crate::poly::Interval::ENTIRE);
     let samples = std::cell::OnceCell::new();
+    // the limits of parsing hold for the grown polynomials too (their contours are built)
+    let mut work = 0usize;
     parsed
         .into_iter()
         .enumerate()
         .map(|(i, p)| match p {
             Parsed::Poly(q, _) => {
                 let samples = samples.get_or_init(|| envelope_samples(vars, params, ws, horizon));
+                let path = format!("obstacles[{i}]");
                 let g = crate::contour::grow::grow(&q, layout, body, &range, samples, (MAX_OBSTACLE_DEGREE, MAX_TERMS))
-                    .map_err(|e| err(format!("obstacles[{i}]"), format!("robot_radius: {e}")))?;
+                    .map_err(|e| err(&path, format!("robot_radius: {e}")))?;
+                work += g.poly.len() * g.poly.len();
+                if work > MAX_CONTOUR_WORK {
+                    return Err(err(
+                        &path,
+                        format!("robot_radius: the grown obstacles need {work} exact term products, over the limit {MAX_CONTOUR_WORK}"),
+                    ));
+                }
+                for v in g.poly.vars().into_iter().filter(|&v| layout.is_param(v)) {
+                    let d = g.poly.degree_in(v);
+                    if d > MAX_PARAM_DEGREE {
+                        return Err(err(
+                            &path,
+                            format!("robot_radius: grown, its degree {d} in '{}' exceeds the limit {MAX_PARAM_DEGREE}", vars.name(v)),
+                        ));
+                    }
+                }
                 Ok(Parsed::Poly(g.poly, Some(Arc::new(q))))
             }
             Parsed::Pedestrian(p, _) => Ok(Parsed::Pedestrian(Arc::new(p.grown(body)), None)),

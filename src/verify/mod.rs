@@ -353,6 +353,12 @@ pub struct FinalCheck {
     pub seconds: f64,
 }
 
+/// How far after the problem's start time the first piece of a plan may begin (relative
+/// to the larger of |t_start|, the horizon's length and 1): the planners compute their
+/// first piece's start in floating point, a few ulps off at most; a plan that begins
+/// later leaves its beginning unproven and is refused (issue 20 review).
+pub const START_TIME_TOLERANCE: f64 = 1e-12;
+
 /// The final check of every planned trajectory before it is called certified
 /// (docs/design.md §5.12): first the trajectory as `verify` takes it as input
 /// ([`Trajectory::validate`]: finite, contiguous, inside the horizon, pieces that meet)
@@ -369,6 +375,7 @@ pub fn final_check(
     kernel: &SceneKernel,
     traj: &Trajectory,
     endpoints: (&[f64], Option<&[f64]>),
+    t_start: f64,
     deltas: &[RiskLevel],
     bounds: BoundChoice,
     stop: &dyn Fn() -> bool,
@@ -382,6 +389,14 @@ pub fn final_check(
     }
     let tol = crate::scene::CONTINUITY_TOLERANCE * diag.max(1.0);
     let (first, last) = (&traj.pieces[0], &traj.pieces[traj.pieces.len() - 1]);
+    // the plan covers its problem from its start: nothing before the first piece is proven
+    let slack = START_TIME_TOLERANCE * t_start.abs().max(scene.horizon.1 - scene.horizon.0).max(1.0);
+    if first.t0 > t_start + slack {
+        return Ok(done(Some(FinalFailure::Invalid(format!(
+            "the trajectory starts at t = {}, not at the problem's start t = {t_start}",
+            first.t0
+        )))));
+    }
     let ends = [("start", first.at(first.t0), Some(endpoints.0)), ("goal", last.at(last.t1), endpoints.1)];
     for (which, at, want) in ends.iter().filter_map(|(w, a, e)| Some((*w, a, (*e)?))) {
         let gap = at.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);

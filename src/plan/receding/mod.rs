@@ -155,8 +155,8 @@ struct Vertex {
 
 /// A piece on `[t0, t0 + h]` given by its coefficients in local time `s = t − t0`, in
 /// absolute time (the trajectory format's).
-fn from_local(t0: f64, h: f64, local: &[Vec<f64>]) -> Piece {
-    Piece { t0, t1: t0 + h, coeffs: local.iter().map(|row| taylor_shift(row, -t0)).collect() }
+fn from_local(t0: f64, t1: f64, local: &[Vec<f64>]) -> Piece {
+    Piece { t0, t1, coeffs: local.iter().map(|row| taylor_shift(row, -t0)).collect() }
 }
 
 /// Position and velocity of a piece at `t`.
@@ -187,8 +187,9 @@ const LIMIT_SLACK: f64 = 1e-9;
 impl Receding {
     /// The constant-acceleration piece from `(x, v)` at `t0` over `h` towards velocity
     /// `vd` (acceleration clipped to the limit, end speed to the speed limit).
-    fn accelerate(&self, x: &[f64], v: &[f64], t0: f64, h: f64, vd: &[f64]) -> Piece {
+    fn accelerate(&self, x: &[f64], v: &[f64], t0: f64, t1: f64, vd: &[f64]) -> Piece {
         let lim = self.kinematics;
+        let h = t1 - t0;
         let mut a: Vec<f64> = vd.iter().zip(v).map(|(d, v)| (d - v) / h).collect();
         let an = norm(&a);
         if an > lim.accel {
@@ -205,7 +206,7 @@ impl Receding {
         }
         let local: Vec<Vec<f64>> =
             x.iter().zip(v).zip(&a).map(|((&x, &v), &a)| vec![x, v, 0.5 * s * a]).collect();
-        from_local(t0, h, &local)
+        from_local(t0, t1, &local)
     }
 
     /// The cubic Hermite piece from `(x, v)` at `t0` to the goal at rest at `t0 + h`, when
@@ -226,7 +227,7 @@ impl Receding {
         if a0.sqrt().max(a1.sqrt()) > lim.accel * (1.0 + LIMIT_SLACK) {
             return None;
         }
-        let pc = from_local(t0, h, &local);
+        let pc = from_local(t0, t0 + h, &local);
         within_speed(&pc, lim.speed * (1.0 + LIMIT_SLACK)).then_some(pc)
     }
 
@@ -288,6 +289,11 @@ impl Planner for Receding {
                 let mut pc = pc.clone();
                 if pc.t0 < t_now {
                     pc.t0 = t_now;
+                }
+                // contiguous from t_now: the first piece covers t_now, each next one starts
+                // where the chain ends (nothing before a piece is certified by it)
+                if pc.t0 != verts[at].t {
+                    break;
                 }
                 if at == 0 {
                     let (x, v) = state_at(&pc, t_now);
@@ -366,7 +372,7 @@ impl Planner for Receding {
                 'turns: for speed in [cap, 0.5 * cap, 0.0] {
                     for d in &dirs {
                         let vd: Vec<f64> = d.iter().map(|c| c * speed.min(to / h)).collect();
-                        let pc = self.accelerate(&vx.x, &vx.v, vx.t, t1 - vx.t, &vd);
+                        let pc = self.accelerate(&vx.x, &vx.v, vx.t, t1, &vd);
                         iterations += 1;
                         if counter.check(checker, &pc) == Motion::Accepted {
                             next = Some(pc);
@@ -423,7 +429,7 @@ impl Planner for Receding {
                 vec![0.0; dim]
             };
             let t1 = if vx.t + h >= t_end { t_end } else { vx.t + h };
-            let pc = self.accelerate(&vx.x, &vx.v, vx.t, t1 - vx.t, &vd);
+            let pc = self.accelerate(&vx.x, &vx.v, vx.t, t1, &vd);
             if counter.check(checker, &pc) != Motion::Accepted {
                 continue;
             }
