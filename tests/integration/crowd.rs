@@ -143,7 +143,7 @@ fn consecutive_receding_plans_are_c1_and_certified() {
 
 fn common_samples() -> u64 {
     if std::env::var("RISKPLAN_TEST_TIER").is_ok_and(|v| v == "full") {
-        8_000
+        4_000
     } else {
         2_000
     }
