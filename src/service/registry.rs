@@ -574,11 +574,15 @@ fn put_obstacle_json(
             existing.insert(k.clone(), v.clone());
         }
     }
+    upsert_obstacle(json, id, serde_json::json!({"id": id, "poly": poly}))
+}
+
+/// Replaces obstacle `id` of the scene JSON by `entry`, or adds it.
+fn upsert_obstacle(json: &mut serde_json::Value, id: &str, entry: serde_json::Value) -> Result<(), ServiceError> {
     let obstacles = json
         .get_mut("obstacles")
         .and_then(|o| o.as_array_mut())
         .ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
-    let entry = serde_json::json!({"id": id, "poly": poly});
     match obstacles.iter_mut().find(|o| o["id"] == id) {
         Some(o) => *o = entry,
         None => obstacles.push(entry),
@@ -595,16 +599,7 @@ fn put_pedestrian_json(
     if id.is_empty() {
         return Err(invalid(&format!("{path}.id"), "an obstacle id must not be empty"));
     }
-    let obstacles = json
-        .get_mut("obstacles")
-        .and_then(|o| o.as_array_mut())
-        .ok_or_else(|| invalid("obstacles", "the scene has no obstacle list"))?;
-    let entry = serde_json::json!({"id": id, "pedestrian": pedestrian});
-    match obstacles.iter_mut().find(|o| o["id"] == id) {
-        Some(o) => *o = entry,
-        None => obstacles.push(entry),
-    }
-    Ok(())
+    upsert_obstacle(json, id, serde_json::json!({"id": id, "pedestrian": pedestrian}))
 }
 
 fn delete_obstacle_json(json: &mut serde_json::Value, id: &str, path: &str) -> Result<(), ServiceError> {
