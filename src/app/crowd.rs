@@ -197,12 +197,8 @@ pub fn follow(plan: &Trajectory, t: f64) -> ([f64; 2], [f64; 2]) {
     let x = pc.at(tt);
     let mut v = [0.0; 2];
     if t <= pc.t1 {
-        for (d, row) in pc.coeffs.iter().enumerate().take(2) {
-            let mut acc = 0.0;
-            for (k, &c) in row.iter().enumerate().skip(1).rev() {
-                acc = acc * tt + k as f64 * c;
-            }
-            v[d] = acc;
+        for (slot, c) in v.iter_mut().zip(pc.velocity(tt)) {
+            *slot = c;
         }
     }
     ([x[0], x.get(1).copied().unwrap_or(0.0)], v)

@@ -163,11 +163,7 @@ fn show<T: serde::Serialize>(v: &T) -> Result<(), CliError> {
 }
 
 pub fn run(a: ClientArgs) -> Result<i32, CliError> {
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()
-        .map_err(|e| CliError(e.to_string()))?;
+    let rt = super::util::client_runtime()?;
     rt.block_on(async move {
         let codec = if a.json { Codec::Json } else { Codec::Bincode };
         let timeout = Duration::from_secs_f64(a.timeout.max(0.1));

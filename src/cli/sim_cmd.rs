@@ -102,11 +102,7 @@ fn run_crowd(a: CrowdArgs) -> Result<i32, CliError> {
         return Err(bad("--pedestrians at most 200, --episodes between 1 and 10000".into()));
     }
     let accel = a.max_accel.unwrap_or(2.0 * a.max_speed);
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()
-        .map_err(|e| CliError(e.to_string()))?;
+    let rt = super::util::client_runtime()?;
     rt.block_on(async move {
         let client = Client::connect(&a.endpoint, Duration::from_secs(10), Codec::Bincode)
             .await

@@ -56,3 +56,14 @@ pub fn print_out(text: &str) -> Result<(), CliError> {
         _ => Ok(()),
     }
 }
+
+/// The tokio runtime of a command that talks to the service: one worker thread (a
+/// client waits on replies; it does not compute).
+#[cfg(feature = "service")]
+pub fn client_runtime() -> Result<tokio::runtime::Runtime, CliError> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .map_err(|e| CliError(e.to_string()))
+}

@@ -58,6 +58,14 @@ impl Piece {
         self.coeffs.iter().map(|c| c.iter().rev().fold(0.0, |acc, &k| acc * t + k)).collect()
     }
 
+    /// Velocity at absolute time `t` (floating point; Horner on `Σ k·c_k·t^(k−1)`).
+    pub fn velocity(&self, t: f64) -> Vec<f64> {
+        self.coeffs
+            .iter()
+            .map(|c| c.iter().enumerate().skip(1).rev().fold(0.0, |acc, (k, &ck)| acc * t + k as f64 * ck))
+            .collect()
+    }
+
     /// Degree in t (the largest over coordinates).
     pub fn degree(&self) -> usize {
         self.coeffs.iter().map(|c| c.len().saturating_sub(1)).max().unwrap_or(0)

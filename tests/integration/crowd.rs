@@ -82,10 +82,7 @@ fn audit_ok(scene: &Scene, traj: &Trajectory, delta: f64, samples: u64) {
 }
 
 fn velocity_at(pc: &Piece, t: f64) -> Vec<f64> {
-    pc.coeffs
-        .iter()
-        .map(|row| row.iter().enumerate().skip(1).map(|(k, c)| k as f64 * c * t.powi(k as i32 - 1)).sum())
-        .collect()
+    pc.velocity(t)
 }
 
 /// Consecutive receding-horizon plans, as a robot runs them (0.25 s of each): every

@@ -161,20 +161,7 @@ fn from_local(t0: f64, t1: f64, local: &[Vec<f64>]) -> Piece {
 
 /// Position and velocity of a piece at `t`.
 fn state_at(pc: &Piece, t: f64) -> (Vec<f64>, Vec<f64>) {
-    let x = pc.at(t);
-    let v = pc
-        .coeffs
-        .iter()
-        .map(|row| {
-            let mut acc = 0.0;
-            for (k, &c) in row.iter().enumerate().skip(1).rev() {
-                acc = acc * t + k as f64 * c;
-            }
-            // Horner over k ≥ 1 of k·c_k·t^(k−1)
-            acc
-        })
-        .collect();
-    (x, v)
+    (pc.at(t), pc.velocity(t))
 }
 
 fn norm(v: &[f64]) -> f64 {

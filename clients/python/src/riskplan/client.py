@@ -338,6 +338,11 @@ class Client:
             request["time_limit"] = float(time_limit)
         if seed is not None:
             request["seed"] = int(seed)
+        return self._plan(name, request, options, time_limit, timeout)
+
+    def _plan(self, name: str, request: Json, options: Dict[str, Any], time_limit: Optional[float],
+              timeout: Optional[float]) -> Plan:
+        """Sends a plan request with ``options`` (``None`` values left out)."""
         for k, v in options.items():
             if v is not None:
                 request[k] = v
@@ -372,12 +377,7 @@ class Client:
             request["warm_start"] = [dict(p) if isinstance(p, dict) else p for p in pieces]
         if time_limit is not None:
             request["time_limit"] = float(time_limit)
-        for k, v in options.items():
-            if v is not None:
-                request[k] = v
-        reply = self.query(scene_key(name, "plan"), request,
-                           timeout=timeout if timeout is not None else self.plan_timeout(time_limit))
-        return Plan(reply)
+        return self._plan(name, request, options, time_limit, timeout)
 
     def update_pedestrians(self, name: str, predictions: Dict[str, Json],
                            remove: Sequence[str] = (), *, timeout: Optional[float] = None) -> int:
