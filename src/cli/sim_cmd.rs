@@ -66,6 +66,9 @@ pub struct CrowdArgs {
     /// Write an animation of the first episode (animated SVG).
     #[arg(long)]
     animate: Option<PathBuf>,
+    /// One line per replan on stderr: latency, planning time, edges, the plan's end.
+    #[arg(long)]
+    verbose: bool,
 }
 
 pub fn run(a: SimArgs) -> Result<i32, CliError> {
@@ -183,11 +186,30 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
             lat.push(began.elapsed().as_secs_f64() * 1e3);
             let failed_last = match reply {
                 Ok(r) => {
+                    if a.verbose {
+                        let p = r.stats.progress.as_ref();
+                        eprintln!(
+                            "episode {ep} t = {t:.1}: {:.1} ms (plan {:.1} ms, {} of {} edges accepted), plan to {:.2} s, {}",
+                            began.elapsed().as_secs_f64() * 1e3,
+                            r.stats.planning_time_s * 1e3,
+                            r.stats.edges_accepted,
+                            r.stats.edges_checked,
+                            r.pieces.last().map_or(t, |p| p.t1),
+                            match p {
+                                Some(p) if p.reached_goal => "reaches the goal".to_string(),
+                                Some(p) => format!("{:.2} from the goal at its end", p.remaining_distance),
+                                None => String::new(),
+                            }
+                        );
+                    }
                     plan = Some(Trajectory { format: TRAJECTORY_FORMAT.into(), pieces: r.pieces });
                     false
                 }
                 Err(e) => {
                     no_plan += 1;
+                    if a.verbose {
+                        eprintln!("episode {ep} t = {t:.1}: no plan: {e}");
+                    }
                     let code = match &e {
                         crate::service::ClientError::Server(r) => r.code.clone(),
                         other => other.to_string(),

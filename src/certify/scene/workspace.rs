@@ -31,6 +31,31 @@ fn inside_by_intervals(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> boo
         .is_some_and(|hull| hull.iter().zip(lower.iter().zip(upper)).all(|(b, (&lo, &hi))| lo <= b.lo && b.hi <= hi))
 }
 
+/// A time on the witness grid at which some coordinate's outward-rounded enclosure lies
+/// entirely outside its bounds: a proof that the piece leaves the box, found in
+/// floating point (the planners' edges leave through the walls by whole steps; the
+/// exact search below costs a hundred times more). `None` proves nothing.
+fn outside_by_intervals(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> Option<WitnessReport> {
+    let grid = WORKSPACE_WITNESS_GRID;
+    (0..=grid).find_map(|k| {
+        let t = piece.t0 + (piece.t1 - piece.t0) * (k as f64 / grid as f64);
+        if !(piece.t0..=piece.t1).contains(&t) {
+            return None;
+        }
+        let ti = Interval::point(t);
+        piece.coeffs.iter().zip(lower.iter().zip(upper)).find_map(|(row, (&lo, &hi))| {
+            let x = row.iter().rev().fold(Interval::point(0.0), |acc, &c| acc * ti + Interval::point(c));
+            if x.hi < lo {
+                Some(WitnessReport { t, value: x.hi - lo })
+            } else if x.lo > hi {
+                Some(WitnessReport { t, value: hi - x.lo })
+            } else {
+                None
+            }
+        })
+    })
+}
+
 /// An enclosure of each coordinate of a piece over its time interval: the
 /// outward-rounded Bernstein hull of the coordinate composed with `t0 + hτ` in interval
 /// arithmetic (general polynomial code, not the planners' compiled path); `None` when
@@ -56,6 +81,11 @@ pub fn check_workspace(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> Wor
     }
     if piece.coeffs.len() == lower.len() && inside_by_intervals(lower, upper, piece) {
         return WorkspaceStatus { status: Status::Safe, witness: None };
+    }
+    if piece.coeffs.len() == lower.len() {
+        if let Some(w) = outside_by_intervals(lower, upper, piece) {
+            return WorkspaceStatus { status: Status::Unsafe, witness: Some(w) };
+        }
     }
     let coords = coordinates_exact(piece);
     let mut status = Status::Safe;

@@ -50,37 +50,77 @@ pub const STEPS: usize = 8;
 /// Probability that a sample is the goal itself.
 pub const GOAL_BIAS: f64 = 0.2;
 
-/// Greedy rollouts before the random tree (docs/design.md §6.9), one per entry of
-/// [`ROLLOUT_SPEEDS`].
-pub const ROLLOUTS: usize = 5;
+/// States kept per layer by the beam search (docs/design.md §6.9).
+pub const BEAM: usize = 6;
 
-/// The speed cap of each rollout, as a share of the speed limit: a fast rollout may run
-/// into a place it cannot brake out of within one edge; a slower one lasts the window.
-pub const ROLLOUT_SPEEDS: [f64; 5] = [1.0, 0.7, 0.45, 0.25, 0.1];
+/// A motion primitive of the beam search: a target velocity for the next edge, relative
+/// to the goal's direction (the edge accelerates towards it within the limit).
+#[derive(Clone, Debug)]
+enum Primitive {
+    /// Towards the goal at this share of the speed limit, never past the goal within
+    /// the edge.
+    Goal(f64),
+    /// Along the goal's direction turned by `turn` ([`turned`]) at this share of the
+    /// speed limit.
+    Turned(Vec<f64>, f64),
+    /// Keep the current velocity.
+    Coast,
+    /// Brake towards rest.
+    Stop,
+}
 
-/// Directions to try from the goal's: straight, then turned (2-D: ±30°, ±60°, ±90°;
-/// otherwise the goal's direction perturbed at random), for rollout `r` (odd rollouts
-/// turn the other way first).
-#[allow(clippy::type_complexity)]
-fn turns(dim: usize, r: usize, rng: &mut ChaCha8Rng) -> Vec<Box<dyn Fn(&[f64]) -> Vec<f64>>> {
-    let mut out: Vec<Box<dyn Fn(&[f64]) -> Vec<f64>>> = vec![Box::new(|d: &[f64]| d.to_vec())];
-    if dim == 2 {
-        let sign = if r % 2 == 0 { 1.0 } else { -1.0 };
-        for deg in [30.0f64, -30.0, 60.0, -60.0, 90.0, -90.0] {
-            let a = (sign * deg).to_radians();
-            out.push(Box::new(move |d: &[f64]| vec![d[0] * a.cos() - d[1] * a.sin(), d[0] * a.sin() + d[1] * a.cos()]));
-        }
-    } else {
-        for k in 0..6 {
-            let w: Vec<f64> = (0..dim).map(|_| rng.random_range(-1.0..1.0)).collect();
-            let scale = 0.4 * (1 + k / 2) as f64;
-            out.push(Box::new(move |d: &[f64]| {
-                let v: Vec<f64> = d.iter().zip(&w).map(|(a, b)| a + scale * b).collect();
-                let n = norm(&v).max(f64::MIN_POSITIVE);
-                v.iter().map(|c| c / n).collect()
-            }));
+impl Primitive {
+    /// The target velocity from a state of velocity `v` whose unit direction to the goal
+    /// is `dir`; `reach` is the speed that arrives at the goal at the edge's end.
+    fn target(&self, dir: &[f64], v: &[f64], speed: f64, reach: f64) -> Vec<f64> {
+        match self {
+            Primitive::Goal(share) => dir.iter().map(|c| c * (share * speed).min(reach)).collect(),
+            Primitive::Turned(turn, share) => turned(turn, dir).iter().map(|c| c * share * speed).collect(),
+            Primitive::Coast => v.to_vec(),
+            Primitive::Stop => vec![0.0; v.len()],
         }
     }
+}
+
+/// The unit vector `d` turned by `turn`: in 2-D `turn = [cos, sin]` rotates it; in other
+/// dimensions `turn` is a perturbation added to it, renormalised.
+fn turned(turn: &[f64], d: &[f64]) -> Vec<f64> {
+    if d.len() == 2 && turn.len() == 2 {
+        vec![d[0] * turn[0] - d[1] * turn[1], d[0] * turn[1] + d[1] * turn[0]]
+    } else {
+        let v: Vec<f64> = d.iter().zip(turn).map(|(a, b)| a + b).collect();
+        let n = norm(&v).max(f64::MIN_POSITIVE);
+        v.iter().map(|c| c / n).collect()
+    }
+}
+
+/// Shares of the speed limit the primitives move at.
+pub const PRIMITIVE_SPEEDS: [f64; 2] = [1.0, 0.5];
+
+/// The primitives (docs/design.md §6.9): towards the goal, and (2-D) its direction turned
+/// by ±30°, ±60°, ±90°, ±135°, 180° — otherwise twelve random perturbations of it — at
+/// each of [`PRIMITIVE_SPEEDS`]; then coasting and braking.
+fn primitives(dim: usize, rng: &mut ChaCha8Rng) -> Vec<Primitive> {
+    let turns: Vec<Vec<f64>> = if dim == 2 {
+        [30.0f64, -30.0, 60.0, -60.0, 90.0, -90.0, 135.0, -135.0, 180.0]
+            .iter()
+            .map(|deg| vec![deg.to_radians().cos(), deg.to_radians().sin()])
+            .collect()
+    } else {
+        (0..12)
+            .map(|k| {
+                let scale = 0.5 * (1 + k / 4) as f64;
+                (0..dim).map(|_| scale * rng.random_range(-1.0..1.0)).collect()
+            })
+            .collect()
+    };
+    let mut out = Vec::new();
+    for share in PRIMITIVE_SPEEDS {
+        out.push(Primitive::Goal(share));
+        out.extend(turns.iter().map(|t| Primitive::Turned(t.clone(), share)));
+    }
+    out.push(Primitive::Coast);
+    out.push(Primitive::Stop);
     out
 }
 
@@ -110,11 +150,13 @@ pub struct RecedingParams {
     pub goal_bias: f64,
     /// Most vertices.
     pub max_vertices: usize,
+    /// States kept per layer by the beam search.
+    pub beam: usize,
 }
 
 impl Default for RecedingParams {
     fn default() -> Self {
-        RecedingParams { steps: STEPS, goal_bias: GOAL_BIAS, max_vertices: MAX_VERTICES }
+        RecedingParams { steps: STEPS, goal_bias: GOAL_BIAS, max_vertices: MAX_VERTICES, beam: BEAM }
     }
 }
 
@@ -327,61 +369,91 @@ impl Planner for Receding {
                 reached = Some(vec![pc]);
             }
         }
-        // greedy rollouts first: towards the goal at full speed, turning away (±30°,
-        // ±60°, ±90° in 2-D; perturbed directions otherwise), slowing or stopping when an
-        // edge is refused — a good plan in a few dozen checks when one exists nearby
-        // from the warm start's end first (continuing the previous plan), then from the
-        // robot's state
-        let origins: Vec<(usize, usize)> = (0..ROLLOUTS)
-            .filter(|_| warm_end > 0)
-            .map(|r| (warm_end, r))
-            .chain((0..ROLLOUTS).map(|r| (0, r)))
-            .collect();
-        for (origin, r) in origins {
-            // a rollout that lasted the window is the answer's candidate: the faster
-            // rollouts come first, so the first one that lasts makes the most progress
-            let lasted = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
-            if reached.is_some() || term.should_stop() || lasted {
-                break;
-            }
-            let mut i = origin;
-            while verts[i].t + 0.5 * h < t_end && !term.should_stop() {
-                let vx = verts[i].clone();
-                let to = dist(&vx.x, &goal);
-                if to == 0.0 {
+        // the beam search over the window's layers (docs/design.md §6.9): from the
+        // robot's state, then continuing the warm start's chain, each layer's best states
+        // (by distance to the goal, one per cell) grow by the motion primitives
+        if reached.is_none() {
+            let prims = primitives(dim, &mut rng);
+            let cell = (0.5 * lim.speed * h).max(f64::MIN_POSITIVE);
+            let mut layer = vec![0usize];
+            'layers: for k in 0..self.params.steps {
+                if term.should_stop() {
                     break;
                 }
-                let dir: Vec<f64> = vx.x.iter().zip(&goal).map(|(a, b)| (b - a) / to).collect();
-                let t1 = if vx.t + h >= t_end { t_end } else { vx.t + h };
-                let mut next = None;
-                let dirs: Vec<Vec<f64>> = turns(dim, r, &mut rng).iter().map(|turn| turn(&dir)).collect();
-                let cap = ROLLOUT_SPEEDS[r % ROLLOUT_SPEEDS.len()] * lim.speed;
-                'turns: for speed in [cap, 0.5 * cap, 0.0] {
-                    for d in &dirs {
-                        let vd: Vec<f64> = d.iter().map(|c| c * speed.min(to / h)).collect();
+                let t1 = if k + 1 == self.params.steps { t_end } else { t_now + (k + 1) as f64 * h };
+                let mut children: Vec<(f64, usize)> = Vec::new();
+                for &i in &layer {
+                    let vx = verts[i].clone();
+                    let to = dist(&vx.x, &goal);
+                    let dir: Vec<f64> = if to > 0.0 {
+                        vx.x.iter().zip(&goal).map(|(a, b)| (b - a) / to).collect()
+                    } else {
+                        let mut e = vec![0.0; dim];
+                        e[0] = 1.0;
+                        e
+                    };
+                    for prim in &prims {
+                        let vd = prim.target(&dir, &vx.v, lim.speed, to / (t1 - vx.t));
                         let pc = self.accelerate(&vx.x, &vx.v, vx.t, t1, &vd);
                         iterations += 1;
-                        if counter.check(checker, &pc) == Motion::Accepted {
-                            next = Some(pc);
-                            break 'turns;
+                        if counter.check(checker, &pc) != Motion::Accepted {
+                            continue;
                         }
+                        let (x, v) = state_at(&pc, pc.t1);
+                        let d = dist(&x, &goal);
+                        verts.push(Vertex { x, v, t: pc.t1, parent: Some(i), piece: Some(pc) });
+                        children.push((d, verts.len() - 1));
+                    }
+                    if term.should_stop() {
+                        break;
                     }
                 }
-                let Some(pc) = next else { break };
-                let (x, v) = state_at(&pc, pc.t1);
-                verts.push(Vertex { x, v, t: pc.t1, parent: Some(i), piece: Some(pc) });
-                i = verts.len() - 1;
-                if let Some(g) = try_goal(i, &verts, &counter) {
-                    let mut path = Self::path(&verts, i);
-                    path.push(g);
-                    reached = Some(path);
+                if children.is_empty() {
+                    break;
+                }
+                // the best child per cell, then the best cells
+                children.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let mut seen = std::collections::HashSet::new();
+                layer = children
+                    .iter()
+                    .filter(|(_, c)| seen.insert(verts[*c].x.iter().map(|q| (q / cell).floor() as i64).collect::<Vec<_>>()))
+                    .map(|&(_, c)| c)
+                    .take(self.params.beam)
+                    .collect();
+                for &c in &layer {
+                    if let Some(g) = try_goal(c, &verts, &counter) {
+                        let mut path = Self::path(&verts, c);
+                        path.push(g);
+                        reached = Some(path);
+                        break 'layers;
+                    }
+                }
+            }
+        }
+        // the warm start's chain continued to the window's end (it ends one replanning
+        // period short of it): a candidate beside the beam's
+        if reached.is_none() && warm_end > 0 && verts[warm_end].t < t_end {
+            let vx = verts[warm_end].clone();
+            let keep = vx.v.clone();
+            let stop = vec![0.0; dim];
+            for vd in [&keep, &stop] {
+                let pc = self.accelerate(&vx.x, &vx.v, vx.t, t_end, vd);
+                iterations += 1;
+                if counter.check(checker, &pc) == Motion::Accepted {
+                    let (x, v) = state_at(&pc, pc.t1);
+                    verts.push(Vertex { x, v, t: pc.t1, parent: Some(warm_end), piece: Some(pc) });
+                    if let Some(g) = try_goal(warm_end, &verts, &counter) {
+                        let mut path = Self::path(&verts, warm_end);
+                        path.push(g);
+                        reached = Some(path);
+                    }
                     break;
                 }
             }
         }
         // the random tree, only when no rollout lasted the window (a robot replans in a
         // tenth of a second: a plan now beats a slightly better one later)
-        let lasted = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
+        let mut lasted = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
         while reached.is_none() && !lasted && verts.len() < self.params.max_vertices {
             if term.should_stop() {
                 break;
@@ -423,6 +495,7 @@ impl Planner for Receding {
             let (x, v) = state_at(&pc, pc.t1);
             verts.push(Vertex { x, v, t: pc.t1, parent: Some(i), piece: Some(pc) });
             let n = verts.len() - 1;
+            lasted = verts[n].t >= t_end;
             if let Some(g) = try_goal(n, &verts, &counter) {
                 let mut path = Self::path(&verts, n);
                 path.push(g);
