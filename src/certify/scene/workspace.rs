@@ -170,4 +170,64 @@ mod tests {
         // not proven inside, so never safe
         assert_eq!(check(0.0, 1.0, vec![vec![0.0, 2.4, -2.4], vec![0.5]]).0.status, Status::Undecided);
     }
+
+    /// The exact value of coordinate row `row` at the float time `t`.
+    fn exact_at(row: &[f64], t: f64) -> BigRational {
+        let t = BigRational::from_float(t).unwrap();
+        row.iter().rev().fold(BigRational::from_integer(0.into()), |acc, &c| acc * &t + BigRational::from_float(c).unwrap())
+    }
+
+    proptest::proptest! {
+        /// The interval proof that a piece leaves the box (`outside_by_intervals`) gives
+        /// only genuine witnesses: the coordinate, evaluated exactly at the witness's
+        /// time, lies outside its bounds — at every scale, grazing pieces included.
+        #[test]
+        fn interval_witnesses_are_outside_exactly(
+            e in -300i32..300,
+            c in proptest::collection::vec(-2.0f64..2.0, 6),
+            t0 in -3.0f64..3.0,
+            len in 1e-3f64..4.0,
+        ) {
+            let s = 2f64.powi(e);
+            let lower = [0.0, -s];
+            let upper = [s, s];
+            // coordinates of order s: some leave the box, some graze it
+            let coeffs = vec![
+                vec![c[0] * s, c[1] * s, c[2] * s],
+                vec![c[3] * s, c[4] * s, c[5] * s],
+            ];
+            let piece = PieceRef { t0, t1: t0 + len, coeffs: &coeffs };
+            if let Some(w) = outside_by_intervals(&lower, &upper, piece) {
+                proptest::prop_assert!(w.value < 0.0 && (t0..=t0 + len).contains(&w.t));
+                let out = coeffs.iter().zip(lower.iter().zip(&upper)).any(|(row, (&lo, &hi))| {
+                    let x = exact_at(row, w.t);
+                    x < BigRational::from_float(lo).unwrap() || x > BigRational::from_float(hi).unwrap()
+                });
+                proptest::prop_assert!(out, "witness {:?} is inside", w);
+                proptest::prop_assert_eq!(check_workspace(&lower, &upper, piece).status, Status::Unsafe);
+            }
+        }
+    
+        /// Pieces inside the box that touch its wall (x = lo + k·t², x = hi − k·t² on a
+        /// window around t = 0, exact in floating point) are never called outside.
+        #[test]
+        fn pieces_grazing_the_wall_are_not_outside(
+            e in -300i32..300,
+            k in 0.0f64..4.0,
+            a in 0.0f64..1.0,
+            len in 1e-3f64..4.0,
+            upper_wall in proptest::bool::ANY,
+        ) {
+            let s = 2f64.powi(e);
+            let (lower, upper) = ([0.0, -s], [s, s]);
+            let row = if upper_wall { vec![s, 0.0, -k * s] } else { vec![0.0, 0.0, k * s] };
+            // stays within [0, s]: k t² ≤ s needs |t| ≤ 1/√k
+            let lim = if k > 0.0 { 0.99 / k.sqrt() } else { f64::INFINITY };
+            let t0 = (-a * len).max(-lim);
+            let t1 = (t0 + len).min(lim);
+            let coeffs = vec![row, vec![0.0]];
+            let piece = PieceRef { t0, t1, coeffs: &coeffs };
+            proptest::prop_assert!(outside_by_intervals(&lower, &upper, piece).is_none());
+        }
+    }
 }
