@@ -354,8 +354,11 @@ impl Registry {
             Some(k) => Entry::successor(k, scene, revision, json),
             None => Entry::new(scene, revision, json),
         };
-        m.insert(name.to_string(), entry);
+        let old = m.insert(name.to_string(), entry);
         self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
+        drop(m);
+        // the previous revision is freed outside the lock (readers wait for nothing)
+        drop(old);
         Ok(())
     }
 

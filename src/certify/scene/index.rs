@@ -56,7 +56,9 @@ struct Slab {
 /// so that the slabs a piece spans are found by division.
 #[derive(Clone, Debug)]
 struct ObstacleCovers {
-    slabs: Option<Vec<Slab>>,
+    /// Shared: the next revision of the scene takes over an unchanged obstacle's covers
+    /// without copying them, and dropping an old index frees only what changed.
+    slabs: Option<Arc<Vec<Slab>>>,
     /// Whether the slabs cover all time (static obstacle).
     timeless: bool,
 }
@@ -87,7 +89,7 @@ fn pedestrian_covers(p: &crate::scene::Pedestrian, kappa: f64, horizon: (f64, f6
             Slab { t: (a, b), cover: Some(cover) }
         })
         .collect();
-    ObstacleCovers { slabs: Some(slabs), timeless: false }
+    ObstacleCovers { slabs: Some(Arc::new(slabs)), timeless: false }
 }
 
 /// Covers and a grid for one scene and one risk level per obstacle.
@@ -250,7 +252,7 @@ impl SceneIndex {
                 slabs.push(Slab { t, cover });
             }
             // an obstacle left without all its slabs is always checked
-            covers.push(ObstacleCovers { slabs: (!stopped).then_some(slabs), timeless: !dynamic });
+            covers.push(ObstacleCovers { slabs: (!stopped).then(|| Arc::new(slabs)), timeless: !dynamic });
         }
         let grid = (scene.obstacles.len() >= GRID_MIN_OBSTACLES).then(|| build_grid(scene, &covers));
         SceneIndex {

@@ -6,7 +6,7 @@
 //! progress, the vertex whose Euclidean distance to the goal is smallest (among the
 //! vertices that last the whole window, when there are any).
 //!
-//! The search is a kinodynamic tree over states `(x, v, t)`: every edge is a piece of
+//! The search is a beam search, then a kinodynamic tree, over states `(x, v, t)`: every edge is a piece of
 //! constant acceleration over a fixed duration `H / steps` (C¹ by construction; its
 //! acceleration is bounded exactly by the limit; its speed, convex along the piece, is
 //! largest at an end), certified by the motion checker like every edge of every planner.
@@ -433,6 +433,13 @@ impl Planner for Receding {
         // the warm start's chain continued to the window's end (it ends one replanning
         // period short of it): a candidate beside the beam's
         if reached.is_none() && warm_end > 0 && verts[warm_end].t < t_end {
+            if let Some(g) = try_goal(warm_end, &verts, &counter) {
+                let mut path = Self::path(&verts, warm_end);
+                path.push(g);
+                reached = Some(path);
+            }
+        }
+        if reached.is_none() && warm_end > 0 && verts[warm_end].t < t_end {
             let vx = verts[warm_end].clone();
             let keep = vx.v.clone();
             let stop = vec![0.0; dim];
@@ -442,16 +449,11 @@ impl Planner for Receding {
                 if counter.check(checker, &pc) == Motion::Accepted {
                     let (x, v) = state_at(&pc, pc.t1);
                     verts.push(Vertex { x, v, t: pc.t1, parent: Some(warm_end), piece: Some(pc) });
-                    if let Some(g) = try_goal(warm_end, &verts, &counter) {
-                        let mut path = Self::path(&verts, warm_end);
-                        path.push(g);
-                        reached = Some(path);
-                    }
                     break;
                 }
             }
         }
-        // the random tree, only when no rollout lasted the window (a robot replans in a
+        // the random tree, only when nothing lasted the window yet (a robot replans in a
         // tenth of a second: a plan now beats a slightly better one later)
         let mut lasted = verts.iter().any(|v| v.parent.is_some() && v.t >= t_end);
         while reached.is_none() && !lasted && verts.len() < self.params.max_vertices {
