@@ -24,11 +24,11 @@ wait_line() {  # file, text, seconds
 "$bin" router --listen "$router" 2> "$dir/router.log" &
 echo $! >> "$dir/pids"
 wait_line "$dir/router.log" "router listening" 30
-"$bin" serve --mode client --connect "$router" --data "$dir/primary" 2> "$dir/primary.log" &
+"$bin" serve --mode client --connect "$router" --server-id primary --data "$dir/primary" 2> "$dir/primary.log" &
 echo $! >> "$dir/pids"
 wait_line "$dir/primary.log" "riskplan: ready" 120
 for k in $(seq 1 "$replicas"); do
-  "$bin" serve --mode client --connect "$router" --replica --data "$dir/replica-$k" 2> "$dir/replica-$k.log" &
+  "$bin" serve --mode client --connect "$router" --replica --server-id "replica-$k" --data "$dir/replica-$k" 2> "$dir/replica-$k.log" &
   echo $! >> "$dir/pids"
   wait_line "$dir/replica-$k.log" "riskplan: ready" 120
 done

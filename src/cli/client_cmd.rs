@@ -27,6 +27,11 @@ pub struct ClientArgs {
     /// Speak JSON instead of bincode.
     #[arg(long, global = true)]
     json: bool,
+    /// Reads ask for at least this revision of their scene (e.g. the one an `apply`
+    /// acknowledged): a server behind its primary waits up to 1.5 s for it, else answers
+    /// `stale_revision` (proto/README.md, "Discovery and load sharing").
+    #[arg(long, global = true)]
+    min_revision: Option<u64>,
     #[command(subcommand)]
     command: ClientCommand,
 }
@@ -180,6 +185,10 @@ pub fn run(a: ClientArgs) -> Result<i32, CliError> {
             }
         }
         .map_err(err)?;
+        let client = match a.min_revision {
+            Some(r) => client.at_least(r),
+            None => client,
+        };
         let code = exec(&client, a.command).await;
         client.close().await;
         code
@@ -306,10 +315,26 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
 /// Per kind of query: latencies (s), outcomes (ok or error code), replies per query.
 type LoadStats = (Vec<f64>, std::collections::BTreeMap<String, u64>, std::collections::BTreeMap<usize, u64>);
 
-/// The queries of one load client: (kind, route, payload), cycled through.
-fn load_queries(client: &Client, scene: &str, id: usize, bare: bool, mix: bool) -> Vec<(&'static str, Route, Vec<u8>)> {
+/// The queries of one load client: (kind, route, payload), cycled through. Their
+/// geometry is derived from the scene's workspace box `(lower, upper)` (no absolute
+/// lengths): a verify segment along the lower edge, sixteen risk points across the
+/// box, and the client's own tiny disk (radius 0.25 % of the box) near the corner
+/// (upper x₁, lower x₂), away from the paths between opposite corners.
+fn load_queries(
+    client: &Client,
+    scene: &str,
+    ws: &(Vec<f64>, Vec<f64>),
+    id: usize,
+    bare: bool,
+    mix: bool,
+) -> Vec<(&'static str, Route, Vec<u8>)> {
+    let (lo, hi) = ws;
+    // a point of the box at shares `u` of its sides (the other coordinates at mid-box)
+    let at = |u: &[f64]| -> Vec<f64> {
+        (0..lo.len()).map(|d| lo[d] + (hi[d] - lo[d]) * u.get(d).copied().unwrap_or(0.5)).collect()
+    };
     let verify = VerifyRequest {
-        segment: Some(Segment { from: vec![-1.0, -0.9], to: vec![1.0, -0.5], t0: None, t1: None }),
+        segment: Some(Segment { from: at(&[0.0, 0.05]), to: at(&[1.0, 0.25]), t0: None, t1: None }),
         ..Default::default()
     };
     let scene = || scene.to_string();
@@ -323,15 +348,18 @@ fn load_queries(client: &Client, scene: &str, id: usize, bare: bool, mix: bool) 
         return vec![v];
     }
     let plan = PlanRequest { time_limit: Some(1.0), seed: Some(id as u64), ..Default::default() };
-    let points: Vec<Vec<f64>> = (0..16).map(|k| vec![-0.9 + 0.1 * k as f64, 0.3]).collect();
+    let points: Vec<Vec<f64>> = (0..16).map(|k| at(&[0.05 + 0.05 * k as f64, 0.65])).collect();
     let risk = RiskRequest { points: Some(points), ..Default::default() };
-    // a disk of radius 0.005 near the corner (0.95, -0.95), away from the paths
-    let c = 0.9 + 0.001 * (id % 50) as f64;
+    let shift = 0.0005 * (id % 50) as f64;
+    let c = at(&[0.95 + shift, 0.05 - shift]);
+    let w = (hi[0] - lo[0]).min(hi.get(1).copied().unwrap_or(hi[0]) - lo.get(1).copied().unwrap_or(lo[0]));
+    let r2 = (0.0025 * w).powi(2);
+    let terms: Vec<String> = c.iter().enumerate().map(|(d, cd)| format!(" - (x{} - ({cd:e}))^2", d + 1)).collect();
     let apply = ApplyRequest {
         changes: Some(vec![Change {
             op: "put".into(),
             id: format!("load-{id}"),
-            poly: Some(format!("0.000025 - (x1 - {c:.3})^2 - (x2 + {c:.3})^2")),
+            poly: Some(format!("{r2:e}{}", terms.join(""))),
             params: None,
             pedestrian: None,
         }]),
@@ -341,6 +369,22 @@ fn load_queries(client: &Client, scene: &str, id: usize, bare: bool, mix: bool) 
     let r = query(Route::Risk { scene: scene() }, client.encode(&risk));
     let a = query(Route::Apply { scene: scene() }, client.encode(&apply));
     vec![p, v.clone(), r.clone(), v.clone(), r.clone(), v.clone(), a, v.clone(), r, v]
+}
+
+/// The workspace box of `scene` (from the server), for the load's queries; the box
+/// [-1, 1]² for `--bare`, which sends no geometry.
+async fn load_workspace(client: &Client, scene: &str, bare: bool) -> Result<(Vec<f64>, Vec<f64>), CliError> {
+    if bare {
+        return Ok((vec![-1.0, -1.0], vec![1.0, 1.0]));
+    }
+    let s = client.get_scene(scene).await.map_err(|e| CliError(format!("scene '{scene}': {e}")))?;
+    let side = |k: &str| -> Option<Vec<f64>> {
+        s.scene.0.get("workspace")?.get(k)?.as_array()?.iter().map(|v| v.as_f64()).collect()
+    };
+    match (side("lower"), side("upper")) {
+        (Some(lo), Some(hi)) if !lo.is_empty() && lo.len() == hi.len() => Ok((lo, hi)),
+        _ => Err(CliError(format!("scene '{scene}' has no readable workspace box"))),
+    }
 }
 
 async fn load(
@@ -353,11 +397,12 @@ async fn load(
 ) -> Result<i32, CliError> {
     use std::collections::BTreeMap;
     use std::time::Instant;
+    let ws = load_workspace(client, scene, bare).await?;
     let deadline = Instant::now() + Duration::from_secs_f64(seconds.max(0.1));
     let started = Instant::now();
     let mut tasks = Vec::new();
     for id in 0..clients.max(1) {
-        let queries = load_queries(client, scene, id, bare, mix);
+        let queries = load_queries(client, scene, &ws, id, bare, mix);
         let c = client.clone();
         tasks.push(tokio::spawn(async move {
             let mut stats: BTreeMap<&'static str, LoadStats> = BTreeMap::new();
@@ -393,6 +438,14 @@ async fn load(
         }
     }
     let elapsed = started.elapsed().as_secs_f64();
+    // the requests each live server has answered since it started (its status, on its own key)
+    let mut per_server = serde_json::Map::new();
+    for id in client.servers() {
+        if let Ok(st) = client.status_of(&id).await {
+            let served: u64 = st.requests.values().map(|c| c.served + c.failed).sum();
+            per_server.insert(id, serde_json::json!({"role": st.role, "requests": served}));
+        }
+    }
     let summary = |lat: &mut Vec<f64>| {
         lat.sort_by(f64::total_cmp);
         let pct = |p: f64| lat.get(((lat.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(f64::NAN) * 1e3;
@@ -425,6 +478,7 @@ async fn load(
         "outcomes": outcomes,
         "replies_per_query": counts.iter().map(|(k, v)| (k.to_string(), *v)).collect::<BTreeMap<_, _>>(),
         "kinds": kinds,
+        "servers": per_server,
     });
     show(&out)?;
     // every query exactly one reply from a server: a local timeout (code "timeout")

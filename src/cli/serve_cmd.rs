@@ -56,6 +56,12 @@ pub struct ServeArgs {
     /// revisions; writes (puts, deletes, apply) go to the primary only.
     #[arg(long)]
     replica: bool,
+    /// This server's id among the servers of a cluster (default: random): its
+    /// liveliness token `riskplan/_servers/<id>/<role>` and its own keys `riskplan/@<id>/...`,
+    /// by which clients spread reads over the live servers (proto/README.md,
+    /// "Discovery"). 1 to 64 characters from 0-9 a-z A-Z _ -.
+    #[arg(long)]
+    server_id: Option<String>,
     /// Zenoh mode: "peer" (default without --config) or "client" (attach to a router
     /// given by --connect, as the servers of deploy/cluster do).
     #[arg(long, value_parser = ["peer", "client"])]
@@ -174,10 +180,11 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
         max_job_seconds: a.max_job_seconds,
         listen,
         replica: a.replica,
+        server_id: a.server_id,
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
-        .max_blocking_threads(workers.max(1) + 4)
+        .max_blocking_threads(workers.max(1) + crate::service::WRITE_LANES + 4)
         .build()
         .map_err(|e| CliError(e.to_string()))?;
     let served = rt.block_on(serve(config));

@@ -357,7 +357,11 @@ impl Scene {
             .iter()
             .filter_map(|p| if let Parsed::Poly(q, _) = p { Some(q.clone()) } else { None })
             .collect();
-        let moments = needed_moments(&polys, &params)?;
+        // the moments are computed only when a contour is not in the cache: a scene
+        // revision whose obstacles are all cached (an update of one deterministic
+        // obstacle, a replica installing its primary's commit) needs none — computing
+        // them exactly cost ~9 ms per revision on example-d1 (16 Gaussian parameters)
+        let mut moments: Option<BTreeMap<Var, Vec<BigRational>>> = None;
         let supports: Vec<(Var, BigRational, BigRational)> =
             params.iter().filter_map(|p| p.dist.support().map(|(lo, hi)| (p.var, lo, hi))).collect();
         let name = |v: Var| vars.name(v);
@@ -388,7 +392,12 @@ impl Scene {
             let contour = match cache.get(&key) {
                 Some(c) => c,
                 None => {
-                    let lookup = |v: Var, k: u32| moments.get(&v).and_then(|m| m.get(k as usize)).cloned();
+                    if moments.is_none() {
+                        moments = Some(needed_moments(&polys, &params)?);
+                    }
+                    let moments = moments.as_ref();
+                    let lookup =
+                        |v: Var, k: u32| moments.and_then(|m| m.get(&v)).and_then(|m| m.get(k as usize)).cloned();
                     let c = RiskContour::new(layout, &poly, &lookup, &name)
                         .map_err(|e| SceneError { path: format!("obstacles[{i}].poly"), kind: e.into() })?
                         .with_support(&supports);

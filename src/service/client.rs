@@ -1,7 +1,9 @@
 //! A Rust client of the service (bincode by default, JSON on request).
 
 use super::proto::*;
-use super::routes::Route;
+use super::routes::{token_server, Route, SERVER_TOKENS};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use std::time::Duration;
@@ -33,12 +35,82 @@ pub enum ClientError {
 /// Pause before a read that got no reply at all is sent again.
 const RETRY_PAUSE: Duration = Duration::from_millis(50);
 
-/// A connection to a riskplan server (cheap to clone: the Zenoh session is shared).
+/// The live servers a client knows of (from their liveliness tokens) and its queries
+/// outstanding at each (proto/README.md, "Discovery").
+#[derive(Debug, Default)]
+struct Servers {
+    live: Vec<String>,
+    /// The primary among them (writes go to it, through the shared keys).
+    primary: Option<String>,
+    outstanding: HashMap<String, usize>,
+}
+
+impl Servers {
+    /// The server for the next read: of two live servers drawn at random, the one with
+    /// fewer of this client's queries outstanding (the power of two choices); `None`
+    /// when none is known (the read goes to the shared key).
+    fn pick(&self) -> Option<String> {
+        let n = self.live.len();
+        match n {
+            0 => None,
+            1 => Some(self.live[0].clone()),
+            _ => {
+                let a = rand::random_range(0..n);
+                let b = (a + 1 + rand::random_range(0..n - 1)) % n;
+                let load = |i: usize| self.outstanding.get(&self.live[i]).copied().unwrap_or(0);
+                Some(self.live[if load(b) < load(a) { b } else { a }].clone())
+            }
+        }
+    }
+
+    fn add(&mut self, id: &str, role: &str) {
+        if !self.live.iter().any(|s| s == id) {
+            self.live.push(id.to_string());
+        }
+        if role == "primary" {
+            self.primary = Some(id.to_string());
+        }
+    }
+
+    fn remove(&mut self, id: &str) {
+        self.live.retain(|s| s != id);
+        if self.primary.as_deref() == Some(id) {
+            self.primary = None;
+        }
+    }
+}
+
+/// Where a query went: a server's own key, or the shared key (with the server its
+/// load is counted against: the primary for a write, when known).
+#[derive(Clone, Debug)]
+enum Target {
+    Own(String),
+    Shared(Option<String>),
+}
+
+impl Target {
+    fn counted(&self) -> Option<&str> {
+        match self {
+            Target::Own(id) | Target::Shared(Some(id)) => Some(id),
+            Target::Shared(None) => None,
+        }
+    }
+}
+
+/// A connection to a riskplan server or cluster (cheap to clone: the Zenoh session and
+/// the view of the live servers are shared). Reads are spread over the servers whose
+/// liveliness tokens it sees (proto/README.md, "Discovery"); writes go to the shared
+/// keys, where only the primary takes them.
 #[derive(Clone)]
 pub struct Client {
     session: zenoh::Session,
     codec: Codec,
     timeout: Duration,
+    servers: Arc<Mutex<Servers>>,
+    /// Keeps the liveliness subscriber (and its callback) alive.
+    _watch: Option<Arc<zenoh::pubsub::Subscriber<()>>>,
+    /// Reads ask for at least this revision of their scene (`min_revision`).
+    min_revision: Option<u64>,
 }
 
 impl Client {
@@ -56,7 +128,90 @@ impl Client {
     /// secure deployment in `deploy/secure`: TLS, user and password).
     pub async fn connect_with(config: zenoh::Config, timeout: Duration, codec: Codec) -> Result<Client, ClientError> {
         let session = zenoh::open(config).await.map_err(|e| ClientError::Zenoh(e.to_string()))?;
-        Ok(Client { session, codec, timeout })
+        let servers = Arc::new(Mutex::new(Servers::default()));
+        // the live servers: their tokens now (history) and as they come and go
+        let view = servers.clone();
+        let watch = session
+            .liveliness()
+            .declare_subscriber(SERVER_TOKENS)
+            .history(true)
+            .callback(move |sample| {
+                let Some((id, role)) = token_server(sample.key_expr().as_str()) else { return };
+                if let Ok(mut s) = view.lock() {
+                    match sample.kind() {
+                        zenoh::sample::SampleKind::Put => s.add(id, role),
+                        zenoh::sample::SampleKind::Delete => s.remove(id),
+                    }
+                }
+            })
+            .await
+            .ok()
+            .map(Arc::new);
+        Ok(Client { session, codec, timeout, servers, _watch: watch, min_revision: None })
+    }
+
+    /// The same client, whose reads ask for at least `revision` of their scene
+    /// (`min_revision`: a server that is behind waits briefly for it, else answers
+    /// `stale_revision`). Use the revision an `apply` acknowledged to read your write
+    /// from any server.
+    pub fn at_least(&self, revision: u64) -> Client {
+        Client { min_revision: Some(revision), ..self.clone() }
+    }
+
+    /// The ids of the live servers this client sees (their liveliness tokens).
+    pub fn servers(&self) -> Vec<String> {
+        self.servers.lock().map(|s| s.live.clone()).unwrap_or_default()
+    }
+
+    /// Where a query on `route` goes: a read to a live server's own key (the power of
+    /// two choices, `Servers::pick`), anything else — or a read when no server is
+    /// known — to the shared key; with `?min_revision=R` on reads when asked for.
+    /// A write (on the shared key) counts as outstanding at the primary, so that reads
+    /// lean towards the replicas while it works.
+    fn target(&self, route: &Route) -> (String, Target) {
+        let Ok(mut s) = self.servers.lock() else { return (route.key(), Target::Shared(None)) };
+        let (mut key, target) = match route.is_read().then(|| s.pick()).flatten() {
+            Some(id) => (route.key_on(&id), Target::Own(id)),
+            None => (route.key(), Target::Shared(if route.is_read() { None } else { s.primary.clone() })),
+        };
+        if let (Some(r), true) = (self.min_revision, route.is_read() && route.scene().is_some()) {
+            key = format!("{key}?min_revision={r}");
+        }
+        if let Some(id) = target.counted() {
+            *s.outstanding.entry(id.to_string()).or_default() += 1;
+        }
+        (key, target)
+    }
+
+    /// The query is over; `no_reply`: it ended with no reply at all — a server that
+    /// took it on its own key went away: leave it out until its token comes back.
+    fn done(&self, target: &Target, no_reply: bool) {
+        let Ok(mut s) = self.servers.lock() else { return };
+        if let Some(n) = target.counted().and_then(|id| s.outstanding.get_mut(id)) {
+            *n = n.saturating_sub(1);
+        }
+        if let (Target::Own(id), true) = (target, no_reply) {
+            s.remove(id);
+        }
+    }
+
+    /// The status of server `id` (a query on its own key).
+    pub async fn status_of(&self, id: &str) -> Result<StatusReply, ClientError> {
+        let replies = self
+            .session
+            .get(Route::Status.key_on(id))
+            .consolidation(ConsolidationMode::None)
+            .timeout(self.timeout)
+            .await
+            .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+        let reply = replies.recv_async().await.map_err(|_| ClientError::NoReply)?;
+        match reply.result() {
+            Ok(sample) => {
+                let codec = Codec::from_encoding(&sample.encoding().to_string()).unwrap_or(Codec::Json);
+                codec.decode(&sample.payload().to_bytes()).map_err(|(m, _)| ClientError::Decode(m))
+            }
+            Err(e) => Err(ClientError::Decode(e.payload().try_to_string().map(|s| s.to_string()).unwrap_or_default())),
+        }
     }
 
     /// One query on `route`; a read ([`Route::is_read`]) that got no reply at all is
@@ -71,24 +226,31 @@ impl Client {
             Codec::Json => Encoding::APPLICATION_JSON,
             Codec::Bincode => Encoding::from(BINCODE),
         };
-        let mut get = self
-            .session
-            .get(route.key())
-            .consolidation(ConsolidationMode::None)
-            .target(QueryTarget::BestMatching)
-            .timeout(timeout);
+        let (key, target) = self.target(route);
+        let mut get =
+            self.session.get(key).consolidation(ConsolidationMode::None).target(QueryTarget::BestMatching).timeout(timeout);
         if let Some(r) = req {
             get = get.payload(self.codec.encode(r)).encoding(enc);
         }
         let started = std::time::Instant::now();
-        let replies = get.await.map_err(|e| ClientError::Zenoh(e.to_string()))?;
-        let Ok(reply) = replies.recv_async().await else {
+        let replies = match get.await {
+            Ok(r) => r,
+            Err(e) => {
+                self.done(&target, false);
+                return Err(ClientError::Zenoh(e.to_string()));
+            }
+        };
+        let first = replies.recv_async().await;
+        self.done(&target, first.is_err());
+        let Ok(reply) = first else {
             // No reply to a read: the server that took it died (or none is up yet).
-            // Reads are safe to repeat and another server of a cluster takes the next
-            // query (deploy/cluster); writes (apply) are never repeated.
+            // Reads are safe to repeat: the next goes to another live server (or the
+            // shared key, where Zenoh routes it to one); writes (apply) are never repeated.
             let left = timeout.saturating_sub(started.elapsed() + RETRY_PAUSE);
             if route.is_read() && !left.is_zero() {
-                tokio::time::sleep(RETRY_PAUSE).await;
+                if !matches!(target, Target::Own(_)) {
+                    tokio::time::sleep(RETRY_PAUSE).await;
+                }
                 return Box::pin(self.query(route, req, left)).await;
             }
             return Err(ClientError::NoReply);
@@ -193,17 +355,29 @@ impl Client {
             Codec::Json => Encoding::APPLICATION_JSON,
             Codec::Bincode => Encoding::from(BINCODE),
         };
-        let replies = self
+        let (key, target) = self.target(route);
+        let replies = match self
             .session
-            .get(route.key())
+            .get(key)
             .payload(payload)
             .encoding(enc)
             .consolidation(ConsolidationMode::None)
             .timeout(self.timeout)
             .await
-            .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+        {
+            Ok(r) => r,
+            Err(e) => {
+                self.done(&target, false);
+                return Err(ClientError::Zenoh(e.to_string()));
+            }
+        };
         let (mut n, mut code) = (0, None);
+        let mut counted = false;
         while let Ok(r) = replies.recv_async().await {
+            if !counted {
+                self.done(&target, false);
+                counted = true;
+            }
             n += 1;
             if let Err(e) = r.result() {
                 let c = Codec::from_encoding(&e.encoding().to_string()).unwrap_or(Codec::Json);
@@ -212,6 +386,9 @@ impl Client {
                     Err(_) => "timeout".to_string(),
                 });
             }
+        }
+        if !counted {
+            self.done(&target, true);
         }
         Ok((n, code))
     }

@@ -70,6 +70,17 @@ pub enum ServiceError {
     /// The server cannot take the request yet (it is loading its stored scenes).
     #[error("unavailable: {0}")]
     Unavailable(String),
+    /// A read asked for a revision of the scene this server does not have yet (a
+    /// replica behind its primary), after waiting `MIN_REVISION_WAIT` (1.5 s, proto/README.md "Discovery and load sharing").
+    #[error("scene '{scene}' is at revision {have} here, the read asked for at least {want}: this server is behind its primary; try again or ask another server")]
+    StaleRevision {
+        /// The scene.
+        scene: String,
+        /// The revision this server has (0: none).
+        have: u64,
+        /// The revision asked for.
+        want: u64,
+    },
     /// Our bug.
     #[error("internal error: {0}")]
     Internal(String),
@@ -97,6 +108,7 @@ impl ServiceError {
             ServiceError::Busy(_) => "busy",
             ServiceError::DeadlineExceeded(_) => "deadline_exceeded",
             ServiceError::Unavailable(_) => "unavailable",
+            ServiceError::StaleRevision { .. } => "stale_revision",
             ServiceError::Internal(_) => "internal",
         }
     }
@@ -114,6 +126,7 @@ impl ServiceError {
                 Some(which.clone())
             }
             ServiceError::Plan(PlanError::InvalidOption { option, .. }) => Some(option.clone()),
+            ServiceError::StaleRevision { .. } => Some("min_revision".into()),
             _ => None,
         }
     }

@@ -12,10 +12,20 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use tokio::sync::Semaphore;
 
-/// The bounded job pool: `workers` permits; at most `workers + queue` jobs admitted.
+/// Threads for writes (`apply`), besides the workers: an update spends most of its
+/// time waiting for the disk (the acknowledged revision is written, `fsync`ed and
+/// renamed before the reply: several milliseconds here, against about one of
+/// computation), which must not hold a worker that reads could use. Updates of one
+/// scene are serialised by its write lock anyway; two lanes let two scenes' updates
+/// overlap.
+pub const WRITE_LANES: usize = 2;
+
+/// The bounded job pool: `workers` permits for computation and [`WRITE_LANES`] for
+/// writes; at most `workers + queue` jobs admitted in all.
 #[derive(Debug)]
 pub(crate) struct Jobs {
     sem: Arc<Semaphore>,
+    writes: Arc<Semaphore>,
     workers: usize,
     capacity: usize,
     admitted: AtomicUsize,
@@ -26,6 +36,7 @@ impl Jobs {
     pub(crate) fn new(workers: usize, capacity: usize) -> Jobs {
         Jobs {
             sem: Arc::new(Semaphore::new(workers)),
+            writes: Arc::new(Semaphore::new(WRITE_LANES)),
             workers,
             capacity,
             admitted: AtomicUsize::new(0),
@@ -41,13 +52,31 @@ impl Jobs {
         deadline: Instant,
         f: impl FnOnce() -> Result<T, ServiceError> + Send + 'static,
     ) -> Result<T, ServiceError> {
+        self.run_on(&self.sem, deadline, f).await
+    }
+
+    /// [`Jobs::run`] for a write (`apply`), on the write lanes ([`WRITE_LANES`]).
+    pub(crate) async fn run_write<T: Send + 'static>(
+        &self,
+        deadline: Instant,
+        f: impl FnOnce() -> Result<T, ServiceError> + Send + 'static,
+    ) -> Result<T, ServiceError> {
+        self.run_on(&self.writes, deadline, f).await
+    }
+
+    async fn run_on<T: Send + 'static>(
+        &self,
+        sem: &Arc<Semaphore>,
+        deadline: Instant,
+        f: impl FnOnce() -> Result<T, ServiceError> + Send + 'static,
+    ) -> Result<T, ServiceError> {
         let limit = self.workers + self.capacity;
         let before = self.admitted.fetch_add(1, Ordering::SeqCst);
         if before >= limit {
             self.admitted.fetch_sub(1, Ordering::SeqCst);
             return Err(ServiceError::Busy(limit));
         }
-        let permit = match tokio::time::timeout_at(deadline.into(), self.sem.clone().acquire_owned()).await {
+        let permit = match tokio::time::timeout_at(deadline.into(), sem.clone().acquire_owned()).await {
             Ok(p) if Instant::now() < deadline => p,
             _ => {
                 self.admitted.fetch_sub(1, Ordering::SeqCst);

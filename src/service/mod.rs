@@ -38,6 +38,9 @@ mod state;
 pub use client::{Client, ClientError};
 pub use error::ServiceError;
 #[cfg(feature = "service")]
+/// Threads for writes besides the workers (see `jobs`).
+pub use jobs::WRITE_LANES;
+#[cfg(feature = "service")]
 pub use routes::{Route, RouteError, RouteKind};
 #[cfg(feature = "service")]
 pub use server::{serve, ServerConfig};

@@ -398,6 +398,10 @@ pub struct StatusReply {
     /// (follows a primary's revisions and answers reads: deploy/cluster).
     #[serde(default = "primary_role")]
     pub role: String,
+    /// The server's id (its liveliness token `riskplan/_servers/<id>/<role>` and own keys
+    /// `riskplan/@<id>/...`: proto/README.md, "Discovery").
+    #[serde(default)]
+    pub server_id: String,
     /// Seconds since start.
     pub uptime_s: f64,
     /// Scenes.

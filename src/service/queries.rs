@@ -31,14 +31,16 @@ pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<
     async move {
         let enc = query.encoding().map(|e| e.to_string()).unwrap_or_default();
         let bytes = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
-        let (codec, result) = match Codec::from_encoding(&enc) {
-            None => (Codec::Json, Err(ServiceError::UnsupportedEncoding(enc.clone()))),
-            Some(c) if bytes.len() > MAX_PAYLOAD_BYTES => {
+        let min_revision = min_revision(query.parameters().get("min_revision"));
+        let (codec, result) = match (Codec::from_encoding(&enc), min_revision) {
+            (None, _) => (Codec::Json, Err(ServiceError::UnsupportedEncoding(enc.clone()))),
+            (Some(c), _) if bytes.len() > MAX_PAYLOAD_BYTES => {
                 (c, Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES)))
             }
-            Some(c) => (
+            (Some(c), Err(e)) => (c, Err(e)),
+            (Some(c), Ok(min)) => (
                 c,
-                dispatch(&state, route.as_ref().ok(), c, bytes, t0).await.and_then(|(payload, rev)| {
+                dispatch(&state, route.as_ref().ok(), c, bytes, t0, min).await.and_then(|(payload, rev)| {
                     if payload.len() > MAX_REPLY_BYTES {
                         Err(ServiceError::LimitExceeded {
                             message: format!(
@@ -79,6 +81,44 @@ pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<
     .await
 }
 
+/// How long a read that asks for a revision this server does not have yet waits for
+/// it (a replica installs its primary's commits within milliseconds of the
+/// acknowledgement, or at its next catch-up, every second, after a lost publication).
+pub(crate) const MIN_REVISION_WAIT: Duration = Duration::from_millis(1500);
+
+/// How often such a read looks again.
+const MIN_REVISION_POLL: Duration = Duration::from_millis(2);
+
+/// The selector parameter `min_revision=R` of a read (proto/README.md, "Revisions").
+fn min_revision(v: Option<&str>) -> Result<u64, ServiceError> {
+    match v {
+        None => Ok(0),
+        Some(s) => s.trim().parse::<u64>().map_err(|_| {
+            crate::service::error::invalid("min_revision", format!("'{s}' is not a revision (an integer ≥ 0)"))
+        }),
+    }
+}
+
+/// The scene's entry at revision `min` or later: at once when this server has it,
+/// else after waiting up to [`MIN_REVISION_WAIT`] for it (a typed `stale_revision`
+/// error when it does not come; `unknown_scene` only when no revision is asked for).
+async fn entry_at_least(state: &State, scene: &str, min: u64) -> Result<super::registry::Entry, ServiceError> {
+    let since = Instant::now();
+    loop {
+        let have = match state.registry.get(scene) {
+            Ok(e) if e.revision >= min => return Ok(e),
+            Ok(e) => e.revision,
+            Err(e @ ServiceError::UnknownScene(_)) if min == 0 => return Err(e),
+            Err(ServiceError::UnknownScene(_)) => 0,
+            Err(e) => return Err(e),
+        };
+        if since.elapsed() >= MIN_REVISION_WAIT {
+            return Err(ServiceError::StaleRevision { scene: scene.to_string(), have, want: min });
+        }
+        tokio::time::sleep(MIN_REVISION_POLL).await;
+    }
+}
+
 fn malformed((message, field): (String, Option<String>)) -> ServiceError {
     ServiceError::Malformed { message, field }
 }
@@ -89,6 +129,7 @@ async fn dispatch(
     codec: Codec,
     bytes: Vec<u8>,
     arrival: Instant,
+    min: u64,
 ) -> Result<(Vec<u8>, Option<u64>), ServiceError> {
     // apply, verify and risk: the request's deadline, capped (and defaulted) by the server's
     let deadline = |ms: Option<u64>| {
@@ -109,7 +150,7 @@ async fn dispatch(
     }
     match route {
         Some(Route::Scene { name: scene }) => {
-            let e = state.registry.get(scene)?;
+            let e = entry_at_least(state, scene, min).await?;
             Ok((codec.encode(&SceneReply { name: scene.to_string(), revision: e.revision, scene: embedded(&e.json) }), Some(e.revision)))
         }
         Some(Route::Apply { scene }) => {
@@ -118,13 +159,13 @@ async fn dispatch(
             let name = scene.to_string();
             let rev = state
                 .jobs
-                .run(deadline(req.deadline_ms), move || handlers::apply(&st.registry, &name, req))
+                .run_write(deadline(req.deadline_ms), move || handlers::apply(&st.registry, &name, req))
                 .await?;
             Ok((codec.encode(&ApplyReply { scene: scene.to_string(), revision: rev }), Some(rev)))
         }
         Some(Route::Plan { scene }) => {
             let req: PlanRequest = codec.decode(&bytes).map_err(malformed)?;
-            let entry = state.registry.get(scene)?;
+            let entry = entry_at_least(state, scene, min).await?;
             tracing::Span::current().record("planner", req.planner.as_deref().unwrap_or("rrt-sos"));
             let cap = state.max_plan_seconds;
             let guard = state.cancels.register();
@@ -143,7 +184,7 @@ async fn dispatch(
         }
         Some(Route::Verify { scene }) => {
             let req: VerifyRequest = codec.decode(&bytes).map_err(malformed)?;
-            let entry = state.registry.get(scene)?;
+            let entry = entry_at_least(state, scene, min).await?;
             let rev = entry.revision;
             let until = deadline(req.deadline_ms);
             let reply = state.jobs.run(until, move || handlers::verify_request(&entry, &req, until)).await?;
@@ -151,7 +192,7 @@ async fn dispatch(
         }
         Some(Route::Risk { scene }) => {
             let req: RiskRequest = codec.decode(&bytes).map_err(malformed)?;
-            let entry = state.registry.get(scene)?;
+            let entry = entry_at_least(state, scene, min).await?;
             let rev = entry.revision;
             let until = deadline(req.deadline_ms);
             let reply = state.jobs.run(until, move || handlers::risk(&entry, &req, until)).await?;

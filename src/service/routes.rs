@@ -20,6 +20,44 @@ pub(crate) const SCENE_UPDATES: &str = "riskplan/scenes/**";
 /// The keys of a primary's published commits: a replica's subscription.
 pub(crate) const REPLICATED_COMMITS: &str = "riskplan/_replication/scenes/**";
 
+/// The liveliness tokens of the ready servers, one per server:
+/// `riskplan/_servers/<id>/<role>`, role `primary` or `replica` (proto/README.md,
+/// "Discovery"). A token lives while its server is up and reachable.
+pub(crate) const SERVER_TOKENS: &str = "riskplan/_servers/*/*";
+
+/// The liveliness token of server `id` in `role` (`primary` or `replica`).
+pub(crate) fn server_token(id: &str, role: &str) -> String {
+    format!("{ROOT}/_servers/{id}/{role}")
+}
+
+/// The id and role in a server's liveliness token, if `key` is one.
+pub fn token_server(key: &str) -> Option<(&str, &str)> {
+    let (id, role) = key.strip_prefix("riskplan/_servers/")?.split_once('/')?;
+    (valid_server_id(id) && matches!(role, "primary" | "replica")).then_some((id, role))
+}
+
+/// A server id: 1 to 64 characters from `0-9 a-z A-Z _ -` (chunk-safe; what
+/// `serve --server-id` accepts, a random hex id by default).
+pub fn valid_server_id(id: &str) -> bool {
+    !id.is_empty() && id.len() <= 64 && id.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
+}
+
+/// The key expression of server `id`'s own queryable: `riskplan/@<id>/**`. A chunk
+/// that begins with `@` is verbatim in Zenoh: no wildcard matches it, so neither a
+/// primary's `riskplan/**` nor any client's wildcard query reaches another server's
+/// own keys.
+pub(crate) fn own_keys(id: &str) -> String {
+    format!("{ROOT}/@{id}/**")
+}
+
+/// Splits a key on a server's own keys, `riskplan/@<id>/<rest>`, into the id and the
+/// shared key `riskplan/<rest>` it stands for; `None` for any other key.
+pub(crate) fn split_own(key: &str) -> Option<(&str, String)> {
+    let rest = key.strip_prefix("riskplan/@")?;
+    let (id, tail) = rest.split_once('/')?;
+    Some((id, format!("{ROOT}/{tail}")))
+}
+
 /// What a key expression addresses (proto/README.md, "Key expressions"). The
 /// operation (get, put, delete) is not part of the route.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -246,6 +284,12 @@ impl Route {
     /// non-empty and hold no `/`.
     pub fn key(&self) -> String {
         self.to_string()
+    }
+
+    /// The route's key on server `id`'s own queryable: `riskplan/@<id>/<rest>`.
+    pub fn key_on(&self, id: &str) -> String {
+        let shared = self.to_string();
+        format!("{ROOT}/@{id}/{}", shared.strip_prefix("riskplan/").unwrap_or(&shared))
     }
 
     /// What the route addresses, without its names.

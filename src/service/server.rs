@@ -45,6 +45,9 @@ pub struct ServerConfig {
     /// (deploy/cluster/README.md). Otherwise the server is a primary: it takes
     /// writes and publishes its commits for replicas.
     pub replica: bool,
+    /// The server's id (`None`: a random one): its liveliness token and own keys
+    /// (proto/README.md, "Discovery").
+    pub server_id: Option<String>,
 }
 
 /// Runs the server until SIGINT or SIGTERM.
@@ -64,6 +67,11 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         loaded: AtomicBool::new(false),
         primary_id: Mutex::new(None),
         replica: cfg.replica,
+        server_id: match &cfg.server_id {
+            Some(id) if super::routes::valid_server_id(id) => id.clone(),
+            Some(id) => return Err(format!("--server-id '{id}': use 1 to 64 characters from 0-9 a-z A-Z _ -")),
+            None => format!("{:016x}", rand::random::<u64>()),
+        },
     });
     let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
     // Complete queryables: with several servers behind a router, a query goes to one

@@ -4,7 +4,7 @@
 
 use super::queries::handle_query;
 use super::registry::Registry;
-use super::routes::{Route, RouteKind, ALL_KEYS};
+use super::routes::{own_keys, server_token, split_own, Route, RouteError, RouteKind, ALL_KEYS};
 use super::state::State;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -45,6 +45,25 @@ pub(crate) async fn serve_queries(state: Arc<State>, q: Queryable, skip_early: b
     }
 }
 
+/// Answers the queries on this server's own keys, `riskplan/@<id>/<rest>`: each as
+/// the read `riskplan/<rest>` it stands for; anything but a read is refused (writes
+/// go to the shared keys, where only the primary takes them).
+pub(crate) async fn serve_own_queries(state: Arc<State>, q: Queryable) {
+    while let Ok(query) = q.recv_async().await {
+        let key = query.key_expr().as_str().to_string();
+        let route = match split_own(&key) {
+            Some((id, shared)) if id == state.server_id => Route::parse(&shared),
+            _ => Err(RouteError::Unknown(key.clone())),
+        };
+        let route = match route {
+            Ok(r) if !r.is_read() => Err(RouteError::Unknown(key)),
+            other => other,
+        };
+        let st = state.clone();
+        tokio::spawn(async move { handle_query(st, query, route).await });
+    }
+}
+
 /// Declares the work queryables once the server is ready (a primary: `riskplan/**`;
 /// a replica: the read keys), and serves them.
 pub(crate) async fn serve_when_ready(state: Arc<State>, session: zenoh::Session) {
@@ -63,6 +82,24 @@ pub(crate) async fn serve_when_ready(state: Arc<State>, session: zenoh::Session)
             Err(e) => warn!("{e}"),
         }
     }
+    // this server's own keys (reads only), then its liveliness token: clients that
+    // see the token spread their reads over the live servers (proto/README.md,
+    // "Discovery"); the token goes when the session does
+    match declare(&session, &own_keys(&state.server_id)).await {
+        Ok(q) => loops.push(tokio::spawn(serve_own_queries(state.clone(), q))),
+        Err(e) => warn!("{e}"),
+    }
+    let _token = match session
+        .liveliness()
+        .declare_token(server_token(&state.server_id, if state.replica { "replica" } else { "primary" }))
+        .await
+    {
+        Ok(t) => Some(t),
+        Err(e) => {
+            warn!("cannot declare the liveliness token: {e}");
+            None
+        }
+    };
     let n = state.registry.list().len();
     eprintln!("riskplan: ready ({n} scenes{})", if state.replica { ", replica" } else { "" });
     info!(scenes = n, "ready");

@@ -34,6 +34,9 @@ pub(crate) struct State {
     pub(crate) primary_id: Mutex<Option<u64>>,
     /// A replica (reads only, following a primary), not a primary.
     pub(crate) replica: bool,
+    /// This server's id: its liveliness token and own keys (`routes::server_token`,
+    /// `routes::own_keys`).
+    pub(crate) server_id: String,
 }
 
 impl State {
@@ -55,6 +58,7 @@ impl State {
         StatusReply {
             state: if self.ready.load(Ordering::SeqCst) { "ready" } else { "loading" }.into(),
             role: if self.replica { "replica" } else { "primary" }.into(),
+            server_id: self.server_id.clone(),
             uptime_s: self.started.elapsed().as_secs_f64(),
             scenes: self
                 .registry

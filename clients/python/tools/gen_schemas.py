@@ -72,6 +72,7 @@ ERROR_CODES = [
     "busy",
     "deadline_exceeded",
     "unavailable",
+    "stale_revision",
     "internal",
 ]
 
@@ -574,6 +575,7 @@ MESSAGES = {
         "properties": {
             "role": {"enum": ["primary", "replica"], "description": "primary: takes writes (a single server is one); replica: answers reads only and follows a primary (deploy/cluster)"},
             "state": {"enum": ["loading", "ready"], "description": "loading until the stored scenes and --preload files are in (every request but status and echo is answered unavailable), ready after"},
+            "server_id": {"type": "string", "pattern": "^[0-9A-Za-z_-]{0,64}$", "description": "the server's id: its liveliness token riskplan/_servers/<id>/<role> and its own keys riskplan/@<id>/... (proto/README.md, Discovery)"},
             "uptime_s": {"type": "number", "minimum": 0},
             "scenes": {
                 "type": "array",

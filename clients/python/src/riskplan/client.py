@@ -7,6 +7,8 @@ import os
 import re
 import time
 import math
+import random
+import threading
 from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -122,6 +124,75 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 # The read queries of proto/README.md ("Roles"): repeated when no server replied.
 READ_KEY = re.compile(r"^riskplan/(status|echo|scenes/[^/]+(/(plan|verify|risk))?)$")
 RETRY_PAUSE_S = 0.05
+# The ready servers' liveliness tokens (proto/README.md, "Discovery"): riskplan/_servers/<id>.
+SERVER_TOKENS = "riskplan/_servers/*/*"
+SERVER_ID = re.compile(r"^[0-9A-Za-z_-]{1,64}$")
+
+
+class _Servers:
+    """The live servers this client sees (from their liveliness tokens) and its queries
+    outstanding at each; thread-safe (the token callback runs on Zenoh's threads)."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self.live: List[str] = []
+        self.primary: Optional[str] = None
+        self.outstanding: Dict[str, int] = {}
+
+    def on_token(self, sample) -> None:
+        """A token riskplan/_servers/<id>/<role> came (PUT) or went (DELETE)."""
+        parts = str(sample.key_expr).split("/")
+        if len(parts) != 4 or parts[:2] != ["riskplan", "_servers"]:
+            return
+        sid, role = parts[2], parts[3]
+        if not SERVER_ID.match(sid) or role not in ("primary", "replica"):
+            return
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.PUT:
+                if sid not in self.live:
+                    self.live.append(sid)
+                if role == "primary":
+                    self.primary = sid
+            else:
+                self.live = [x for x in self.live if x != sid]
+                if self.primary == sid:
+                    self.primary = None
+
+    def count_write(self) -> Optional[str]:
+        """A write goes to the shared key, where the primary takes it: counted against
+        the primary (when known), so that reads lean towards the replicas meanwhile."""
+        with self._lock:
+            sid = self.primary
+            if sid is not None:
+                self.outstanding[sid] = self.outstanding.get(sid, 0) + 1
+            return sid
+
+    def pick(self) -> Optional[str]:
+        """Of two live servers drawn at random, the one with fewer outstanding queries
+        (the power of two choices); None when none is known. Counts the query."""
+        with self._lock:
+            if not self.live:
+                return None
+            if len(self.live) == 1:
+                sid = self.live[0]
+            else:
+                a, b = random.sample(self.live, 2)
+                sid = b if self.outstanding.get(b, 0) < self.outstanding.get(a, 0) else a
+            self.outstanding[sid] = self.outstanding.get(sid, 0) + 1
+            return sid
+
+    def done(self, sid: Optional[str]) -> None:
+        """A query to ``sid`` is over."""
+        if sid is None:
+            return
+        with self._lock:
+            self.outstanding[sid] = max(0, self.outstanding.get(sid, 0) - 1)
+
+    def drop(self, sid: str) -> None:
+        """``sid`` gave no reply at all (it went away): leave it out until its token
+        comes back."""
+        with self._lock:
+            self.live = [x for x in self.live if x != sid]
 
 
 class Client:
@@ -173,6 +244,12 @@ class Client:
         self.last_replies = 0
         self.last_repliers: List[Optional[str]] = []
         self.last_encoding: Optional[str] = None
+        # reads ask for at least this revision of their scene (see at_least)
+        self.min_revision: Optional[int] = None
+        self.last_server: Optional[str] = None
+        self._servers = _Servers()
+        self._watch = self._session.liveliness().declare_subscriber(SERVER_TOKENS, self._servers.on_token,
+                                                                     history=True)
 
     # -- lifecycle -----------------------------------------------------------------
 
@@ -193,6 +270,34 @@ class Client:
             self.close()
         except Exception:
             pass
+
+    # -- cluster ---------------------------------------------------------------------
+
+    def servers(self) -> List[str]:
+        """The ids of the live servers this client sees (their liveliness tokens)."""
+        with self._servers._lock:
+            return list(self._servers.live)
+
+    def at_least(self, revision: Optional[int]) -> "Client":
+        """Makes this client's reads ask for at least ``revision`` of their scene
+        (``min_revision``; ``None``: any): a server that is behind its primary waits
+        briefly for it, else answers :class:`StaleRevisionError`. Pass the revision an
+        :meth:`apply` returned to read your own write from any server. Returns self."""
+        self.min_revision = None if revision is None else int(revision)
+        return self
+
+    def _target(self, key: str) -> Tuple[str, Optional[str]]:
+        """Where a query on ``key`` goes: a read to a live server's own key
+        ``riskplan/@<id>/...`` (the power of two choices on this client's outstanding
+        queries), anything else — or a read when no server is known — to the key as
+        given; reads on a scene carry ``?min_revision=R`` when asked for."""
+        if not READ_KEY.match(key):
+            return key, (self._servers.count_write() if key.endswith("/apply") else None)
+        sid = self._servers.pick()
+        selector = key if sid is None else f"{PREFIX}/@{sid}/{key[len(PREFIX) + 1:]}"
+        if self.min_revision is not None and key.startswith(f"{PREFIX}/scenes/"):
+            selector += f"?min_revision={self.min_revision}"
+        return selector, sid
 
     # -- low level -----------------------------------------------------------------
 
@@ -217,14 +322,23 @@ class Client:
         end = time.monotonic() + total
         while True:
             left = end - time.monotonic()
-            replies = list(self._session.get(key, timeout=max(left, 0.001), **kwargs))
+            selector, sid = self._target(key)
+            try:
+                replies = list(self._session.get(selector, timeout=max(left, 0.001), **kwargs))
+            finally:
+                self._servers.done(sid)
+            self.last_server = sid
             # No reply at all to a read: the server that took it died (or none is up
-            # yet). Reads are safe to repeat, and another server of a cluster takes the
-            # next query (deploy/cluster): try again within the timeout. Writes
-            # (apply) are never repeated: the lost one may have been carried out.
+            # yet). Reads are safe to repeat: the next goes to another live server (or,
+            # when none is known, to the shared key after a pause): try again within the
+            # timeout. Writes (apply) are never repeated: the lost one may have been
+            # carried out.
             if replies or not READ_KEY.match(key) or end - time.monotonic() <= RETRY_PAUSE_S:
                 break
-            time.sleep(RETRY_PAUSE_S)
+            if sid is not None and READ_KEY.match(key):
+                self._servers.drop(sid)
+            else:
+                time.sleep(RETRY_PAUSE_S)
         self.last_replies = len(replies)
         self.last_repliers = [_replier(r) for r in replies]
         self.last_encoding = None

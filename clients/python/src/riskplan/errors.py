@@ -128,6 +128,14 @@ class UnavailableError(RiskplanError):
     code = "unavailable"
 
 
+class StaleRevisionError(RiskplanError):
+    """The read asked for a revision of its scene (``min_revision``, see
+    :meth:`Client.at_least`) that the server answering it does not have yet — a replica
+    behind its primary — after waiting briefly for it. Retry, or ask another server."""
+
+    code = "stale_revision"
+
+
 class InternalError(RiskplanError):
     """A bug on the server's side (a caught panic)."""
 
@@ -188,6 +196,7 @@ ERRORS_BY_CODE: Dict[str, Type[RiskplanError]] = {
         BusyError,
         DeadlineExceededError,
         UnavailableError,
+        StaleRevisionError,
         InternalError,
         QueryTimeoutError,
         NoReplyError,

@@ -1,0 +1,104 @@
+"""Load sharing (proto/README.md, "Discovery"): servers behind a router announce
+themselves with liveliness tokens and answer on their own keys; clients spread reads
+over the live servers, re-send a read that a vanished server left without reply, and
+may ask for at least a revision (`min_revision`). Four servers: a primary and three
+replicas, in client mode behind `riskplan router`."""
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections import Counter
+
+import pytest
+import zenoh
+
+import riskplan
+
+from conftest import Server, load_scene, wait_for
+from test_cluster import READ_TIMEOUT_S, Router, run_load
+
+IDS = ["p0", "r1", "r2", "r3"]
+
+
+@pytest.fixture
+def four(binary, tmp_path):
+    router = Router(binary)
+    common = ["--mode", "client", "--connect", router.endpoint, "--workers", "1"]
+    servers = [Server(binary, tmp_path / sid, extra=common + ["--server-id", sid] + (["--replica"] if sid != "p0" else []))
+               for sid in IDS]
+    try:
+        for s in servers:
+            s.start()
+        yield router, dict(zip(IDS, servers))
+    finally:
+        for s in reversed(servers):
+            s.kill()
+        router.stop()
+
+
+def raw(endpoint, selector):
+    """One plain zenoh get (a client that knows nothing of the protocol): every reply."""
+    cfg = zenoh.Config()
+    cfg.insert_json5("mode", '"client"')
+    cfg.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    cfg.insert_json5("scouting/multicast/enabled", "false")
+    with zenoh.open(cfg) as s:
+        return list(s.get(selector, consolidation=zenoh.ConsolidationMode.NONE, timeout=5))
+
+
+def test_discovery_spread_and_min_revision(four):
+    router, servers = four
+    with riskplan.Client(router.endpoint, timeout=READ_TIMEOUT_S) as c:
+        wait_for(lambda: sorted(c.servers()) == IDS, what="the client sees the four servers")
+        # each server answers on its own key, as itself
+        for sid in IDS:
+            (r,) = raw(router.endpoint, f"riskplan/@{sid}/status")
+            assert json.loads(r.ok.payload.to_bytes())["server_id"] == sid
+        # a write goes to the primary only; reads asking for its revision see it on
+        # every server, right after the acknowledgement
+        for k in range(3):
+            rev = c.apply("s3", scene=load_scene("illustrative-3"))
+            for sid in IDS:
+                (r,) = raw(router.endpoint, f"riskplan/@{sid}/scenes/s3?min_revision={rev}")
+                assert r.ok is not None, r.err.payload.to_string()
+                assert json.loads(r.ok.payload.to_bytes())["revision"] >= rev, sid
+            # and through the client, wherever its reads go
+            c.at_least(rev)
+            for _ in range(8):
+                assert c.get_scene("s3")["revision"] >= rev
+            c.at_least(None)
+        # a revision no server has: a typed error after a short wait
+        with pytest.raises(riskplan.StaleRevisionError):
+            c.at_least(rev + 1000).get_scene("s3")
+        c.at_least(None)
+        # reads are spread over the servers (power of two choices), one reply each
+        used = Counter()
+        for _ in range(80):
+            c.verify("s3", segment=([-1, -1], [1, 1]))
+            assert c.last_replies == 1
+            used[c.last_server] += 1
+        assert set(used) == set(IDS), used
+        # a client that knows nothing of the protocol still gets one reply on the shared key
+        assert len(raw(router.endpoint, "riskplan/scenes/s3")) == 1
+
+
+def test_four_servers_one_killed_under_load(four):
+    router, servers = four
+    name = "load"
+    with riskplan.Client(router.endpoint, timeout=READ_TIMEOUT_S) as c:
+        rev = c.apply(name, scene=load_scene("illustrative-3"))
+        for sid in IDS:
+            (r,) = raw(router.endpoint, f"riskplan/@{sid}/scenes/{name}?min_revision={rev}")
+            assert r.ok is not None
+    results = {"latencies": [], "replies": [], "errors": []}
+    threads = [threading.Thread(target=run_load, args=(router.endpoint, 8.0, None, results, name)) for _ in range(6)]
+    for t in threads:
+        t.start()
+    time.sleep(3.0)
+    servers["r2"].kill()
+    for t in threads:
+        t.join(timeout=60)
+    assert not results["errors"], results["errors"][:5]
+    assert set(results["replies"]) == {1}, "a query got more than one reply"
+    assert results["latencies"] and max(results["latencies"]) < READ_TIMEOUT_S
