@@ -86,8 +86,18 @@ pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<
 /// acknowledgement, or at its next catch-up, every second, after a lost publication).
 pub(crate) const MIN_REVISION_WAIT: Duration = Duration::from_millis(1500);
 
-/// How often such a read looks again.
-const MIN_REVISION_POLL: Duration = Duration::from_millis(2);
+/// How often such a read looks again: first after this, then twice as long each time
+/// up to [`MIN_REVISION_POLL_MAX`] (a replica usually has the revision within
+/// milliseconds; a read that waits the whole time wakes about 35 times).
+const MIN_REVISION_POLL: Duration = Duration::from_millis(1);
+
+/// The longest pause between two looks.
+const MIN_REVISION_POLL_MAX: Duration = Duration::from_millis(50);
+
+/// Reads that may wait for a revision at once; more are answered `stale_revision`
+/// at once (so that a flood of reads asking for a revision that never comes holds no
+/// more than this many tasks).
+pub(crate) const MAX_REVISION_WAITERS: usize = 256;
 
 /// The selector parameter `min_revision=R` of a read (proto/README.md, "Revisions").
 fn min_revision(v: Option<&str>) -> Result<u64, ServiceError> {
@@ -104,6 +114,8 @@ fn min_revision(v: Option<&str>) -> Result<u64, ServiceError> {
 /// error when it does not come; `unknown_scene` only when no revision is asked for).
 async fn entry_at_least(state: &State, scene: &str, min: u64) -> Result<super::registry::Entry, ServiceError> {
     let since = Instant::now();
+    let mut pause = MIN_REVISION_POLL;
+    let mut waiting: Option<WaiterSlot<'_>> = None;
     loop {
         let have = match state.registry.get(scene) {
             Ok(e) if e.revision >= min => return Ok(e),
@@ -112,10 +124,35 @@ async fn entry_at_least(state: &State, scene: &str, min: u64) -> Result<super::r
             Err(ServiceError::UnknownScene(_)) => 0,
             Err(e) => return Err(e),
         };
-        if since.elapsed() >= MIN_REVISION_WAIT {
+        if waiting.is_none() {
+            waiting = WaiterSlot::take(state);
+        }
+        if waiting.is_none() || since.elapsed() >= MIN_REVISION_WAIT {
             return Err(ServiceError::StaleRevision { scene: scene.to_string(), have, want: min });
         }
-        tokio::time::sleep(MIN_REVISION_POLL).await;
+        tokio::time::sleep(pause).await;
+        pause = (pause * 2).min(MIN_REVISION_POLL_MAX);
+    }
+}
+
+/// One of the [`MAX_REVISION_WAITERS`] places of a read waiting for a revision, given
+/// back when dropped.
+struct WaiterSlot<'a>(&'a State);
+
+impl<'a> WaiterSlot<'a> {
+    fn take(state: &'a State) -> Option<WaiterSlot<'a>> {
+        let before = state.revision_waiters.fetch_add(1, Ordering::SeqCst);
+        if before >= MAX_REVISION_WAITERS {
+            state.revision_waiters.fetch_sub(1, Ordering::SeqCst);
+            return None;
+        }
+        Some(WaiterSlot(state))
+    }
+}
+
+impl Drop for WaiterSlot<'_> {
+    fn drop(&mut self) {
+        self.0.revision_waiters.fetch_sub(1, Ordering::SeqCst);
     }
 }
 

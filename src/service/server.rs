@@ -72,6 +72,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
             Some(id) => return Err(format!("--server-id '{id}': use 1 to 64 characters from 0-9 a-z A-Z _ -")),
             None => format!("{:016x}", rand::random::<u64>()),
         },
+        revision_waiters: std::sync::atomic::AtomicUsize::new(0),
     });
     let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
     // Complete queryables: with several servers behind a router, a query goes to one

@@ -37,6 +37,8 @@ pub(crate) struct State {
     /// This server's id: its liveliness token and own keys (`routes::server_token`,
     /// `routes::own_keys`).
     pub(crate) server_id: String,
+    /// Reads waiting for a revision (`queries::MAX_REVISION_WAITERS` at most).
+    pub(crate) revision_waiters: std::sync::atomic::AtomicUsize,
 }
 
 impl State {
