@@ -186,7 +186,7 @@ pub fn run(a: ClientArgs) -> Result<i32, CliError> {
         }
         .map_err(err)?;
         let client = match a.min_revision {
-            Some(r) => client.at_least(r),
+            Some(r) => client.at_least_everywhere(r),
             None => client,
         };
         let code = exec(&client, a.command).await;

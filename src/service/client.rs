@@ -39,26 +39,41 @@ const RETRY_PAUSE: Duration = Duration::from_millis(50);
 /// outstanding at each (proto/README.md, "Discovery").
 #[derive(Debug, Default)]
 struct Servers {
+    /// The servers whose liveliness tokens are up (only the tokens change it).
     live: Vec<String>,
     /// The primary among them (writes go to it, through the shared keys).
     primary: Option<String>,
     outstanding: HashMap<String, usize>,
+    /// Servers left out of the choice until the given instant: a read on their own key
+    /// got no reply at all (the server went away; its token's departure may come
+    /// later, and a restarted server may already have announced itself under the
+    /// same id, so it is left out for a while, not forgotten).
+    suspended: HashMap<String, std::time::Instant>,
 }
+
+/// How long a server whose own key left a read without reply is left out of the choice.
+const SUSPEND: Duration = Duration::from_secs(1);
+
+/// How long a new client asks for the servers' tokens that are up (in the background).
+const TOKENS_TIMEOUT: Duration = Duration::from_secs(2);
 
 impl Servers {
     /// The server for the next read: of two live servers drawn at random, the one with
     /// fewer of this client's queries outstanding (the power of two choices); `None`
     /// when none is known (the read goes to the shared key).
-    fn pick(&self) -> Option<String> {
-        let n = self.live.len();
+    fn pick(&mut self) -> Option<String> {
+        let now = std::time::Instant::now();
+        self.suspended.retain(|_, until| *until > now);
+        let ready: Vec<&String> = self.live.iter().filter(|id| !self.suspended.contains_key(*id)).collect();
+        let n = ready.len();
         match n {
             0 => None,
-            1 => Some(self.live[0].clone()),
+            1 => Some(ready[0].clone()),
             _ => {
                 let a = rand::random_range(0..n);
                 let b = (a + 1 + rand::random_range(0..n - 1)) % n;
-                let load = |i: usize| self.outstanding.get(&self.live[i]).copied().unwrap_or(0);
-                Some(self.live[if load(b) < load(a) { b } else { a }].clone())
+                let load = |i: usize| self.outstanding.get(ready[i]).copied().unwrap_or(0);
+                Some(ready[if load(b) < load(a) { b } else { a }].clone())
             }
         }
     }
@@ -77,6 +92,10 @@ impl Servers {
         if self.primary.as_deref() == Some(id) {
             self.primary = None;
         }
+    }
+
+    fn suspend(&mut self, id: &str) {
+        self.suspended.insert(id.to_string(), std::time::Instant::now() + SUSPEND);
     }
 }
 
@@ -97,6 +116,29 @@ impl Target {
     }
 }
 
+/// A query in flight, counted at its server until it is finished — or dropped (a
+/// caller's timeout or `select!` drops the future: the count must not leak).
+struct Pending {
+    servers: Arc<Mutex<Servers>>,
+    target: Target,
+    open: bool,
+}
+
+impl Pending {
+    fn finish(mut self, no_reply: bool) {
+        self.open = false;
+        Client::done(&self.servers, &self.target, no_reply);
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if self.open {
+            Client::done(&self.servers, &self.target, false);
+        }
+    }
+}
+
 /// A connection to a riskplan server or cluster (cheap to clone: the Zenoh session and
 /// the view of the live servers are shared). Reads are spread over the servers whose
 /// liveliness tokens it sees (proto/README.md, "Discovery"); writes go to the shared
@@ -109,8 +151,9 @@ pub struct Client {
     servers: Arc<Mutex<Servers>>,
     /// Keeps the liveliness subscriber (and its callback) alive.
     _watch: Option<Arc<zenoh::pubsub::Subscriber<()>>>,
-    /// Reads ask for at least this revision of their scene (`min_revision`).
-    min_revision: Option<u64>,
+    /// Reads of a scene ask for at least this revision of it (`min_revision`): per
+    /// scene, or for every scene (`None`).
+    min_revision: Option<(Option<String>, u64)>,
 }
 
 impl Client {
@@ -131,10 +174,12 @@ impl Client {
         let servers = Arc::new(Mutex::new(Servers::default()));
         // the live servers: their tokens now (history) and as they come and go
         let view = servers.clone();
+        // (not the subscriber's own history: where access control denies the liveliness
+        // messages, deploy/secure, a denied history request left the next query without
+        // reply; the separate get below, when denied, only times out)
         let watch = session
             .liveliness()
             .declare_subscriber(SERVER_TOKENS)
-            .history(true)
             .callback(move |sample| {
                 let Some((id, role)) = token_server(sample.key_expr().as_str()) else { return };
                 if let Ok(mut s) = view.lock() {
@@ -147,15 +192,33 @@ impl Client {
             .await
             .ok()
             .map(Arc::new);
+        // the tokens up now, in the background
+        let (now, view) = (session.clone(), servers.clone());
+        tokio::spawn(async move {
+            let Ok(replies) = now.liveliness().get(SERVER_TOKENS).timeout(TOKENS_TIMEOUT).await else { return };
+            while let Ok(r) = replies.recv_async().await {
+                if let Ok(sample) = r.result() {
+                    if let (Some((id, role)), Ok(mut s)) = (token_server(sample.key_expr().as_str()), view.lock()) {
+                        s.add(id, role);
+                    }
+                }
+            }
+        });
         Ok(Client { session, codec, timeout, servers, _watch: watch, min_revision: None })
     }
 
-    /// The same client, whose reads ask for at least `revision` of their scene
-    /// (`min_revision`: a server that is behind waits briefly for it, else answers
+    /// The same client, whose reads of scene `scene` ask for at least `revision` of it
+    /// (`min_revision`: a replica that is behind waits briefly for it, else answers
     /// `stale_revision`). Use the revision an `apply` acknowledged to read your write
-    /// from any server.
-    pub fn at_least(&self, revision: u64) -> Client {
-        Client { min_revision: Some(revision), ..self.clone() }
+    /// from any server. Revisions count per scene: reads of other scenes ask nothing.
+    pub fn at_least(&self, scene: &str, revision: u64) -> Client {
+        Client { min_revision: Some((Some(scene.to_string()), revision)), ..self.clone() }
+    }
+
+    /// The same client, whose reads of every scene ask for at least `revision` (for a
+    /// client that reads one scene, like the CLI's commands).
+    pub fn at_least_everywhere(&self, revision: u64) -> Client {
+        Client { min_revision: Some((None, revision)), ..self.clone() }
     }
 
     /// The ids of the live servers this client sees (their liveliness tokens).
@@ -168,30 +231,33 @@ impl Client {
     /// known — to the shared key; with `?min_revision=R` on reads when asked for.
     /// A write (on the shared key) counts as outstanding at the primary, so that reads
     /// lean towards the replicas while it works.
-    fn target(&self, route: &Route) -> (String, Target) {
-        let Ok(mut s) = self.servers.lock() else { return (route.key(), Target::Shared(None)) };
+    fn target(&self, route: &Route) -> (String, Pending) {
+        let pending = |target| Pending { servers: self.servers.clone(), target, open: true };
+        let Ok(mut s) = self.servers.lock() else { return (route.key(), pending(Target::Shared(None))) };
         let (mut key, target) = match route.is_read().then(|| s.pick()).flatten() {
             Some(id) => (route.key_on(&id), Target::Own(id)),
             None => (route.key(), Target::Shared(if route.is_read() { None } else { s.primary.clone() })),
         };
-        if let (Some(r), true) = (self.min_revision, route.is_read() && route.scene().is_some()) {
-            key = format!("{key}?min_revision={r}");
+        if let (Some((only, r)), Some(scene)) = (&self.min_revision, route.is_read().then(|| route.scene()).flatten()) {
+            if only.as_deref().is_none_or(|o| o == scene) {
+                key = format!("{key}?min_revision={r}");
+            }
         }
         if let Some(id) = target.counted() {
             *s.outstanding.entry(id.to_string()).or_default() += 1;
         }
-        (key, target)
+        (key, pending(target))
     }
 
     /// The query is over; `no_reply`: it ended with no reply at all — a server that
-    /// took it on its own key went away: leave it out until its token comes back.
-    fn done(&self, target: &Target, no_reply: bool) {
-        let Ok(mut s) = self.servers.lock() else { return };
+    /// took it on its own key went away: leave it out for [`SUSPEND`].
+    fn done(servers: &Mutex<Servers>, target: &Target, no_reply: bool) {
+        let Ok(mut s) = servers.lock() else { return };
         if let Some(n) = target.counted().and_then(|id| s.outstanding.get_mut(id)) {
             *n = n.saturating_sub(1);
         }
         if let (Target::Own(id), true) = (target, no_reply) {
-            s.remove(id);
+            s.suspend(id);
         }
     }
 
@@ -226,7 +292,8 @@ impl Client {
             Codec::Json => Encoding::APPLICATION_JSON,
             Codec::Bincode => Encoding::from(BINCODE),
         };
-        let (key, target) = self.target(route);
+        let (key, pending) = self.target(route);
+        let own = matches!(pending.target, Target::Own(_));
         let mut get =
             self.session.get(key).consolidation(ConsolidationMode::None).target(QueryTarget::BestMatching).timeout(timeout);
         if let Some(r) = req {
@@ -236,19 +303,19 @@ impl Client {
         let replies = match get.await {
             Ok(r) => r,
             Err(e) => {
-                self.done(&target, false);
+                pending.finish(false);
                 return Err(ClientError::Zenoh(e.to_string()));
             }
         };
         let first = replies.recv_async().await;
-        self.done(&target, first.is_err());
+        pending.finish(first.is_err());
         let Ok(reply) = first else {
             // No reply to a read: the server that took it died (or none is up yet).
             // Reads are safe to repeat: the next goes to another live server (or the
             // shared key, where Zenoh routes it to one); writes (apply) are never repeated.
             let left = timeout.saturating_sub(started.elapsed() + RETRY_PAUSE);
             if route.is_read() && !left.is_zero() {
-                if !matches!(target, Target::Own(_)) {
+                if !own {
                     tokio::time::sleep(RETRY_PAUSE).await;
                 }
                 return Box::pin(self.query(route, req, left)).await;
@@ -355,7 +422,7 @@ impl Client {
             Codec::Json => Encoding::APPLICATION_JSON,
             Codec::Bincode => Encoding::from(BINCODE),
         };
-        let (key, target) = self.target(route);
+        let (key, pending) = self.target(route);
         let replies = match self
             .session
             .get(key)
@@ -367,16 +434,15 @@ impl Client {
         {
             Ok(r) => r,
             Err(e) => {
-                self.done(&target, false);
+                pending.finish(false);
                 return Err(ClientError::Zenoh(e.to_string()));
             }
         };
         let (mut n, mut code) = (0, None);
-        let mut counted = false;
+        let mut pending = Some(pending);
         while let Ok(r) = replies.recv_async().await {
-            if !counted {
-                self.done(&target, false);
-                counted = true;
+            if let Some(p) = pending.take() {
+                p.finish(false);
             }
             n += 1;
             if let Err(e) = r.result() {
@@ -387,8 +453,8 @@ impl Client {
                 });
             }
         }
-        if !counted {
-            self.done(&target, true);
+        if let Some(p) = pending.take() {
+            p.finish(true);
         }
         Ok((n, code))
     }

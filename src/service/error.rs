@@ -72,7 +72,7 @@ pub enum ServiceError {
     Unavailable(String),
     /// A read asked for a revision of the scene this server does not have yet (a
     /// replica behind its primary), after waiting `MIN_REVISION_WAIT` (1.5 s, proto/README.md "Discovery and load sharing").
-    #[error("scene '{scene}' is at revision {have} here, the read asked for at least {want}: this server is behind its primary; try again or ask another server")]
+    #[error("scene '{scene}' is at revision {have} on this server, the read asked for at least {want}: a replica behind its primary, or a revision that does not exist yet")]
     StaleRevision {
         /// The scene.
         scene: String,

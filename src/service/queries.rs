@@ -109,11 +109,19 @@ fn min_revision(v: Option<&str>) -> Result<u64, ServiceError> {
     }
 }
 
-/// The scene's entry at revision `min` or later: at once when this server has it,
-/// else after waiting up to [`MIN_REVISION_WAIT`] for it (a typed `stale_revision`
-/// error when it does not come; `unknown_scene` only when no revision is asked for).
-async fn entry_at_least(state: &State, scene: &str, min: u64) -> Result<super::registry::Entry, ServiceError> {
-    let since = Instant::now();
+/// The scene's entry at revision `min` or later: at once when this server has it;
+/// otherwise a replica waits for it (its primary's commit) until [`MIN_REVISION_WAIT`]
+/// after `arrival` or `until` (the request's own deadline), whichever comes first,
+/// then answers `stale_revision`. A primary answers at once (no other server makes its
+/// revisions); a scene deleted at or after `min` is `unknown_scene`.
+async fn entry_at_least(
+    state: &State,
+    scene: &str,
+    min: u64,
+    arrival: Instant,
+    until: Instant,
+) -> Result<super::registry::Entry, ServiceError> {
+    let limit = until.min(arrival + MIN_REVISION_WAIT);
     let mut pause = MIN_REVISION_POLL;
     let mut waiting: Option<WaiterSlot<'_>> = None;
     loop {
@@ -121,16 +129,19 @@ async fn entry_at_least(state: &State, scene: &str, min: u64) -> Result<super::r
             Ok(e) if e.revision >= min => return Ok(e),
             Ok(e) => e.revision,
             Err(e @ ServiceError::UnknownScene(_)) if min == 0 => return Err(e),
+            Err(e @ ServiceError::UnknownScene(_)) if state.registry.deleted_at(scene).is_some_and(|r| r >= min) => {
+                return Err(e)
+            }
             Err(ServiceError::UnknownScene(_)) => 0,
             Err(e) => return Err(e),
         };
-        if waiting.is_none() {
+        if waiting.is_none() && state.replica {
             waiting = WaiterSlot::take(state);
         }
-        if waiting.is_none() || since.elapsed() >= MIN_REVISION_WAIT {
+        if waiting.is_none() || Instant::now() >= limit {
             return Err(ServiceError::StaleRevision { scene: scene.to_string(), have, want: min });
         }
-        tokio::time::sleep(pause).await;
+        tokio::time::sleep(pause.min(limit.saturating_duration_since(Instant::now()))).await;
         pause = (pause * 2).min(MIN_REVISION_POLL_MAX);
     }
 }
@@ -187,7 +198,7 @@ async fn dispatch(
     }
     match route {
         Some(Route::Scene { name: scene }) => {
-            let e = entry_at_least(state, scene, min).await?;
+            let e = entry_at_least(state, scene, min, arrival, arrival + MIN_REVISION_WAIT).await?;
             Ok((codec.encode(&SceneReply { name: scene.to_string(), revision: e.revision, scene: embedded(&e.json) }), Some(e.revision)))
         }
         Some(Route::Apply { scene }) => {
@@ -202,7 +213,9 @@ async fn dispatch(
         }
         Some(Route::Plan { scene }) => {
             let req: PlanRequest = codec.decode(&bytes).map_err(malformed)?;
-            let entry = entry_at_least(state, scene, min).await?;
+            // waiting for a revision spends the plan's own time limit
+            let limit = req.time_limit.and_then(|t| Duration::try_from_secs_f64(t).ok()).unwrap_or(state.max_plan_seconds);
+            let entry = entry_at_least(state, scene, min, arrival, arrival + limit.min(state.max_plan_seconds)).await?;
             tracing::Span::current().record("planner", req.planner.as_deref().unwrap_or("rrt-sos"));
             let cap = state.max_plan_seconds;
             let guard = state.cancels.register();
@@ -221,7 +234,7 @@ async fn dispatch(
         }
         Some(Route::Verify { scene }) => {
             let req: VerifyRequest = codec.decode(&bytes).map_err(malformed)?;
-            let entry = entry_at_least(state, scene, min).await?;
+            let entry = entry_at_least(state, scene, min, arrival, deadline(req.deadline_ms)).await?;
             let rev = entry.revision;
             let until = deadline(req.deadline_ms);
             let reply = state.jobs.run(until, move || handlers::verify_request(&entry, &req, until)).await?;
@@ -229,7 +242,7 @@ async fn dispatch(
         }
         Some(Route::Risk { scene }) => {
             let req: RiskRequest = codec.decode(&bytes).map_err(malformed)?;
-            let entry = entry_at_least(state, scene, min).await?;
+            let entry = entry_at_least(state, scene, min, arrival, deadline(req.deadline_ms)).await?;
             let rev = entry.revision;
             let until = deadline(req.deadline_ms);
             let reply = state.jobs.run(until, move || handlers::risk(&entry, &req, until)).await?;

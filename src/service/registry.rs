@@ -161,6 +161,12 @@ impl Registry {
         self.robots.lock().ok()?.get(&(scene.to_string(), robot.to_string())).cloned()
     }
 
+    /// The revision at which scene `name` was deleted, when it is deleted (its
+    /// tombstone).
+    pub fn deleted_at(&self, name: &str) -> Option<u64> {
+        self.history.lock().ok()?.get(name).and_then(|&(rev, deleted)| deleted.then_some(rev))
+    }
+
     /// Keeps `plan` as the last plan of `robot` on `scene`.
     pub fn keep_robot_plan(&self, scene: &str, robot: &str, plan: Arc<crate::scene::Trajectory>) {
         if let Ok(mut m) = self.robots.lock() {

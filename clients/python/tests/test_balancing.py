@@ -64,14 +64,28 @@ def test_discovery_spread_and_min_revision(four):
                 assert r.ok is not None, r.err.payload.to_string()
                 assert json.loads(r.ok.payload.to_bytes())["revision"] >= rev, sid
             # and through the client, wherever its reads go
-            c.at_least(rev)
+            c.at_least("s3", rev)
             for _ in range(8):
                 assert c.get_scene("s3")["revision"] >= rev
-            c.at_least(None)
-        # a revision no server has: a typed error after a short wait
+        # revisions count per scene: another scene's reads ask nothing
+        c.apply("other", scene=load_scene("illustrative-4"))
+        assert c.get_scene("other")["revision"] >= 1
+        c.at_least("s3", None)
+        # a revision no server has: a typed error (a replica after a short wait, the
+        # primary at once)
         with pytest.raises(riskplan.StaleRevisionError):
-            c.at_least(rev + 1000).get_scene("s3")
-        c.at_least(None)
+            c.at_least("s3", rev + 1000).get_scene("s3")
+        t = time.monotonic()
+        (r,) = raw(router.endpoint, f"riskplan/@p0/scenes/s3?min_revision={rev + 1000}")
+        assert r.err is not None and "stale_revision" in r.err.payload.to_string()
+        assert time.monotonic() - t < 1.0, "the primary waited for a revision only it could make"
+        # a scene deleted after the asked revision is unknown, not stale
+        rdel = c.apply("gone", scene=load_scene("illustrative-4"))
+        c.delete_scene("gone")
+        time.sleep(0.3)
+        (r,) = raw(router.endpoint, f"riskplan/@p0/scenes/gone?min_revision={rdel}")
+        assert r.err is not None and "unknown_scene" in r.err.payload.to_string(), r.err.payload.to_string()
+        c.at_least("s3", None)
         # reads are spread over the servers (power of two choices), one reply each
         used = Counter()
         for _ in range(80):

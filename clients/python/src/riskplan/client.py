@@ -127,6 +127,8 @@ RETRY_PAUSE_S = 0.05
 # The ready servers' liveliness tokens (proto/README.md, "Discovery"): riskplan/_servers/<id>.
 SERVER_TOKENS = "riskplan/_servers/*/*"
 SERVER_ID = re.compile(r"^[0-9A-Za-z_-]{1,64}$")
+SUSPEND_S = 1.0
+TOKENS_TIMEOUT_S = 2.0
 
 
 class _Servers:
@@ -138,6 +140,10 @@ class _Servers:
         self.live: List[str] = []
         self.primary: Optional[str] = None
         self.outstanding: Dict[str, int] = {}
+        # servers left out of the choice until a time (monotonic): a read on their own
+        # key got no reply (gone; its token's departure may come later, and a restarted
+        # server may already be back under the same id)
+        self.suspended: Dict[str, float] = {}
 
     def on_token(self, sample) -> None:
         """A token riskplan/_servers/<id>/<role> came (PUT) or went (DELETE)."""
@@ -171,12 +177,15 @@ class _Servers:
         """Of two live servers drawn at random, the one with fewer outstanding queries
         (the power of two choices); None when none is known. Counts the query."""
         with self._lock:
-            if not self.live:
+            now = time.monotonic()
+            self.suspended = {k: v for k, v in self.suspended.items() if v > now}
+            ready = [x for x in self.live if x not in self.suspended]
+            if not ready:
                 return None
-            if len(self.live) == 1:
-                sid = self.live[0]
+            if len(ready) == 1:
+                sid = ready[0]
             else:
-                a, b = random.sample(self.live, 2)
+                a, b = random.sample(ready, 2)
                 sid = b if self.outstanding.get(b, 0) < self.outstanding.get(a, 0) else a
             self.outstanding[sid] = self.outstanding.get(sid, 0) + 1
             return sid
@@ -189,10 +198,9 @@ class _Servers:
             self.outstanding[sid] = max(0, self.outstanding.get(sid, 0) - 1)
 
     def drop(self, sid: str) -> None:
-        """``sid`` gave no reply at all (it went away): leave it out until its token
-        comes back."""
+        """``sid`` gave no reply at all (it went away): leave it out for SUSPEND_S."""
         with self._lock:
-            self.live = [x for x in self.live if x != sid]
+            self.suspended[sid] = time.monotonic() + SUSPEND_S
 
 
 class Client:
@@ -244,12 +252,16 @@ class Client:
         self.last_replies = 0
         self.last_repliers: List[Optional[str]] = []
         self.last_encoding: Optional[str] = None
-        # reads ask for at least this revision of their scene (see at_least)
-        self.min_revision: Optional[int] = None
+        # reads of a scene ask for at least this revision of it (see at_least)
+        self.min_revisions: Dict[str, int] = {}
         self.last_server: Optional[str] = None
         self._servers = _Servers()
-        self._watch = self._session.liveliness().declare_subscriber(SERVER_TOKENS, self._servers.on_token,
-                                                                     history=True)
+        # the servers' tokens as they come and go, and (in the background) the ones up
+        # now. Not the subscriber's own history: where access control denies the
+        # liveliness messages (deploy/secure), a denied history request left the next
+        # query without reply; a separate get that is denied only times out.
+        self._watch = self._session.liveliness().declare_subscriber(SERVER_TOKENS, self._servers.on_token)
+        threading.Thread(target=self._current_servers, daemon=True).start()
 
     # -- lifecycle -----------------------------------------------------------------
 
@@ -273,17 +285,30 @@ class Client:
 
     # -- cluster ---------------------------------------------------------------------
 
+    def _current_servers(self) -> None:
+        """The servers' tokens that are up now (a liveliness get, in the background)."""
+        try:
+            for r in self._session.liveliness().get(SERVER_TOKENS, timeout=TOKENS_TIMEOUT_S):
+                if r.ok is not None:
+                    self._servers.on_token(r.ok)
+        except zenoh.ZError:
+            pass   # the session closed meanwhile
+
     def servers(self) -> List[str]:
         """The ids of the live servers this client sees (their liveliness tokens)."""
         with self._servers._lock:
             return list(self._servers.live)
 
-    def at_least(self, revision: Optional[int]) -> "Client":
-        """Makes this client's reads ask for at least ``revision`` of their scene
-        (``min_revision``; ``None``: any): a server that is behind its primary waits
+    def at_least(self, name: str, revision: Optional[int]) -> "Client":
+        """Makes this client's reads of scene ``name`` ask for at least ``revision`` of it
+        (``min_revision``; ``None``: any): a replica that is behind its primary waits
         briefly for it, else answers :class:`StaleRevisionError`. Pass the revision an
-        :meth:`apply` returned to read your own write from any server. Returns self."""
-        self.min_revision = None if revision is None else int(revision)
+        :meth:`apply` returned to read your own write from any server. Revisions count per
+        scene; this changes this client (for every later read of ``name``). Returns self."""
+        if revision is None:
+            self.min_revisions.pop(name, None)
+        else:
+            self.min_revisions[name] = int(revision)
         return self
 
     def _target(self, key: str) -> Tuple[str, Optional[str]]:
@@ -295,8 +320,10 @@ class Client:
             return key, (self._servers.count_write() if key.endswith("/apply") else None)
         sid = self._servers.pick()
         selector = key if sid is None else f"{PREFIX}/@{sid}/{key[len(PREFIX) + 1:]}"
-        if self.min_revision is not None and key.startswith(f"{PREFIX}/scenes/"):
-            selector += f"?min_revision={self.min_revision}"
+        if key.startswith(f"{PREFIX}/scenes/"):
+            scene = key[len(PREFIX) + len("/scenes/"):].split("/")[0]
+            if scene in self.min_revisions:
+                selector += f"?min_revision={self.min_revisions[scene]}"
         return selector, sid
 
     # -- low level -----------------------------------------------------------------
