@@ -164,7 +164,9 @@ impl Client {
         c.insert_json5("mode", r#""client""#).map_err(z)?;
         c.insert_json5("connect/endpoints", &serde_json::to_string(&[endpoint]).unwrap_or_default()).map_err(z)?;
         c.insert_json5("scouting/multicast/enabled", "false").map_err(z)?;
-        Client::connect_with(c, timeout, codec).await
+        let mut client = Client::connect_with(c, timeout, codec).await?;
+        client.discover().await;
+        Ok(client)
     }
 
     /// Connects with a full Zenoh configuration (e.g. a role's configuration of the
@@ -172,6 +174,15 @@ impl Client {
     pub async fn connect_with(config: zenoh::Config, timeout: Duration, codec: Codec) -> Result<Client, ClientError> {
         let session = zenoh::open(config).await.map_err(|e| ClientError::Zenoh(e.to_string()))?;
         let servers = Arc::new(Mutex::new(Servers::default()));
+        Ok(Client { session, codec, timeout, servers, _watch: None, min_revision: None })
+    }
+
+    /// Watches the servers' liveliness tokens (proto/README.md, "Discovery"). Not done
+    /// for a configuration of one's own (`connect_with`, e.g. deploy/secure, whose access
+    /// control denies the liveliness messages: a denied one could leave the next query
+    /// without reply); there every read goes to the shared keys.
+    async fn discover(&mut self) {
+        let (session, servers) = (self.session.clone(), self.servers.clone());
         // the live servers: their tokens now (history) and as they come and go
         let view = servers.clone();
         // (not the subscriber's own history: where access control denies the liveliness
@@ -204,7 +215,7 @@ impl Client {
                 }
             }
         });
-        Ok(Client { session, codec, timeout, servers, _watch: watch, min_revision: None })
+        self._watch = watch;
     }
 
     /// The same client, whose reads of scene `scene` ask for at least `revision` of it

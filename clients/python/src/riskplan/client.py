@@ -236,6 +236,7 @@ class Client:
             if endpoint is not None:
                 endpoints = [endpoint] if isinstance(endpoint, str) else list(endpoint)
                 config.insert_json5("connect/endpoints", json.dumps(endpoints))
+        configured = config is not None
         if endpoint is None:
             endpoint = DEFAULT_ENDPOINT if config is None else "(from the configuration)"
         self.endpoint = endpoint
@@ -260,8 +261,13 @@ class Client:
         # now. Not the subscriber's own history: where access control denies the
         # liveliness messages (deploy/secure), a denied history request left the next
         # query without reply; a separate get that is denied only times out.
-        self._watch = self._session.liveliness().declare_subscriber(SERVER_TOKENS, self._servers.on_token)
-        threading.Thread(target=self._current_servers, daemon=True).start()
+        # Not with a configuration of one's own (deploy/secure: its access control denies
+        # the liveliness messages, and a denied one could leave the next query without
+        # reply): then every read goes to the shared keys.
+        self._watch = None
+        if not configured:
+            self._watch = self._session.liveliness().declare_subscriber(SERVER_TOKENS, self._servers.on_token)
+            threading.Thread(target=self._current_servers, daemon=True).start()
 
     # -- lifecycle -----------------------------------------------------------------
 
