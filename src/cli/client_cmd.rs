@@ -1,6 +1,6 @@
 //! `riskplan client ...`: talk to a running `riskplan serve`.
 
-use super::util::{print_out, CliError};
+use super::util::{print_out, write_json, CliError};
 use crate::service::proto::*;
 use crate::service::{Client, ClientError, Route};
 use clap::{Args, Subcommand};
@@ -164,7 +164,7 @@ fn read_json(p: &PathBuf) -> Result<serde_json::Value, CliError> {
 }
 
 fn show<T: serde::Serialize>(v: &T) -> Result<(), CliError> {
-    print_out(&serde_json::to_string_pretty(v).map_err(|e| CliError(e.to_string()))?)
+    write_json(v, true)
 }
 
 pub fn run(a: ClientArgs) -> Result<i32, CliError> {

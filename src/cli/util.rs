@@ -57,6 +57,22 @@ pub fn print_out(text: &str) -> Result<(), CliError> {
     }
 }
 
+/// Writes `value` as JSON (pretty or on one line) and a newline to stdout, serialized
+/// straight into a buffered stdout (large reports are not built as one string first).
+pub fn write_json(value: &impl serde::Serialize, pretty: bool) -> Result<(), CliError> {
+    use std::io::Write;
+    let mut out = std::io::BufWriter::with_capacity(1 << 16, std::io::stdout().lock());
+    let written =
+        if pretty { serde_json::to_writer_pretty(&mut out, value) } else { serde_json::to_writer(&mut out, value) }
+            .map_err(std::io::Error::from)
+            .and_then(|_| writeln!(out))
+            .and_then(|_| out.flush());
+    match written {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CliError(format!("cannot write to stdout: {e}"))),
+        _ => Ok(()),
+    }
+}
+
 /// The tokio runtime of a command that talks to the service: one worker thread (a
 /// client waits on replies; it does not compute).
 #[cfg(feature = "service")]

@@ -127,11 +127,18 @@ fn terr(path: impl Into<String>, message: impl Into<String>) -> TrajectoryError 
 impl Trajectory {
     /// Parses trajectory JSON (format v1, or `riskplan plan` output).
     pub fn from_json(text: &str) -> Result<Trajectory, TrajectoryError> {
-        let de = &mut serde_json::Deserializer::from_str(text);
-        let f: TrajectoryFile = serde_path_to_error::deserialize(de).map_err(|e| {
-            let p = e.path().to_string();
-            terr(if p == "." { "trajectory".to_string() } else { p }, e.into_inner().to_string())
-        })?;
+        // the plain parse first (several times faster on large trajectories); only a
+        // failure is parsed again to name the field at fault
+        let f: TrajectoryFile = match serde_json::from_str(text) {
+            Ok(f) => f,
+            Err(_) => {
+                let de = &mut serde_json::Deserializer::from_str(text);
+                serde_path_to_error::deserialize::<_, TrajectoryFile>(de).map_err(|e| {
+                    let p = e.path().to_string();
+                    terr(if p == "." { "trajectory".to_string() } else { p }, e.into_inner().to_string())
+                })?
+            }
+        };
         if f.format != TRAJECTORY_FORMAT {
             return Err(terr("format", format!("must be \"{TRAJECTORY_FORMAT}\", got \"{}\"", f.format)));
         }
@@ -147,11 +154,23 @@ impl Trajectory {
     /// finite numbers, `t0 < t1`, contiguous pieces inside the horizon, one
     /// coefficient row per dimension, degree ≤ `MAX_PIECE_DEGREE`, continuity.
     pub fn validate(&self, dim: usize, horizon: (f64, f64), workspace_diagonal: f64) -> Result<(), TrajectoryError> {
+        self.validate_up_to(dim, horizon, workspace_diagonal, MAX_PIECES)
+    }
+
+    /// [`Trajectory::validate`] with at most `max_pieces` pieces instead of
+    /// [`MAX_PIECES`] (`verify` takes larger trajectories than a plan returns).
+    pub fn validate_up_to(
+        &self,
+        dim: usize,
+        horizon: (f64, f64),
+        workspace_diagonal: f64,
+        max_pieces: usize,
+    ) -> Result<(), TrajectoryError> {
         if self.pieces.is_empty() {
             return Err(terr("pieces", "must hold at least one piece"));
         }
-        if self.pieces.len() > MAX_PIECES {
-            return Err(terr("pieces", format!("at most {MAX_PIECES} pieces, got {}", self.pieces.len())));
+        if self.pieces.len() > max_pieces {
+            return Err(terr("pieces", format!("at most {max_pieces} pieces, got {}", self.pieces.len())));
         }
         for (i, p) in self.pieces.iter().enumerate() {
             let at = |f: &str| format!("pieces[{i}].{f}");

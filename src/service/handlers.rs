@@ -3,14 +3,14 @@
 
 use super::error::{invalid, ServiceError};
 use super::proto::{
-    ApplyRequest, EmbeddedJson, PlanReply, PlanRequest, RiskReply, RiskRequest, VerifyReply, VerifyRequest,
-    MAX_GRID_SIDE, MAX_RISK_POINTS,
+    ApplyRequest, EmbeddedJson, PlanReply, PlanRequest, RiskReply, RiskRequest, Segment, VerifyReply, VerifyRequest,
+    MAX_GRID_SIDE, MAX_RISK_POINTS, MAX_VERIFY_PIECES,
 };
 use super::registry::{Entry, Registry};
 use crate::app::{self, PlannerKind};
 use crate::contour::{BoundChoice, BoundKind, RiskLevel};
 use crate::scene::{Piece, Trajectory, TRAJECTORY_FORMAT};
-use crate::verify::{verify_until, Method};
+use crate::verify::{verify_with, Detail, Method, VerifyOptions};
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -183,47 +183,78 @@ fn check_robot_id(id: &str) -> Result<(), ServiceError> {
     Ok(())
 }
 
-/// Verifies a trajectory or one segment.
+/// The piece of a straight segment of a verify request (`field`: where it is in the
+/// request, for errors): `from` and `to` with the scene's dimension, its times within
+/// the horizon (default: the horizon), checked as a one-piece trajectory.
+fn segment_piece(scene: &crate::scene::Scene, s: &Segment, field: &str) -> Result<Piece, ServiceError> {
+    if s.from.len() != scene.dim || s.to.len() != scene.dim {
+        return Err(invalid(field, format!("from and to need {} coordinates", scene.dim)));
+    }
+    let t0 = s.t0.unwrap_or(scene.horizon.0);
+    let t1 = s.t1.unwrap_or(scene.horizon.1);
+    let traj = Trajectory::new(vec![Piece::segment(&s.from, &s.to, t0, t1)]);
+    let diag = crate::motion::dist(&scene.workspace.lower, &scene.workspace.upper);
+    traj.validate(scene.dim, scene.horizon, diag).map_err(|e| ServiceError::InvalidTrajectory {
+        message: e.message.clone(),
+        field: Some(field.to_string()),
+    })?;
+    Ok(traj.pieces.into_iter().next().expect("one piece"))
+}
+
+/// Verifies a trajectory, one segment or a batch of segments (each on its own), by the
+/// planners' checker ([`verify_with`], docs/design.md §5.10); with `summary`, only the
+/// first piece not safe gets a report.
 pub fn verify_request(entry: &Entry, req: &VerifyRequest, deadline: Instant) -> Result<VerifyReply, ServiceError> {
     let scene = &entry.scene;
-    let traj = match (&req.trajectory, &req.segment) {
-        (Some(t), None) => {
+    let batch = req.segments.is_some();
+    let pieces: std::borrow::Cow<'_, [Piece]> = match (&req.trajectory, &req.segment, &req.segments) {
+        (Some(t), None, None) => {
             if t.format != TRAJECTORY_FORMAT {
                 return Err(ServiceError::InvalidTrajectory {
                     message: format!("format must be \"{TRAJECTORY_FORMAT}\""),
                     field: Some("trajectory.format".into()),
                 });
             }
-            t.clone()
+            let diag = crate::motion::dist(&scene.workspace.lower, &scene.workspace.upper);
+            t.validate_up_to(scene.dim, scene.horizon, diag, MAX_VERIFY_PIECES).map_err(|e| {
+                ServiceError::InvalidTrajectory { message: e.message.clone(), field: Some(format!("trajectory.{}", e.path)) }
+            })?;
+            std::borrow::Cow::Borrowed(&t.pieces)
         }
-        (None, Some(s)) => {
-            if s.from.len() != scene.dim || s.to.len() != scene.dim {
-                return Err(invalid("segment", format!("from and to need {} coordinates", scene.dim)));
+        (None, Some(s), None) => std::borrow::Cow::Owned(vec![segment_piece(scene, s, "segment")?]),
+        (None, None, Some(list)) => {
+            if list.is_empty() || list.len() > MAX_VERIFY_PIECES {
+                return Err(ServiceError::LimitExceeded {
+                    message: format!("1 to {MAX_VERIFY_PIECES} segments, got {}", list.len()),
+                    field: Some("segments".into()),
+                });
             }
-            let t0 = s.t0.unwrap_or(scene.horizon.0);
-            let t1 = s.t1.unwrap_or(scene.horizon.1);
-            Trajectory::new(vec![Piece::segment(&s.from, &s.to, t0, t1)])
+            let pieces: Result<Vec<Piece>, ServiceError> =
+                list.iter().enumerate().map(|(i, s)| segment_piece(scene, s, &format!("segments[{i}]"))).collect();
+            std::borrow::Cow::Owned(pieces?)
         }
-        _ => return Err(invalid("trajectory", "give exactly one of trajectory and segment")),
+        _ => return Err(invalid("trajectory", "give exactly one of trajectory, segment and segments")),
     };
-    let diag = crate::motion::dist(&scene.workspace.lower, &scene.workspace.upper);
-    traj.validate(scene.dim, scene.horizon, diag).map_err(|e| ServiceError::InvalidTrajectory {
-        message: e.message.clone(),
-        field: Some(format!("trajectory.{}", e.path)),
-    })?;
     let delta = delta_of(req.delta)?.unwrap_or_else(|| scene.risk.clone());
     let method = method_of(req.method.as_deref(), "method")?;
-    let bound = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
-    let r = verify_until(&entry.kernel, &traj, &delta, method, &Default::default(), bound, &|| {
-        Instant::now() >= deadline
+    let bounds = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
+    let detail = if req.summary.unwrap_or(false) { Detail::FirstNotSafe } else { Detail::Every };
+    let opts = VerifyOptions { method, settings: Default::default(), bounds, detail };
+    let out = verify_with(&entry.kernel, &pieces, &delta, &opts, &|| Instant::now() >= deadline)
+        .map_err(|_| ServiceError::DeadlineExceeded(format!("verifying {} pieces", pieces.len())))?;
+    let r = out.report;
+    Ok(VerifyReply {
+        safe: r.safe,
+        method: r.method,
+        risk: r.risk,
+        bound: bounds.to_string(),
+        pieces: r.pieces,
+        revision: entry.revision,
+        checked: r.checked as u64,
+        not_safe: r.not_safe as u64,
+        first_not_safe: r.first_not_safe.map(|i| i as u64),
+        not_safe_segments: if batch { out.not_safe_indices.iter().map(|&i| i as u64).collect() } else { Vec::new() },
     })
-        .map_err(|_| ServiceError::DeadlineExceeded(format!("verifying {} pieces", traj.pieces.len())))?;
-    let pieces = if req.summary.unwrap_or(false) {
-        r.pieces.into_iter().filter(|p| !p.safe).take(1).collect()
-    } else {
-        r.pieces
-    };
-    Ok(VerifyReply { safe: r.safe, method: r.method, risk: r.risk, bound: bound.to_string(), pieces, revision: entry.revision })
 }
 
 /// Cantelli bounds at points or on a grid (floating point, for displays).

@@ -9,8 +9,12 @@ use crate::verify::PieceReport;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
 
-/// Largest request payload accepted.
+/// Largest request payload accepted (a `verify` request: [`MAX_VERIFY_PAYLOAD_BYTES`]).
 pub const MAX_PAYLOAD_BYTES: usize = 1 << 20;
+/// Largest `verify` request payload accepted: a batch of [`MAX_VERIFY_PIECES`] straight
+/// pieces is about 130 bytes each in JSON, 60 in bincode.
+pub const MAX_VERIFY_PAYLOAD_BYTES: usize = 32 << 20;
+pub use crate::verify::MAX_VERIFY_PIECES;
 /// Largest number of points in one risk query.
 pub const MAX_RISK_POINTS: usize = 100_000;
 /// Largest grid side in one risk query: a side-`n` grid has `n²` points, so that the
@@ -231,6 +235,9 @@ pub struct VerifyRequest {
     /// Or one segment.
     #[serde(default)]
     pub segment: Option<Segment>,
+    /// Or a batch of segments, each verified on its own (at most [`MAX_VERIFY_PIECES`]).
+    #[serde(default)]
+    pub segments: Option<Vec<Segment>>,
     /// `exact`, `sos` or `both`.
     #[serde(default)]
     pub method: Option<String>,
@@ -240,8 +247,9 @@ pub struct VerifyRequest {
     /// `auto` (default) or `cantelli`: which bounds may prove a piece.
     #[serde(default)]
     pub bound: Option<String>,
-    /// `true`: the reply's `pieces` holds only the first piece that is not safe (none
-    /// when the trajectory is safe), not a report of every piece.
+    /// `true`: the reply's `pieces` holds only the first piece (or segment) that is not
+    /// safe (none when all are safe), not a report of every piece; the pieces proven
+    /// safe get no report built at all.
     #[serde(default)]
     pub summary: Option<bool>,
     /// How long the server may take, in milliseconds from the request's arrival,
@@ -263,10 +271,23 @@ pub struct VerifyReply {
     /// The bounds allowed (`auto` or `cantelli`).
     #[serde(default)]
     pub bound: String,
-    /// Per piece.
+    /// Per piece (or segment), or only the first not safe (`summary`).
     pub pieces: Vec<PieceReport>,
     /// Scene revision used.
     pub revision: u64,
+    /// Pieces (or segments) decided.
+    #[serde(default)]
+    pub checked: u64,
+    /// How many of them are not proven safe.
+    #[serde(default)]
+    pub not_safe: u64,
+    /// Index of the first piece (or segment) not proven safe.
+    #[serde(default)]
+    pub first_not_safe: Option<u64>,
+    /// For a `segments` batch: the index of every segment not proven safe (empty
+    /// otherwise).
+    #[serde(default)]
+    pub not_safe_segments: Vec<u64>,
 }
 
 /// A grid of a risk query.

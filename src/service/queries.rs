@@ -23,6 +23,14 @@ fn encoding_of(c: Codec) -> Encoding {
     }
 }
 
+/// The largest payload a query on `route` may carry: a `verify` batch may be larger.
+fn payload_limit(route: Option<&Route>) -> usize {
+    match route {
+        Some(Route::Verify { .. }) => MAX_VERIFY_PAYLOAD_BYTES,
+        _ => MAX_PAYLOAD_BYTES,
+    }
+}
+
 /// Answers one query on `route` (the query's key, parsed).
 pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<Route, RouteError>) {
     let t0 = Instant::now();
@@ -34,8 +42,8 @@ pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<
         let min_revision = min_revision(query.parameters().get("min_revision"));
         let (codec, result) = match (Codec::from_encoding(&enc), min_revision) {
             (None, _) => (Codec::Json, Err(ServiceError::UnsupportedEncoding(enc.clone()))),
-            (Some(c), _) if bytes.len() > MAX_PAYLOAD_BYTES => {
-                (c, Err(ServiceError::PayloadTooLarge(bytes.len(), MAX_PAYLOAD_BYTES)))
+            (Some(c), _) if bytes.len() > payload_limit(route.as_ref().ok()) => {
+                (c, Err(ServiceError::PayloadTooLarge(bytes.len(), payload_limit(route.as_ref().ok()))))
             }
             (Some(c), Err(e)) => (c, Err(e)),
             (Some(c), Ok(min)) => (

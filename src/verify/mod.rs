@@ -12,11 +12,13 @@
 
 mod audit;
 
-use crate::certify::fast::CompiledContour;
-use crate::certify::scene::{combine, decide_obstacle, piece_passes_verify_path, worst};
+use crate::certify::bounds::{CoverFailure, Level, PieceBounds};
+use crate::certify::fast::{CompiledContour, Substitution};
+use crate::certify::scene::{
+    combine, decide_obstacle, inside_by_box, piece_bbox, piece_passes_verify_path, worst, ObstacleFinding,
+};
 use crate::certify::sos;
 use crate::certify::{PieceRef, Undecided, Verdict};
-use crate::certify::bounds::{CoverFailure, Level, PieceBounds};
 use crate::contour::{BoundChoice, BoundKind, RiskLevel};
 use crate::scene::{Obstacle, Trajectory};
 use serde::{Deserialize, Serialize};
@@ -120,8 +122,17 @@ pub struct VerifyReport {
     /// The bounds allowed (`auto` or `cantelli`).
     #[serde(default)]
     pub bound: BoundChoice,
-    /// Per piece.
+    /// Per piece, or only the first not proven safe ([`Detail::FirstNotSafe`]).
     pub pieces: Vec<PieceReport>,
+    /// Pieces decided.
+    #[serde(default)]
+    pub checked: usize,
+    /// How many of them are not proven safe.
+    #[serde(default)]
+    pub not_safe: usize,
+    /// Index of the first piece not proven safe.
+    #[serde(default)]
+    pub first_not_safe: Option<usize>,
 }
 
 fn method_report(v: &Verdict, piece: PieceRef<'_>) -> MethodReport {
@@ -163,7 +174,11 @@ pub fn verify_obstacle(
     verify_obstacle_with(o, None, piece, delta, method, settings, BoundChoice::default())
 }
 
-/// [`verify_obstacle`] with the obstacle's compiled contour (the fast restriction).
+/// [`verify_obstacle`] with the obstacle's compiled contour (the fast restriction), by
+/// general composition otherwise; the other bounds by general composition first, then
+/// compiled in the scene's frame (which keeps its digits at extreme scales), as the
+/// final check does (docs/design.md §5.13). [`verify_until`] decides as the planners'
+/// checker does instead ([`SceneCertifier`]).
 pub fn verify_obstacle_with(
     o: &Obstacle,
     compiled: Option<&CompiledContour>,
@@ -176,13 +191,49 @@ pub fn verify_obstacle_with(
     if let (Some(p), true) = (&o.pedestrian, bounds.beyond_cantelli()) {
         return verify_pedestrian(o, p, piece, delta, method);
     }
-    let mut constraints = Vec::with_capacity(2);
-    let mut status = Status::Safe;
-    decide_obstacle(o, compiled, piece, delta.rational(), method, settings, |name, vs| {
-        let st = combine(&vs);
-        status = worst(status, st);
+    let mut constraints = Reports::new(piece, method);
+    decide_obstacle(o, compiled, None, piece, delta.rational(), method, settings, |name, vs| {
+        constraints.add(name, &vs);
+        true
+    });
+    let status = constraints.status();
+    let finding = if status == Status::Safe {
+        ObstacleFinding::Proven
+    } else if !bounds.beyond_cantelli() || constraints.mean_unsafe() {
+        ObstacleFinding::NotProven(None)
+    } else {
+        let hint = constraints.hint();
+        let level = Level::new(delta.rational());
+        let general = PieceBounds::for_piece(&o.contour, piece, level).cover(hint);
+        let cover = match (general, compiled) {
+            (Err(_), Some(c)) => PieceBounds::for_piece_compiled(&o.contour, c, piece, level).cover(hint),
+            (r, _) => r,
+        };
+        match cover {
+            Ok(parts) => ObstacleFinding::Covered(parts),
+            Err(f) => ObstacleFinding::NotProven(Some(f)),
+        }
+    };
+    obstacle_report(&o.id, constraints, finding, piece, bounds)
+}
+
+/// The constraint reports of one obstacle over one piece, as the decisions arrive.
+struct Reports<'p> {
+    piece: PieceRef<'p>,
+    method: Method,
+    list: Vec<ConstraintReport>,
+}
+
+impl<'p> Reports<'p> {
+    fn new(piece: PieceRef<'p>, method: Method) -> Self {
+        Reports { piece, method, list: Vec::with_capacity(2) }
+    }
+
+    /// One constraint's verdicts (one per method).
+    fn add(&mut self, name: &str, vs: &[(&'static str, Verdict)]) {
+        let st = combine(vs);
         let reports: Vec<(&'static str, MethodReport)> =
-            vs.iter().map(|(m, v)| (*m, method_report(v, piece))).collect();
+            vs.iter().map(|(m, v)| (*m, method_report(v, self.piece))).collect();
         // The combined margin and witness: a witness from any method; the smallest proven margin.
         let witness = reports.iter().find_map(|(_, r)| r.witness);
         let margin = match st {
@@ -191,61 +242,119 @@ pub fn verify_obstacle_with(
             Status::Undecided => None,
         };
         let reason = if st == Status::Undecided { reports.iter().find_map(|(_, r)| r.reason.clone()) } else { None };
-        constraints.push(ConstraintReport {
+        self.list.push(ConstraintReport {
             name: name.to_string(),
             status: st,
             margin,
             witness,
             reason,
-            method: method.as_str().to_string(),
-            methods: (method == Method::Both).then(|| reports.into_iter().map(|(m, r)| (m.to_string(), r)).collect()),
+            method: self.method.as_str().to_string(),
+            methods: (self.method == Method::Both)
+                .then(|| reports.into_iter().map(|(m, r)| (m.to_string(), r)).collect()),
         });
-        true
-    });
+    }
+
+    /// The worst status.
+    fn status(&self) -> Status {
+        self.list.iter().fold(Status::Safe, |s, c| worst(s, c.status))
+    }
+
+    fn mean_unsafe(&self) -> bool {
+        self.list.first().is_some_and(|c| c.name == "mean" && c.status == Status::Unsafe)
+    }
+
+    /// Where a constraint failed, in local time.
+    fn hint(&self) -> Option<f64> {
+        let (t0, h) = (self.piece.t0, self.piece.t1 - self.piece.t0);
+        self.list.iter().find_map(|c| c.witness.map(|w| (w.t - t0) / h)).filter(|h| h.is_finite())
+    }
+}
+
+/// The report of one obstacle from its constraint reports and what the decision found.
+fn obstacle_report(
+    id: &str,
+    constraints: Reports<'_>,
+    finding: ObstacleFinding,
+    piece: PieceRef<'_>,
+    bounds: BoundChoice,
+) -> ObstacleReport {
     let at = |tau: f64| piece.t0 + (piece.t1 - piece.t0) * tau;
-    let mut report = ObstacleReport { id: o.id.clone(), status, constraints, bounds: Vec::new(), not_covered: None };
-    if status == Status::Safe {
-        report.bounds.push(BoundPartReport { t0: piece.t0, t1: piece.t1, bound: BoundKind::Cantelli });
-        return report;
-    }
-    let mean_unsafe = report.constraints.first().is_some_and(|c| c.name == "mean" && c.status == Status::Unsafe);
-    if !bounds.beyond_cantelli() {
-        return report;
-    }
-    if mean_unsafe {
-        report.not_covered = Some("E[P] >= 0 on the piece: no bound applies".into());
-        return report;
-    }
-    let hint = report.constraints.iter().find_map(|c| c.witness.map(|w| (w.t - piece.t0) / (piece.t1 - piece.t0)));
-    let hint = hint.filter(|h| h.is_finite());
-    let level = Level::new(delta.rational());
-    // the general composition first, then the compiled one in the scene's frame (which keeps
-    // its digits at extreme scales), as the final check does (docs/design.md §5.13)
-    let general = PieceBounds::for_piece(&o.contour, piece, level).cover(hint);
-    let cover = match (general, compiled) {
-        (Err(_), Some(c)) => PieceBounds::for_piece_compiled(&o.contour, c, piece, level).cover(hint),
-        (r, _) => r,
-    };
-    match cover {
-        Ok(parts) => {
+    let whole = |bound| vec![BoundPartReport { t0: piece.t0, t1: piece.t1, bound }];
+    let status = constraints.status();
+    let mean_unsafe = constraints.mean_unsafe();
+    let mut report =
+        ObstacleReport { id: id.to_string(), status, constraints: constraints.list, bounds: Vec::new(), not_covered: None };
+    match finding {
+        ObstacleFinding::Proven => {
+            report.status = Status::Safe;
+            report.bounds = whole(BoundKind::Cantelli);
+        }
+        ObstacleFinding::Covered(parts) => {
             report.status = Status::Safe;
             report.bounds =
                 parts.iter().map(|p| BoundPartReport { t0: at(p.tau0), t1: at(p.tau1), bound: p.bound }).collect();
         }
-        Err(f) => {
-            report.not_covered = Some(match f {
-                CoverFailure::MeanNotNegative { tau } => format!("E[P] >= 0 at t = {}: no bound applies", at(tau)),
-                CoverFailure::AboveDelta { tau, best } => {
-                    format!("every bound is above the risk level at t = {} (smallest {best:.3e})", at(tau))
+        ObstacleFinding::NotProven(why) => {
+            if report.status == Status::Safe {
+                // every constraint visited is proven, yet the piece is not (never seen):
+                // not safe is the only sound answer
+                report.status = Status::Undecided;
+            }
+            report.not_covered = match why {
+                Some(f) => Some(cover_failure_text(f, at)),
+                None if bounds.beyond_cantelli() && mean_unsafe => {
+                    Some("E[P] >= 0 on the piece: no bound applies".into())
                 }
-                CoverFailure::Budget { tau } => {
-                    format!("no bound proves the piece near t = {} within the search limits", at(tau))
-                }
-            })
+                None => None,
+            };
         }
     }
     report
 }
+
+fn cover_failure_text(f: CoverFailure, at: impl Fn(f64) -> f64) -> String {
+    match f {
+        CoverFailure::MeanNotNegative { tau } => format!("E[P] >= 0 at t = {}: no bound applies", at(tau)),
+        CoverFailure::AboveDelta { tau, best } => {
+            format!("every bound is above the risk level at t = {} (smallest {best:.3e})", at(tau))
+        }
+        CoverFailure::Budget { tau } => format!("no bound proves the piece near t = {} within the search limits", at(tau)),
+    }
+}
+
+/// The report of an obstacle the scene index proved for a whole piece: its proven cover
+/// (the region where its constraints may fail, docs/design.md §5.10) misses the piece's
+/// bounding box, so each constraint holds there, with no per-piece margin; the method
+/// is `cover`.
+fn covered_report(o: &Obstacle, piece: PieceRef<'_>, bounds: BoundChoice) -> ObstacleReport {
+    let tail = o.pedestrian.is_some() && bounds.beyond_cantelli();
+    let names: &[&str] = if tail { &["tail"] } else { &["mean", "cantelli"] };
+    ObstacleReport {
+        id: o.id.clone(),
+        status: Status::Safe,
+        constraints: names
+            .iter()
+            .map(|n| ConstraintReport {
+                name: n.to_string(),
+                status: Status::Safe,
+                margin: None,
+                witness: None,
+                method: COVER_METHOD.into(),
+                reason: None,
+                methods: None,
+            })
+            .collect(),
+        bounds: vec![BoundPartReport {
+            t0: piece.t0,
+            t1: piece.t1,
+            bound: if tail { BoundKind::Tail } else { BoundKind::Cantelli },
+        }],
+        not_covered: None,
+    }
+}
+
+/// The `method` of a constraint proven by the scene index's cover ([`covered_report`]).
+pub const COVER_METHOD: &str = "cover";
 
 /// A pedestrian over one piece by its Gaussian tail bound, exactly (docs/design.md
 /// §3.11): one constraint, `tail`, `‖x − m(t)‖² − r(t)² > 0` on the piece.
@@ -288,13 +397,17 @@ pub fn verify(
             risk: delta.to_f64(),
             bound: BoundChoice::default(),
             pieces: Vec::new(),
+            checked: 0,
+            not_safe: 0,
+            first_not_safe: None,
         },
     )
 }
 
 /// [`verify`] that asks `stop` before each piece and obstacle and gives up with
 /// `Interrupted` as soon as it says yes (a service deadline). One check of one piece
-/// against one obstacle is the largest step between two questions.
+/// against one obstacle is the largest step between two questions. Every piece's
+/// report ([`verify_with`] with [`Detail::Every`]).
 pub fn verify_until(
     kernel: &SceneKernel,
     traj: &Trajectory,
@@ -304,30 +417,173 @@ pub fn verify_until(
     bounds: BoundChoice,
     stop: &dyn Fn() -> bool,
 ) -> Result<VerifyReport, Interrupted> {
+    let opts = VerifyOptions { method, settings: settings.clone(), bounds, detail: Detail::Every };
+    Ok(verify_with(kernel, &traj.pieces, delta, &opts, stop)?.report)
+}
+
+/// How much of the report [`verify_with`] builds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Detail {
+    /// Every piece's report.
+    #[default]
+    Every,
+    /// Only the first piece not proven safe (the others are decided, counted and
+    /// dropped; no report is built for them).
+    FirstNotSafe,
+}
+
+/// How [`verify_with`] decides and reports.
+#[derive(Clone, Debug, Default)]
+pub struct VerifyOptions {
+    /// Decision method.
+    pub method: Method,
+    /// SOS settings (the `sos` and `both` methods).
+    pub settings: sos::SosSettings,
+    /// Which bounds may prove a piece.
+    pub bounds: BoundChoice,
+    /// How much of the report to build.
+    pub detail: Detail,
+}
+
+/// What [`verify_with`] found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VerifyOutcome {
+    /// The report (all pieces, or the first not proven safe, per [`Detail`]).
+    pub report: VerifyReport,
+    /// Index of every piece not proven safe, in order.
+    pub not_safe_indices: Vec<usize>,
+}
+
+/// Most pieces (of one trajectory, or segments of one batch) one verification may take
+/// (the CLI's `verify`, the service's `verify` request): at the kernel's speed
+/// (microseconds per piece and nearby obstacle) they take well under the service's
+/// default job deadline. A plan has at most [`crate::scene::MAX_PIECES`].
+pub const MAX_VERIFY_PIECES: usize = 200_000;
+
+/// Fewest pieces for which [`verify_with`] builds the scene index (the obstacles'
+/// proven covers, docs/design.md §5.10) when the kernel does not hold it yet: building
+/// a static obstacle's cover costs about as much as checking it on a few hundred pieces
+/// (`riskplan bench`), and a verify call with fewer pieces checks every obstacle on
+/// every piece instead. A kernel that holds the index (the service's, once a plan or a
+/// large verify built it) always uses it.
+pub const INDEX_MIN_PIECES: usize = 512;
+
+/// Verifies `pieces` (a trajectory's, or independent segments: each piece is decided on
+/// its own time interval) against a kernel's scene, deciding as the planners' motion
+/// checker does ([`SceneCertifier`], docs/design.md §5.10): the workspace from the
+/// piece's proven bounding box (exactly otherwise); with the Exact method, obstacles
+/// whose proven cover misses the piece skipped (reported with method `cover`); the
+/// others on the compiled restriction with the exact fallback, then, when only
+/// Cantelli's g₁ fails and the bounds are `auto`, the other bounds' cover. The final
+/// check of a plan keeps its own independent path ([`final_check`]). Asks `stop`
+/// before each piece and obstacle.
+pub fn verify_with(
+    kernel: &SceneKernel,
+    pieces: &[crate::scene::Piece],
+    delta: &RiskLevel,
+    opts: &VerifyOptions,
+    stop: &dyn Fn() -> bool,
+) -> Result<VerifyOutcome, Interrupted> {
     let scene = kernel.scene();
-    let mut pieces = Vec::with_capacity(traj.pieces.len());
+    let n = scene.obstacles.len();
+    let cert = SceneCertifier::with_deltas(kernel.clone(), vec![delta.clone(); n], opts.method)
+        .with_bounds(opts.bounds)
+        .with_settings(opts.settings.clone());
+    // the covers prove "safe" by interval bounds: used with the Exact method only (the
+    // others are asked for their own proofs), and for pedestrians only under `auto`
+    // bounds (their covers are their tail bound's)
+    let use_index = opts.method == Method::Exact
+        && (opts.bounds.beyond_cantelli() || scene.obstacles.iter().all(|o| o.pedestrian.is_none()));
+    let index = if use_index {
+        kernel.peek_index(cert.deltas()).or_else(|| (pieces.len() >= INDEX_MIN_PIECES).then(|| kernel.index(cert.deltas(), stop)))
+    } else {
+        None
+    };
     let compiled = kernel.compiled();
-    for pc in &traj.pieces {
+    let frame = compiled.frame();
+    let ws = &scene.workspace;
+    let tail_only = |i: usize| opts.bounds.beyond_cantelli() && scene.obstacles[i].pedestrian.is_some();
+    let mut out = VerifyOutcome {
+        report: VerifyReport {
+            safe: true,
+            method: opts.method.as_str().to_string(),
+            risk: delta.to_f64(),
+            bound: opts.bounds,
+            pieces: Vec::with_capacity(if opts.detail == Detail::Every { pieces.len() } else { 1 }),
+            checked: 0,
+            not_safe: 0,
+            first_not_safe: None,
+        },
+        not_safe_indices: Vec::new(),
+    };
+    let mut cands = Vec::with_capacity(n);
+    let mut near = vec![false; n];
+    for (k, pc) in pieces.iter().enumerate() {
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
-        let workspace = check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr);
-        let mut obstacles = Vec::with_capacity(scene.obstacles.len());
-        for (i, o) in scene.obstacles.iter().enumerate() {
-            if stop() {
-                return Err(Interrupted);
+        let bbox = piece_bbox(pr);
+        let workspace = if inside_by_box(&ws.lower, &ws.upper, pr, bbox.as_deref()) {
+            WorkspaceStatus { status: Status::Safe, witness: None }
+        } else {
+            check_workspace(&ws.lower, &ws.upper, pr)
+        };
+        // the covers say nothing outside the workspace
+        match (&index, workspace.status) {
+            (Some(ix), Status::Safe) => ix.candidates(bbox.as_deref(), pc.t0, pc.t1, &mut cands),
+            _ => {
+                cands.clear();
+                cands.extend(0..n);
             }
-            let c = o.pedestrian.is_none().then(|| compiled.get(i));
-            obstacles.push(verify_obstacle_with(o, c, pr, delta, method, settings, bounds));
         }
-        let safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
-        pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
+        let subs = if cands.iter().any(|&i| !tail_only(i)) { Substitution::new(pr, frame) } else { None };
+        let report_it = opts.detail == Detail::Every || out.not_safe_indices.is_empty();
+        // without a report to build, the first obstacle that fails decides
+        let mut safe = workspace.status == Status::Safe;
+        if opts.detail == Detail::FirstNotSafe {
+            for &i in &cands {
+                if !safe {
+                    break;
+                }
+                if stop() {
+                    return Err(Interrupted);
+                }
+                safe = cert.obstacle_safe(i, pr, subs.as_ref());
+            }
+        }
+        if report_it && !(opts.detail == Detail::FirstNotSafe && safe) {
+            near.iter_mut().for_each(|b| *b = false);
+            cands.iter().for_each(|&i| near[i] = true);
+            let mut obstacles = Vec::with_capacity(n);
+            for (i, o) in scene.obstacles.iter().enumerate() {
+                if !near[i] {
+                    obstacles.push(covered_report(o, pr, opts.bounds));
+                    continue;
+                }
+                if stop() {
+                    return Err(Interrupted);
+                }
+                obstacles.push(if let (Some(p), true) = (&o.pedestrian, opts.bounds.beyond_cantelli()) {
+                    verify_pedestrian(o, p, pr, delta, opts.method)
+                } else {
+                    let mut constraints = Reports::new(pr, opts.method);
+                    let finding = cert.decide_obstacle(i, pr, subs.as_ref(), true, &mut |name, vs| constraints.add(name, vs));
+                    obstacle_report(&o.id, constraints, finding, pr, opts.bounds)
+                });
+            }
+            safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
+            if opts.detail == Detail::Every || !safe {
+                out.report.pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
+            }
+        }
+        out.report.checked += 1;
+        if !safe {
+            out.not_safe_indices.push(k);
+        }
     }
-    Ok(VerifyReport {
-        safe: pieces.iter().all(|p| p.safe),
-        method: method.as_str().to_string(),
-        risk: delta.to_f64(),
-        bound: bounds,
-        pieces,
-    })
+    let r = &mut out.report;
+    r.not_safe = out.not_safe_indices.len();
+    r.first_not_safe = out.not_safe_indices.first().copied();
+    r.safe = r.not_safe == 0;
+    Ok(out)
 }
 
 /// Why the final check refused a planned trajectory (docs/design.md §5.12).

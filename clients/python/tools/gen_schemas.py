@@ -76,6 +76,18 @@ ERROR_CODES = [
     "internal",
 ]
 
+SEGMENT = {
+    "type": "object",
+    "required": ["from", "to"],
+    "additionalProperties": False,
+    "properties": {
+        "from": VECTOR,
+        "to": VECTOR,
+        "t0": {"type": "number", "description": "default: the horizon's start"},
+        "t1": {"type": "number", "description": "default: the horizon's end"},
+    },
+}
+
 DEADLINE_MS = {"type": "integer", "minimum": 0, "description": "milliseconds from the request's arrival (queue time included) within which the server must answer, else the error deadline_exceeded; default and cap: the server's --max-job-seconds"}
 
 # ---------------------------------------------------------------------------------
@@ -486,29 +498,20 @@ MESSAGES = {
     },
     "verify_request": {
         "title": "verify_request",
-        "description": "get on riskplan/scenes/<scene>/verify: a trajectory (format v1) or one straight segment (default over the scene's horizon)",
+        "description": "get on riskplan/scenes/<scene>/verify: a trajectory (format v1, up to 200 000 pieces), one straight segment (default over the scene's horizon), or a batch of up to 200 000 segments, each verified on its own. Payload up to 32 MiB (other requests: 1 MiB).",
         "type": "object",
         "additionalProperties": False,
         "properties": {
             "trajectory": ref("trajectory"),
-            "segment": {
-                "type": "object",
-                "required": ["from", "to"],
-                "additionalProperties": False,
-                "properties": {
-                    "from": VECTOR,
-                    "to": VECTOR,
-                    "t0": {"type": "number", "description": "default: the horizon's start"},
-                    "t1": {"type": "number", "description": "default: the horizon's end"},
-                },
-            },
+            "segment": SEGMENT,
+            "segments": {"type": "array", "minItems": 1, "maxItems": 200000, "items": SEGMENT, "description": "a batch: each segment verified on its own; the reply lists the indices of those not proven safe in `not_safe_segments`"},
             "method": ref("method"),
             "delta": ref("delta"),
             "bound": {"enum": ["auto", "cantelli"], "description": "which bounds may prove a piece (default auto); with auto each obstacle report lists under `bounds` which bound proved which part of the piece"},
-            "summary": {"type": "boolean", "description": "true: `pieces` in the reply holds only the first piece that is not safe (none when safe)"},
+            "summary": {"type": "boolean", "description": "true: `pieces` in the reply holds only the first piece (or segment) that is not safe (none when safe); no report is built for the others"},
             "deadline_ms": DEADLINE_MS,
         },
-        "oneOf": [{"required": ["trajectory"]}, {"required": ["segment"]}],
+        "oneOf": [{"required": ["trajectory"]}, {"required": ["segment"]}, {"required": ["segments"]}],
     },
     "verify_reply": {
         "title": "verify_reply",
@@ -519,8 +522,12 @@ MESSAGES = {
             "safe": {"type": "boolean", "description": "every piece certified safe (undecided counts as not safe)"},
             "method": ref("method"),
             "risk": {"type": "number", "description": "Δ used"},
-            "pieces": {"type": "array", "items": ref("piece_report")},
+            "pieces": {"type": "array", "items": ref("piece_report"), "description": "one report per piece (or segment), or with `summary` only the first not safe"},
             "revision": U64,
+            "checked": {**U64, "description": "pieces (or segments) decided"},
+            "not_safe": {**U64, "description": "how many of them are not proven safe"},
+            "first_not_safe": {"type": ["integer", "null"], "minimum": 0, "description": "index of the first piece (or segment) not proven safe"},
+            "not_safe_segments": {"type": "array", "items": U64, "description": "for a `segments` batch, the index of every segment not proven safe (empty otherwise)"},
         },
     },
     "risk_request": {

@@ -1,13 +1,13 @@
 //! The scene certifier: the continuous-time certifier as a planner's motion checker
 //! (docs/design.md §5.9, §5.10).
 
-use super::decide::{combine, decide_obstacle, point_obstacle_safe_at, point_status, Method, PointStatus, Status};
+use super::decide::{combine, point_obstacle_safe_at, point_status, Method, PointStatus, Status};
 use super::framed::piece_passes_verify_path;
 use super::index::{piece_bbox, SceneIndex};
 use super::kernel::{CompiledSet, SceneKernel};
-use super::workspace::check_workspace;
-use crate::certify::fast::{straight_value_sign, Substitution};
-use crate::certify::bounds::{Level, PieceBounds};
+use super::workspace::{check_workspace, inside_by_box};
+use crate::certify::fast::Substitution;
+use crate::certify::bounds::{BoundPart, CoverFailure, Level, PieceBounds};
 use crate::certify::{bernstein, restrict_exact, sos, tail, PieceRef, Verdict};
 use crate::contour::tail::tail_kappa;
 use crate::contour::{BoundChoice, RiskLevel};
@@ -102,6 +102,12 @@ impl SceneCertifier {
         self
     }
 
+    /// The same certifier with other SOS settings (the `sos` and `both` methods).
+    pub fn with_settings(mut self, settings: sos::SosSettings) -> Self {
+        self.settings = settings;
+        self
+    }
+
     /// The bounds it may use.
     pub fn bounds(&self) -> BoundChoice {
         self.bounds
@@ -140,117 +146,144 @@ impl SceneCertifier {
         self.index.get_or_init(|| self.kernel.index(&self.deltas, &|| false))
     }
 
-    /// Whether obstacle `i` is proven safe on a piece (Exact method, fast path; `subs`:
-    /// the piece's centred coordinates, shared by all obstacles). When Cantelli's
-    /// constraints fail only in g₁ and the bounds are `auto`, the piece may still be
-    /// covered by sub-intervals proven by other bounds (docs/design.md §5.13).
-    fn obstacle_safe(&self, i: usize, pr: PieceRef<'_>, subs: Option<&Substitution>) -> bool {
+    /// Whether obstacle `i` is proven safe on a piece (`subs`: the piece's centred
+    /// coordinates, shared by all obstacles): [`SceneCertifier::decide_obstacle`]
+    /// stopping at the first constraint that fails.
+    pub(crate) fn obstacle_safe(&self, i: usize, pr: PieceRef<'_>, subs: Option<&Substitution>) -> bool {
         let o = &self.scene.obstacles[i];
         if let (Some(p), true) = (&o.pedestrian, self.bounds.beyond_cantelli()) {
             // a pedestrian: its Gaussian tail bound (docs/design.md §3.11)
             return self.kappas[i].is_some_and(|k| tail::piece_clear(&p.disk, k, pr).is_safe());
         }
+        self.decide_obstacle(i, pr, subs, false, &mut |_, _| {}).is_safe()
+    }
+
+    /// Decides obstacle `i` (not a pedestrian under `auto` bounds: its tail bound decides
+    /// those) on a piece, as the motion checker does (docs/design.md §5.10, §5.13):
+    /// Cantelli's two constraints of eq. (15) — the mean first — on the compiled
+    /// restriction (`subs`: the piece's coordinates in the compiled frame) by the
+    /// certifier's method, the Exact method with the exact rational fallback where the
+    /// floats leave a constraint undecided; and when only g₁ fails and the bounds are
+    /// `auto`, a cover of the piece by the other bounds on sub-intervals. Each
+    /// constraint's verdicts go to `visit`; with `every` both constraints are decided
+    /// even when the first fails (the verify report shows both).
+    pub(crate) fn decide_obstacle(
+        &self,
+        i: usize,
+        pr: PieceRef<'_>,
+        subs: Option<&Substitution>,
+        every: bool,
+        visit: &mut Visit<'_>,
+    ) -> ObstacleFinding {
+        let o = &self.scene.obstacles[i];
         let delta = self.deltas[i].rational();
-        // Cantelli: Ok(()) proven; Err(None) g₂ fails (E[P] ≥ 0 somewhere: no bound can
-        // help); Err(Some(hint)) only g₁ fails or is undecided (hint: a local time, if known)
+        // what Cantelli's constraints left: whether the mean failed (no other bound can
+        // help where E[P] ≥ 0), or g₁ (a local time where it fails, if known)
+        let mut mean_failed = false;
+        let mut g1_failed: Option<Option<f64>> = None;
         // the fast path's enclosures of −E[P] and g₁ when g₁ fails there, for the other
         // bounds' search (the same polynomials it would restrict again)
-        let mut restricted: Option<(Vec<Interval>, Vec<Interval>)> = None;
+        let mut restricted: Option<Restricted> = None;
         let keep = self.bounds.beyond_cantelli() && self.fast;
-        let cantelli: Result<(), Option<Option<f64>>> = 'cantelli: {
-            if self.method == Method::Exact {
-                let fast = subs.and_then(|subs| {
-                    self.compiled.get(i).with_constraints(subs, self.one_minus[i], |g2, g1| {
-                        for (k, g) in [g2, g1].into_iter().enumerate() {
-                            match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
-                                Verdict::Safe { .. } => {}
-                                Verdict::Unsafe(_) if k == 0 => return Some(Err(None)),
-                                Verdict::Unsafe(w) => {
-                                    if keep {
-                                        restricted = Some((g2.to_vec(), g1.to_vec()));
-                                    }
-                                    return Some(Err(Some(Some(w.tau))));
-                                }
-                                Verdict::Undecided(_) => return None,
-                            }
-                        }
-                        Some(Ok(()))
-                    })
-                });
-                match fast {
-                    Some(Some(v)) => break 'cantelli v,
-                    Some(None) => {
-                        // undecided in floats: the exact rational check decides both constraints
-                        let r = restrict_exact(&o.contour, pr, delta);
-                        break 'cantelli match bernstein::check_exact(&r.mean, bernstein::DEFAULT_MAX_DEPTH) {
-                            Verdict::Safe { .. } => match bernstein::check_exact(&r.cantelli, bernstein::DEFAULT_MAX_DEPTH) {
-                                Verdict::Safe { .. } => Ok(()),
-                                Verdict::Unsafe(w) => Err(Some(Some(w.tau))),
-                                Verdict::Undecided(_) => Err(Some(None)),
-                            },
-                            _ => Err(None),
-                        };
-                    }
-                    None => {}
-                }
+        let note = |name: &'static str, v: &Verdict, mean_failed: &mut bool, g1: &mut Option<Option<f64>>| {
+            match (name, v) {
+                (_, Verdict::Safe { .. }) => {}
+                ("mean", _) => *mean_failed = true,
+                (_, Verdict::Unsafe(w)) => *g1 = Some(Some(w.tau)),
+                (_, Verdict::Undecided(_)) => *g1 = Some(None),
             }
-            let mut result = Ok(());
-            decide_obstacle(o, Some(self.compiled.get(i)), pr, delta, self.method, &self.settings, |name, vs| {
-                match combine(&vs) {
-                    Status::Safe => true,
-                    st => {
-                        let hint = vs.iter().find_map(|(_, v)| if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None });
-                        result = if name == "mean" && st == Status::Unsafe { Err(None) } else { Err(Some(hint)) };
-                        false
-                    }
-                }
-            });
-            result
         };
-        match cantelli {
-            Ok(()) => true,
-            Err(Some(hint)) if self.bounds.beyond_cantelli() => {
-                let pb = if self.fast {
-                    PieceBounds::for_piece_compiled(&o.contour, self.compiled.get(i), pr, self.levels[i])
-                        .with_substitution(subs)
-                        .with_cantelli_restrictions(restricted)
-                } else {
-                    PieceBounds::for_piece(&o.contour, pr, self.levels[i])
-                };
-                pb.cover(hint).is_ok()
-            }
-            Err(_) => false,
+        let fast = (self.method == Method::Exact)
+            .then(|| {
+                let subs = subs?;
+                self.compiled.get(i).with_constraints(subs, self.one_minus[i], |g2, g1| {
+                    // undecided in floats: the exact rational check, restricted once for both
+                    let exact = std::cell::OnceCell::new();
+                    for (name, g) in [("mean", g2), ("cantelli", g1)] {
+                        let v = match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
+                            Verdict::Undecided(_) => {
+                                let r = exact.get_or_init(|| restrict_exact(&o.contour, pr, delta));
+                                let p = if name == "mean" { &r.mean } else { &r.cantelli };
+                                bernstein::check_exact(p, bernstein::DEFAULT_MAX_DEPTH)
+                            }
+                            decided => decided,
+                        };
+                        note(name, &v, &mut mean_failed, &mut g1_failed);
+                        visit(name, &[("exact", v)]);
+                        if name == "cantelli" && keep && g1_failed.is_some() {
+                            restricted = Some((g2.to_vec(), g1.to_vec()));
+                        }
+                        if mean_failed && !every {
+                            break;
+                        }
+                    }
+                })
+            })
+            .flatten();
+        if fast.is_none() {
+            let fast = subs.map(|s| (s, self.one_minus[i]));
+            super::decide::decide_obstacle(o, Some(self.compiled.get(i)), fast, pr, delta, self.method, &self.settings, |name, vs| {
+                let st = combine(&vs);
+                if st != Status::Safe {
+                    let hint = vs.iter().find_map(|(_, v)| if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None });
+                    if name == "mean" && st == Status::Unsafe {
+                        mean_failed = true;
+                    } else {
+                        // g₁ fails, or the mean is undecided: other bounds may still cover
+                        // the piece (their search proves E[P] < 0 where it uses them)
+                        g1_failed.get_or_insert(hint);
+                    }
+                }
+                visit(name, &vs);
+                every || st == Status::Safe
+            });
+        }
+        if mean_failed {
+            return ObstacleFinding::NotProven(None);
+        }
+        let Some(hint) = g1_failed else { return ObstacleFinding::Proven };
+        if !self.bounds.beyond_cantelli() {
+            return ObstacleFinding::NotProven(None);
+        }
+        let pb = if self.fast {
+            PieceBounds::for_piece_compiled(&o.contour, self.compiled.get(i), pr, self.levels[i])
+                .with_substitution(subs)
+                .with_cantelli_restrictions(restricted)
+        } else {
+            PieceBounds::for_piece(&o.contour, pr, self.levels[i])
+        };
+        match pb.cover(hint) {
+            Ok(parts) => ObstacleFinding::Covered(parts),
+            Err(f) => ObstacleFinding::NotProven(Some(f)),
         }
     }
+
 }
 
-/// Whether a coordinate of degree ≤ 1, `c0 + c1·t` on `[t0, t1]`, stays in `[l, u]`,
-/// exactly (its extremes are its end values, evaluated in rationals): the float
-/// enclosure of an edge that ends on the workspace boundary crosses it by rounding.
-fn straight_coordinate_inside(c: &[f64], t0: f64, t1: f64, l: f64, u: f64) -> bool {
-    if c.len() > 2 {
-        return false;
+/// Receives each constraint's name and its verdicts (one per method).
+pub(crate) type Visit<'a> = dyn FnMut(&'static str, &[(&'static str, Verdict)]) + 'a;
+
+/// Enclosures of −E\[P\] and of Cantelli's g₁ on a piece (monomial coefficients in τ).
+type Restricted = (Vec<Interval>, Vec<Interval>);
+
+/// What deciding one obstacle on one piece found ([`SceneCertifier::decide_obstacle`]).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum ObstacleFinding {
+    /// Cantelli's constraints hold on the whole piece.
+    Proven,
+    /// Cantelli's g₁ fails somewhere, and other bounds prove the piece part by part
+    /// (docs/design.md §5.13).
+    Covered(Vec<BoundPart>),
+    /// Not proven: why the other bounds could not cover it, or `None` when they were not
+    /// tried (E\[P\] ≥ 0 somewhere, or Cantelli's bound only).
+    NotProven(Option<CoverFailure>),
+}
+
+impl ObstacleFinding {
+    /// Proven, by Cantelli or a cover.
+    pub(crate) fn is_safe(&self) -> bool {
+        !matches!(self, ObstacleFinding::NotProven(_))
     }
-    // exactly in floating point by error-free transformations (rationals otherwise)
-    let (c0, c1) = (c.first().copied().unwrap_or(0.0), c.get(1).copied().unwrap_or(0.0));
-    let signs: Option<Vec<(std::cmp::Ordering, std::cmp::Ordering)>> = [t0, t1]
-        .iter()
-        .map(|&t| Some((straight_value_sign(c0, c1, t, l)?, straight_value_sign(c0, c1, t, u)?)))
-        .collect();
-    if let Some(signs) = signs {
-        use std::cmp::Ordering::{Greater, Less};
-        return signs.iter().all(|&(lo, hi)| lo != Less && hi != Greater);
-    }
-    let q = |v: f64| BigRational::from_float(v);
-    let (Some(c0), Some(c1), Some(a), Some(b), Some(l), Some(u)) =
-        (q(c.first().copied().unwrap_or(0.0)), q(c.get(1).copied().unwrap_or(0.0)), q(t0), q(t1), q(l), q(u))
-    else {
-        return false;
-    };
-    [a, b].iter().all(|t| {
-        let x = &c0 + &c1 * t;
-        l <= x && x <= u
-    })
 }
 
 impl MotionChecker for SceneCertifier {
@@ -291,12 +324,9 @@ impl MotionChecker for SceneCertifier {
         }
         let ws = &self.scene.workspace;
         let bbox = piece_bbox(pr);
-        let inside = bbox.as_ref().is_some_and(|b| {
-            b.iter().zip(ws.lower.iter().zip(&ws.upper)).enumerate().all(|(d, (&(lo, hi), (&l, &u)))| {
-                (l <= lo && hi <= u) || straight_coordinate_inside(&piece.coeffs[d], piece.t0, piece.t1, l, u)
-            })
-        });
-        if !inside && check_workspace(&ws.lower, &ws.upper, pr).status != Status::Safe {
+        if !inside_by_box(&ws.lower, &ws.upper, pr, bbox.as_deref())
+            && check_workspace(&ws.lower, &ws.upper, pr).status != Status::Safe
+        {
             return Motion::Rejected;
         }
         let mut cands = Vec::new();

@@ -1,7 +1,7 @@
 //! Deciding one obstacle's constraints over one piece (docs/design.md §5.2, §5.9): the
 //! methods, the three-valued status, and the exact status of a point.
 
-use crate::certify::fast::CompiledContour;
+use crate::certify::fast::{CompiledContour, Substitution};
 use crate::certify::{bernstein, restrict_exact, restrict_interval, sos, PieceRef, Verdict};
 use crate::certify::bounds::{Level, PieceBounds};
 use crate::contour::{BoundChoice, RiskLevel};
@@ -103,21 +103,33 @@ pub(crate) fn worst(a: Status, b: Status) -> Status {
 /// Decides an obstacle's two constraints over a piece in order (`mean`, the lower
 /// degree, first; then `cantelli`) and hands each decision to `visit`, which returns
 /// whether to go on. The interval restriction is built once — from the compiled,
-/// centred contour when given and within its capacity, else by general composition —
+/// centred contour when given and within its capacity (in `f64` with a running error
+/// bound when `fast` gives the piece's [`Substitution`] and `1−Δ` as the nearest float
+/// and whether it is exact, as the motion checker does), else by general composition —
 /// and the exact one only if a decision needs the exact fallback, then once for both.
+#[allow(clippy::too_many_arguments)]
 pub fn decide_obstacle(
     o: &Obstacle,
     compiled: Option<&CompiledContour>,
+    fast: Option<(&Substitution, (f64, bool))>,
     piece: PieceRef<'_>,
     delta: &BigRational,
     method: Method,
     settings: &sos::SosSettings,
     mut visit: impl FnMut(&'static str, Vec<(&'static str, Verdict)>) -> bool,
 ) {
-    let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - delta));
-    let fast = compiled.and_then(|c| c.restrict(piece)).and_then(|r| r.constraints(omd));
-    let (cantelli, mean) = match fast {
-        Some((g1, g2)) => (UPoly::new(g1.coeffs().to_vec()), UPoly::new(g2.coeffs().to_vec())),
+    let restricted = compiled.and_then(|c| {
+        fast.and_then(|(subs, omd)| {
+            c.with_constraints(subs, omd, |g2, g1| (UPoly::new(g1.to_vec()), UPoly::new(g2.to_vec())))
+        })
+        .or_else(|| {
+            let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - delta));
+            let (g1, g2) = c.restrict(piece)?.constraints(omd)?;
+            Some((UPoly::new(g1.coeffs().to_vec()), UPoly::new(g2.coeffs().to_vec())))
+        })
+    });
+    let (cantelli, mean) = match restricted {
+        Some(r) => r,
         None => {
             let iv = restrict_interval(&o.contour, piece, delta);
             (iv.cantelli, iv.mean)

@@ -15,6 +15,7 @@ mod index;
 mod kernel;
 mod workspace;
 
+pub(crate) use certifier::ObstacleFinding;
 pub use certifier::SceneCertifier;
 pub(crate) use decide::{combine, worst};
 pub use decide::{
@@ -25,4 +26,4 @@ pub(crate) use framed::piece_passes_verify_path;
 pub use framed::FramedContours;
 pub use index::{obstacle_center, piece_bbox, scene_frame, SceneIndex};
 pub use kernel::SceneKernel;
-pub use workspace::{check_workspace, interval_hull, WorkspaceStatus};
+pub use workspace::{check_workspace, inside_by_box, interval_hull, WorkspaceStatus};

@@ -5,6 +5,7 @@
 //! the check is exact. Otherwise a violation is searched on a grid.
 
 use super::decide::{Status, WitnessReport};
+use crate::certify::fast::straight_value_sign;
 use crate::certify::{bernstein, coordinates_exact, PieceRef};
 use crate::poly::{rational_to_f64, Interval, UPoly};
 use num_rational::BigRational;
@@ -53,6 +54,50 @@ fn outside_by_intervals(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> Op
                 None
             }
         })
+    })
+}
+
+/// Whether a coordinate of degree ≤ 1, `c0 + c1·t` on `[t0, t1]`, stays in `[l, u]`,
+/// exactly (its extremes are its end values, evaluated in rationals): the float
+/// enclosure of an edge that ends on the workspace boundary crosses it by rounding.
+pub(crate) fn straight_coordinate_inside(c: &[f64], t0: f64, t1: f64, l: f64, u: f64) -> bool {
+    if c.len() > 2 {
+        return false;
+    }
+    // exactly in floating point by error-free transformations (rationals otherwise)
+    let (c0, c1) = (c.first().copied().unwrap_or(0.0), c.get(1).copied().unwrap_or(0.0));
+    let signs: Option<Vec<(std::cmp::Ordering, std::cmp::Ordering)>> = [t0, t1]
+        .iter()
+        .map(|&t| Some((straight_value_sign(c0, c1, t, l)?, straight_value_sign(c0, c1, t, u)?)))
+        .collect();
+    if let Some(signs) = signs {
+        use std::cmp::Ordering::{Greater, Less};
+        return signs.iter().all(|&(lo, hi)| lo != Less && hi != Greater);
+    }
+    let q = |v: f64| BigRational::from_float(v);
+    let (Some(c0), Some(c1), Some(a), Some(b), Some(l), Some(u)) =
+        (q(c.first().copied().unwrap_or(0.0)), q(c.get(1).copied().unwrap_or(0.0)), q(t0), q(t1), q(l), q(u))
+    else {
+        return false;
+    };
+    [a, b].iter().all(|t| {
+        let x = &c0 + &c1 * t;
+        l <= x && x <= u
+    })
+}
+
+/// A sufficient test that a piece stays in the box `[lower, upper]`, in floating point:
+/// its proven bounding box `bbox` ([`super::piece_bbox`]) lies inside, coordinate by
+/// coordinate, or the coordinate is straight and its end values are inside exactly
+/// ([`straight_coordinate_inside`]: an edge that ends on a wall is inside). `false`
+/// proves nothing: [`check_workspace`] decides then.
+pub fn inside_by_box(lower: &[f64], upper: &[f64], piece: PieceRef<'_>, bbox: Option<&[(f64, f64)]>) -> bool {
+    bbox.is_some_and(|b| {
+        b.len() == lower.len()
+            && b.iter().zip(lower.iter().zip(upper)).enumerate().all(|(d, (&(lo, hi), (&l, &u)))| {
+                (l <= lo && hi <= u)
+                    || piece.coeffs.get(d).is_some_and(|c| straight_coordinate_inside(c, piece.t0, piece.t1, l, u))
+            })
     })
 }
 

@@ -203,6 +203,27 @@ class _Servers:
             self.suspended[sid] = time.monotonic() + SUSPEND_S
 
 
+
+def _segment(segment: Union[Json, Sequence]) -> Json:
+    """A ``{"from", "to", "t0"?, "t1"?}`` dict from a dict or ``(from, to[, t0, t1])``."""
+    if isinstance(segment, dict):
+        seg = dict(segment)
+    else:
+        seg_list = list(segment)
+        if len(seg_list) not in (2, 4):
+            raise ValueError("segment: (from, to) or (from, to, t0, t1)")
+        seg = {"from": seg_list[0], "to": seg_list[1]}
+        if len(seg_list) == 4:
+            seg["t0"], seg["t1"] = seg_list[2], seg_list[3]
+    for k in ("from", "to"):
+        seg[k] = [float(v) for v in seg[k]]
+    for k in ("t0", "t1"):
+        if seg.get(k) is not None:
+            seg[k] = float(seg[k])
+        else:
+            seg.pop(k, None)
+    return seg
+
 class Client:
     """A connection to a riskplan server.
 
@@ -541,18 +562,22 @@ class Client:
                segment: Union[None, Json, Sequence] = None, method: Optional[str] = None,
                delta: Optional[float] = None, *, summary: Optional[bool] = None,
                deadline_ms: Optional[int] = None, timeout: Optional[float] = None,
-               bound: Optional[str] = None) -> Json:
+               bound: Optional[str] = None, segments: Optional[Sequence] = None) -> Json:
         """Verifies a trajectory (a :class:`Plan`, a plan_reply dict or a trajectory v1
         dict) or one straight segment (``{"from", "to", "t0"?, "t1"?}`` or a tuple
         ``(from, to[, t0, t1])``) against scene ``name``. Returns the ``verify_reply``
         (``{"safe", "method", "risk", "pieces", "revision"}``). ``summary=True``: ``pieces``
-        holds only the first piece that is not safe (none when safe). ``deadline_ms``: the
+        holds only the first piece that is not safe (none when safe), and no report is
+        built for the others. ``segments``: a batch of segments (each as for ``segment``,
+        up to 200 000), each verified on its own; the reply's ``not_safe_segments`` lists
+        the indices of those not proven safe. Every reply counts ``checked`` and
+        ``not_safe`` and gives ``first_not_safe`` (an index). ``deadline_ms``: the
         server answers ``deadline_exceeded`` rather than work past it. ``bound``: ``"auto"``
         (Cantelli, zero risk from bounded support, shifted moment bounds on sub-intervals;
         each obstacle report's ``bounds`` says which bound proved which part) or
         ``"cantelli"`` (default: ``"auto"``)."""
-        if (trajectory is None) == (segment is None):
-            raise ValueError("verify needs exactly one of trajectory= and segment=")
+        if sum(x is not None for x in (trajectory, segment, segments)) != 1:
+            raise ValueError("verify needs exactly one of trajectory=, segment= and segments=")
         request: Json = {}
         if trajectory is not None:
             if isinstance(trajectory, Trajectory):
@@ -560,24 +585,10 @@ class Client:
             else:
                 request["trajectory"] = {"format": trajectory.get("format", "riskplan-trajectory/1"),
                                          "pieces": trajectory["pieces"]}
+        elif segment is not None:
+            request["segment"] = _segment(segment)
         else:
-            if isinstance(segment, dict):
-                seg = dict(segment)
-            else:
-                seg_list = list(segment)
-                if len(seg_list) not in (2, 4):
-                    raise ValueError("segment: (from, to) or (from, to, t0, t1)")
-                seg = {"from": seg_list[0], "to": seg_list[1]}
-                if len(seg_list) == 4:
-                    seg["t0"], seg["t1"] = seg_list[2], seg_list[3]
-            for k in ("from", "to"):
-                seg[k] = [float(v) for v in seg[k]]
-            for k in ("t0", "t1"):
-                if seg.get(k) is not None:
-                    seg[k] = float(seg[k])
-                else:
-                    seg.pop(k, None)
-            request["segment"] = seg
+            request["segments"] = [_segment(s) for s in segments]
         if method is not None:
             request["method"] = method
         if bound is not None:
