@@ -259,6 +259,59 @@ impl<const N: usize> EPoly<N> {
         }
         Some(r)
     }
+    /// [`EPoly::add_signed`] in place.
+    fn add_assign_signed(&mut self, o: &EPoly<N>, sign: f64) {
+        for i in 0..o.len {
+            if i < self.len {
+                self.v[i] += sign * o.v[i];
+                self.a[i] += o.a[i];
+            } else {
+                self.v[i] = sign * o.v[i];
+                self.a[i] = o.a[i];
+            }
+        }
+        self.len = self.len.max(o.len);
+        self.k = self.k.max(o.k) + 1;
+    }
+
+    /// [`EPoly::mul`] in place (no copy of the arrays; `None` leaves `self` unspecified).
+    /// Coefficient `p` of the product is the same sum of products `x_i·o_j`, `i + j = p`,
+    /// accumulated in another order (`i` descending: position `i` is written first by
+    /// `x_i·o_0` once no higher `i` can reach it); the rounding bound counts additions,
+    /// not their order, so the model of [`EPoly::mul`] holds unchanged.
+    fn mul_assign(&mut self, o: &EPoly<N>) -> Option<()> {
+        if self.len == 0 || o.len == 0 {
+            self.len = 0;
+            self.k = 0;
+            return Some(());
+        }
+        let len = self.len + o.len - 1;
+        if len > N {
+            return None;
+        }
+        let (m1, m2) = (self.min_abs(), o.min_abs());
+        if m1.is_finite() && m2.is_finite() && m1 * m2 < MODEL_FLOOR {
+            return None;
+        }
+        let k = self.k + o.k + self.len.min(o.len) as u32 + 1;
+        for i in self.len..len {
+            self.v[i] = 0.0;
+            self.a[i] = 0.0;
+        }
+        for i in (0..self.len).rev() {
+            let (x, xa) = (self.v[i], self.a[i]);
+            self.v[i] = x * o.v[0];
+            self.a[i] = xa * o.a[0];
+            for j in 1..o.len {
+                self.v[i + j] += x * o.v[j];
+                self.a[i + j] += xa * o.a[j];
+            }
+        }
+        self.len = len;
+        self.k = k;
+        Some(())
+    }
+
     /// `s·self` for an enclosed scalar given by its nearest float and its own bound of
     /// roundings `ks` (1 for a rounded rational, which must then be normal); `None`
     /// outside the model's range (as [`EPoly::mul`]).
@@ -931,27 +984,37 @@ impl Compiled {
         if !self.in_model {
             return None;
         }
-        fn go<const N: usize>(n: &Node, subs: &[EPoly<N>]) -> Option<EPoly<N>> {
+        // in place: the polynomials are small and their arrays large, so copies, not
+        // arithmetic, would dominate (a node's value goes to `out`)
+        fn go<const N: usize>(n: &Node, subs: &[EPoly<N>], out: &mut EPoly<N>) -> Option<()> {
             match n {
-                Node::Zero => Some(EPoly::zero()),
+                Node::Zero => {
+                    out.len = 0;
+                    out.k = 0;
+                }
                 Node::Const(_, f, k) => {
-                    let mut p = EPoly::exact(*f);
-                    p.k = *k;
-                    Some(p)
+                    out.v[0] = *f;
+                    out.a[0] = f.abs();
+                    out.len = 1;
+                    out.k = *k;
                 }
                 Node::Horner { var, coeffs } => {
-                    let mut acc = go(&coeffs[coeffs.len() - 1], subs)?;
+                    go(&coeffs[coeffs.len() - 1], subs, out)?;
+                    let mut term = EPoly::zero();
                     for c in coeffs[..coeffs.len() - 1].iter().rev() {
-                        acc = acc.mul(&subs[*var])?;
+                        out.mul_assign(&subs[*var])?;
                         if !matches!(c, Node::Zero) {
-                            acc = acc.add_signed(&go(c, subs)?, 1.0);
+                            go(c, subs, &mut term)?;
+                            out.add_assign_signed(&term, 1.0);
                         }
                     }
-                    Some(acc)
                 }
             }
+            Some(())
         }
-        go(&self.root, subs)
+        let mut out = EPoly::zero();
+        go(&self.root, subs, &mut out)?;
+        Some(out)
     }
 
     /// The value at `vals` in plain floating point from the coefficients' nearest floats

@@ -112,6 +112,10 @@ enum ClientCommand {
         /// exact, sos or both.
         #[arg(long)]
         method: Option<String>,
+        /// Only the first piece not proven safe is reported (with the counts); no report
+        /// is built for the others.
+        #[arg(long)]
+        summary: bool,
     },
     /// Risk bound at a point.
     Risk {
@@ -271,12 +275,14 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
                 Err(e) => Err(err(e)),
             }
         }
-        ClientCommand::Verify { scene, trajectory, from, to, method } => {
-            let mut req = VerifyRequest { method, ..Default::default() };
+        ClientCommand::Verify { scene, trajectory, from, to, method, summary } => {
+            let mut req = VerifyRequest { method, summary: summary.then_some(true), ..Default::default() };
             match trajectory {
                 Some(p) => {
+                    let text = std::fs::read_to_string(&p)
+                        .map_err(|e| CliError(format!("{}: cannot read: {e}", p.display())))?;
                     req.trajectory = Some(
-                        crate::scene::Trajectory::from_json(&read_json(&p)?.to_string())
+                        crate::scene::Trajectory::from_json(&text)
                             .map_err(|e| CliError(format!("{}: {e}", p.display())))?,
                     )
                 }

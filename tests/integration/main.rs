@@ -28,3 +28,4 @@ mod reference_scenes;
 mod service_shutdown;
 mod smooth_limits;
 mod tight_bounds;
+mod verify_fast;

@@ -14,7 +14,7 @@ import riskplan
 
 import threading
 
-from conftest import Server, load_scene
+from conftest import Server, load_scene, validate
 
 BINCODE = "application/bincode"
 STATUS_LIMIT_S = 0.1   # issue 9: status answers within 100 ms after each hostile message
@@ -132,6 +132,50 @@ def test_verify_summary_keeps_only_the_first_unsafe_piece(client, scene3, unique
     assert full["safe"] and short["safe"] and short["pieces"] == [] and len(full["pieces"]) >= 2
     bad = client.verify(name, segment=([-1, -1], [1, 1]), summary=True)
     assert not bad["safe"] and len(bad["pieces"]) == 1 and not bad["pieces"][0]["safe"]
+
+
+def test_verify_batches_of_segments_and_large_trajectories(client, unique):
+    """A batch of segments is verified segment by segment (the reply names the ones not
+    safe); a trajectory of far more pieces than a plan has (and a payload far above the
+    1 MiB of other requests) is one query; the summary reply stays small; the limits
+    are typed errors."""
+    import random
+    name = unique()
+    client.apply(name, scene=load_scene("example-d1-cluttered-2d"))
+    rng = random.Random(3)
+    pts = [[rng.uniform(0, 5), rng.uniform(0, 5)] for _ in range(20_001)]
+    n = len(pts) - 1
+    segs = [{"from": pts[i], "to": pts[i + 1], "t0": i / n, "t1": (i + 1) / n} for i in range(n)]
+    batch = client.verify(name, segments=segs[:300])
+    validate("verify_reply", batch)
+    assert batch["checked"] == 300 and len(batch["pieces"]) == 300
+    not_safe = [i for i, p in enumerate(batch["pieces"]) if not p["safe"]]
+    assert batch["not_safe_segments"] == not_safe and batch["not_safe"] == len(not_safe) > 0
+    assert batch["first_not_safe"] == not_safe[0] and not batch["safe"]
+    # the same segments one by one: the same verdicts
+    for i in (not_safe[0], next(i for i in range(300) if i not in not_safe)):
+        one = client.verify(name, segment=segs[i])
+        assert one["safe"] == (i not in not_safe) and one["not_safe_segments"] == []
+    # 20 000 pieces in one trajectory (a plan has at most 10 000): about 2.6 MB of JSON
+    pieces = []
+    for s_ in segs:
+        rows = []
+        for d in range(2):
+            slope = (s_["to"][d] - s_["from"][d]) / (s_["t1"] - s_["t0"])
+            rows.append([s_["from"][d] - slope * s_["t0"], slope])
+        pieces.append({"t0": s_["t0"], "t1": s_["t1"], "coeffs": rows})
+    short = client.verify(name, trajectory={"format": "riskplan-trajectory/1", "pieces": pieces}, summary=True)
+    validate("verify_reply", short)
+    assert short["checked"] == n and 0 < short["not_safe"] < n and len(short["pieces"]) == 1
+    assert short["not_safe_segments"] == [] and len(json.dumps(short)) < 20_000
+    batch = client.verify(name, segments=segs, summary=True)
+    assert batch["checked"] == n and batch["not_safe"] == len(batch["not_safe_segments"]) == short["not_safe"]
+    # limits: an empty batch, and both forms at once
+    with pytest.raises(riskplan.LimitExceededError):
+        client.query(f"riskplan/scenes/{name}/verify", {"segments": []})
+    with pytest.raises(ValueError):
+        client.verify(name, segment=segs[0], segments=segs[:2])
+    assert_alive(client)
 
 
 def slow_scene(scene3: dict, obstacles: int = 1) -> dict:

@@ -1,0 +1,112 @@
+//! `verify` at the kernel's speed (issue 21): the verify path decides as the planners'
+//! checker does (compiled restriction, covers of the scene index, a Bernstein witness
+//! instead of the SDP), so its "safe" answers are checked here against oracles that share
+//! no code with it, on random trajectories large enough to build the index:
+//!
+//! - illustrative-3 in closed form: the disk `‖x‖ ≤ w`, `w ~ U[0.3, 0.4]`, is met with
+//!   probability `P(w ≥ d) = (0.4 − d)/0.1` at distance `d` from the origin, so a piece
+//!   certified at Δ = 0.1 must keep `d ≥ 0.39` over its whole interval — the minimum
+//!   distance of a straight piece is solved exactly, not sampled;
+//! - d1 (Gaussian disks): the sampled oracle of `common::oracle` (the contour constraints
+//!   term by term, and the independent bound oracle where other bounds prove a part).
+//!
+//! And the summary (`Detail::FirstNotSafe`: no report for safe pieces) decides every piece
+//! as the full report does.
+
+use crate::common::{oracle, scene, size};
+use riskplan::certify::sos::SosSettings;
+use riskplan::contour::RiskLevel;
+use riskplan::scene::Piece;
+use riskplan::verify::{verify_with, Detail, Method, SceneKernel, VerifyOptions, INDEX_MIN_PIECES};
+use std::sync::Arc;
+
+/// A seeded random trajectory of `n` straight pieces through uniform points of the box
+/// `[lo, hi]²` over the horizon `[0, 1]` (a small linear congruential generator: the
+/// test needs no statistics, only spread).
+fn random_pieces(n: usize, lo: f64, hi: f64, seed: u64) -> Vec<Piece> {
+    let mut s = seed;
+    let mut next = || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        lo + (hi - lo) * ((s >> 11) as f64 / (1u64 << 53) as f64)
+    };
+    let pts: Vec<[f64; 2]> = (0..=n).map(|_| [next(), next()]).collect();
+    (0..n)
+        .map(|i| {
+            let (t0, t1) = (i as f64 / n as f64, if i + 1 == n { 1.0 } else { (i + 1) as f64 / n as f64 });
+            Piece::segment(&pts[i], &pts[i + 1], t0, t1)
+        })
+        .collect()
+}
+
+/// The smallest distance from the origin of the straight piece `x(t) = c0 + c1·t` on
+/// `[t0, t1]` (its float coefficients, as certified), by the closed-form minimiser.
+fn min_distance(p: &Piece) -> f64 {
+    let (c0, c1): (Vec<f64>, Vec<f64>) = p.coeffs.iter().map(|r| (r[0], r.get(1).copied().unwrap_or(0.0))).unzip();
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let vv = dot(&c1, &c1);
+    let t = if vv > 0.0 { (-dot(&c0, &c1) / vv).clamp(p.t0, p.t1) } else { p.t0 };
+    [p.t0, t, p.t1]
+        .iter()
+        .map(|&t| c0.iter().zip(&c1).map(|(a, b)| (a + b * t).powi(2)).sum::<f64>().sqrt())
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn check_summary_agrees(kernel: &SceneKernel, pieces: &[Piece], delta: &RiskLevel, method: Method) -> Vec<bool> {
+    let every = VerifyOptions { method, settings: SosSettings::default(), ..Default::default() };
+    let full = verify_with(kernel, pieces, delta, &every, &|| false).unwrap();
+    let summary = VerifyOptions { detail: Detail::FirstNotSafe, ..every.clone() };
+    let short = verify_with(kernel, pieces, delta, &summary, &|| false).unwrap();
+    let safe: Vec<bool> = full.report.pieces.iter().map(|p| p.safe).collect();
+    assert_eq!(safe.len(), pieces.len());
+    let not_safe: Vec<usize> = (0..safe.len()).filter(|&i| !safe[i]).collect();
+    assert_eq!(full.not_safe_indices, not_safe, "{method:?}: the full report's indices");
+    assert_eq!(short.not_safe_indices, not_safe, "{method:?}: the summary decides as the full report");
+    assert_eq!((short.report.checked, short.report.not_safe), (pieces.len(), not_safe.len()));
+    assert_eq!(short.report.first_not_safe, not_safe.first().copied());
+    assert_eq!(short.report.pieces.len(), usize::from(!not_safe.is_empty()), "the summary reports one piece");
+    if let (Some(first), Some(&i)) = (short.report.pieces.first(), not_safe.first()) {
+        assert_eq!(first, &full.report.pieces[i]);
+    }
+    assert_eq!(full.report.safe, not_safe.is_empty());
+    safe
+}
+
+/// illustrative-3, exact and SOS: every piece called safe keeps its distance from the
+/// disk's centre ≥ 0.39 (the true risk ≤ Δ = 0.1), and about half the pieces are unsafe.
+#[test]
+fn verify_safe_pieces_keep_off_the_disk_in_closed_form() {
+    let s = scene("illustrative-3");
+    let delta = s.risk.clone();
+    let n = size("verify_fast_pieces", INDEX_MIN_PIECES + 200, 10_000);
+    let pieces = random_pieces(n, -1.0, 1.0, 21);
+    let kernel = SceneKernel::new(Arc::new(s));
+    for method in [Method::Exact, Method::Sos] {
+        let safe = check_summary_agrees(&kernel, &pieces, &delta, method);
+        let n_safe = safe.iter().filter(|&&b| b).count();
+        assert!(n_safe > n / 4 && n_safe < 3 * n / 4, "{method:?}: {n_safe} of {n} safe (about half expected)");
+        for (p, _) in pieces.iter().zip(&safe).filter(|(_, &s)| s) {
+            let d = min_distance(p);
+            // the disk's Δ-radius is 0.39; a piece certified safe stays outside it
+            assert!(d >= 0.39 - 1e-9, "{method:?}: certified piece comes within {d} of the centre: {p:?}");
+        }
+    }
+}
+
+/// d1 (Gaussian disks, index with covers): the sampled oracle accepts every piece the
+/// fast verify path calls safe, and the summary decides as the full report.
+#[test]
+fn verify_safe_pieces_pass_the_independent_oracle_on_d1() {
+    let s = scene("example-d1-cluttered-2d");
+    let delta = s.risk.clone();
+    let n = size("verify_fast_d1_pieces", INDEX_MIN_PIECES + 100, 4_000);
+    let pieces = random_pieces(n, 0.0, 5.0, 5);
+    let kernel = SceneKernel::new(Arc::new(s.clone()));
+    let safe = check_summary_agrees(&kernel, &pieces, &delta, Method::Exact);
+    let bounds = oracle::bound_oracle(&s);
+    let mut checked = 0;
+    for (p, _) in pieces.iter().zip(&safe).filter(|(_, &s)| s) {
+        oracle::check_piece_with(&s, p, &delta, 64, Some(&bounds)).unwrap_or_else(|e| panic!("{e}"));
+        checked += 1;
+    }
+    assert!(checked > 0, "no random piece of d1 was safe");
+}
