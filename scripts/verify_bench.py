@@ -4,14 +4,16 @@
 Measures, on this host and in one run:
 
 * the CLI, end to end: `riskplan verify` of a random trajectory of N pieces (default
-  10 000) on illustrative-3, with the exact and the SOS method, default (pretty) report
-  written to a pipe; per piece = (median time of N pieces − median time of 1 piece) /
+  10 000) on illustrative-3, with the exact and the SOS method, the full (pretty) report
+  and `--summary`, written to a pipe; per piece = (median time of N pieces − median time of 1 piece) /
   (N − 1), so that process start, scene loading and the contours' compilation are
   excluded;
 * the service over Zenoh: one `verify` query of a random trajectory of M pieces (default
-  100 000) on d1 (`summary: true`), and one batch of M independent segments, through the
-  Python client against `riskplan serve` on loopback: cold (the first query after the
-  scene arrived) and warm (median of the next --reps);
+  100 000) on d1 (`summary: true`) against `riskplan serve` on loopback — with the Rust
+  client (`riskplan client verify --summary`, bincode; the query's time is the CLI's wall
+  time less that of a one-piece query, and the server's own time is read from its log),
+  and with the Python client (JSON), the trajectory and a batch of M independent
+  segments: cold (the first query after the scene arrived) and warm (median of --reps);
 * the Python peers of `scripts/sos_peers.py` (a hand-written Clarabel program and cvxpy
   with Clarabel, per piece), when their wheels are installed.
 
@@ -82,14 +84,16 @@ def cli_rows(a, env, tmp: Path):
     for name, pieces in (("big", big), ("one", small)):
         (tmp / f"{name}.json").write_text(json.dumps({"format": "riskplan-trajectory/1", "pieces": pieces}))
     for method in ("exact", "sos"):
-        base = [a.bin, "verify", "--scene", str(scene), "--method", method, "--trajectory"]
-        t1, _ = timed(base + [str(tmp / "one.json")], env, a.reps)
-        tn, out = timed(base + [str(tmp / "big.json")], env, a.reps)
-        report = json.loads(out)
-        unsafe = sum(1 for p in report["pieces"] if not p["safe"])
-        rows.append({"method": method, "pieces": a.pieces, "not_safe": unsafe,
-                     "median_s": round(tn, 4), "one_piece_median_s": round(t1, 4),
-                     "per_piece_us": round((tn - t1) / (a.pieces - 1) * 1e6, 2)})
+        for report_kind in ("full", "summary"):
+            base = [a.bin, "verify", "--scene", str(scene), "--method", method]
+            base += ["--summary"] if report_kind == "summary" else []
+            base += ["--trajectory"]
+            t1, _ = timed(base + [str(tmp / "one.json")], env, a.reps)
+            tn, out = timed(base + [str(tmp / "big.json")], env, a.reps)
+            report = json.loads(out)
+            rows.append({"method": method, "report": report_kind, "pieces": a.pieces, "not_safe": report["not_safe"],
+                         "output_bytes": len(out), "median_s": round(tn, 4), "one_piece_median_s": round(t1, 4),
+                         "per_piece_us": round((tn - t1) / (a.pieces - 1) * 1e6, 2)})
     return rows
 
 
@@ -126,8 +130,27 @@ def zenoh_rows(a, env, tmp: Path):
         traj = {"format": "riskplan-trajectory/1", "pieces": pieces}
         segs = [{"from": pts[i], "to": pts[i + 1], "t0": times[i], "t1": times[i + 1]} for i in range(len(pieces))]
         rows = {}
+        # the Rust client (bincode): the CLI's wall time, less that of a one-piece query
+        # (process start, connection, discovery); the server's own time from its log
+        (tmp / "z_big.json").write_text(json.dumps(traj))
+        (tmp / "z_one.json").write_text(json.dumps({"format": traj["format"], "pieces": [
+            {"t0": 0.0, "t1": 1.0, "coeffs": pieces[0]["coeffs"]}]}))
+        cl = [a.bin, "client", "--endpoint", ep, "verify", "--scene", "d1", "--summary", "--trajectory"]
+        log_at = len(log.read_text())
+        first = time.perf_counter()
+        subprocess.run(cl + [str(tmp / "z_big.json")], stdout=subprocess.DEVNULL, env=env)
+        cold = time.perf_counter() - first
+        tn, _ = timed(cl + [str(tmp / "z_big.json")], env, a.reps)
+        t1, _ = timed(cl + [str(tmp / "z_one.json")], env, a.reps)
+        served = [float(line.split("duration_ms=")[1].split()[0]) / 1e3
+                  for line in log.read_text()[log_at:].splitlines() if "kind=verify" in line and "duration_ms=" in line]
+        rows["rust_client_trajectory"] = {
+            "pieces": a.zenoh_pieces, "cold_wall_s": round(cold, 3), "warm_wall_median_s": round(tn, 3),
+            "one_piece_wall_median_s": round(t1, 3), "query_s": round(tn - t1, 3),
+            "server_cold_s": round(served[0], 3) if served else None,
+            "server_warm_median_s": round(statistics.median(served[1:a.reps + 1]), 3) if len(served) > 1 else None}
         with riskplan.Client(ep, timeout=60) as c:
-            for kind, kw in (("trajectory", {"trajectory": traj}), ("segments", {"segments": segs})):
+            for kind, kw in (("python_client_trajectory", {"trajectory": traj}), ("python_client_segments", {"segments": segs})):
                 lat = []
                 reply = None
                 for i in range(a.reps + 1):
