@@ -110,3 +110,37 @@ fn verify_safe_pieces_pass_the_independent_oracle_on_d1() {
     }
     assert!(checked > 0, "no random piece of d1 was safe");
 }
+
+/// A piece outside the horizon is checked against every obstacle, whatever the index says
+/// (review of issue 21: with 16 obstacles or more the index files a moving obstacle by
+/// its slabs, which end with the horizon, so one that is out of the workspace until then
+/// was skipped for a later piece). Only the library takes such pieces: the CLI and the
+/// service refuse them as input.
+#[test]
+fn pieces_after_the_horizon_are_not_skipped_by_the_index() {
+    let mut obstacles: Vec<String> = (0..16)
+        .map(|i| {
+            let (x, y) = (0.5 + 3.0 * (i % 4) as f64, 0.5 + 3.0 * (i / 4) as f64);
+            format!(r#"{{"id": "s{i}", "poly": "w^2 - (x1 - {x})^2 - (x2 - {y})^2"}}"#)
+        })
+        .collect();
+    // out of the workspace during the horizon [0, 1]; at x1 = 5 at t = 1.75
+    obstacles.push(r#"{"id": "late", "poly": "w^2 - (x1 - (-10 + 20*(t - 1)))^2 - (x2 - 5)^2"}"#.into());
+    let text = format!(
+        r#"{{"format": "riskplan-scene/1", "name": "late", "dim": 2,
+            "workspace": {{"lower": [0, 0], "upper": [10, 10]}}, "horizon": [0, 1], "risk": 0.1,
+            "params": {{"w": {{"dist": "uniform", "low": 0.2, "high": 0.3}}}},
+            "obstacles": [{}], "start": [2, 2], "goal": [8, 8]}}"#,
+        obstacles.join(", ")
+    );
+    let s = riskplan::scene::Scene::from_json(&text).unwrap();
+    let delta = s.risk.clone();
+    let kernel = SceneKernel::new(Arc::new(s.clone()));
+    let index = kernel.index(&vec![delta.clone(); s.obstacles.len()], &|| false);
+    assert!(index.complete());
+    // x1 = 5 from x2 = 0 to 10 over [1.5, 2]: the late obstacle crosses it at t = 1.75
+    let piece = Piece::segment(&[5.0, 0.0], &[5.0, 10.0], 1.5, 2.0);
+    let r = verify_with(&kernel, std::slice::from_ref(&piece), &delta, &VerifyOptions::default(), &|| false).unwrap();
+    let late = r.report.pieces[0].obstacles.iter().find(|o| o.id == "late").unwrap();
+    assert!(!r.report.safe && late.status != riskplan::verify::Status::Safe, "{late:?}");
+}

@@ -308,7 +308,10 @@ impl SceneIndex {
     pub fn candidates(&self, bbox: Option<&[(f64, f64)]>, t0: f64, t1: f64, out: &mut Vec<usize>) {
         out.clear();
         let n = self.covers.len();
-        let Some(bbox) = bbox else {
+        // the covers say nothing outside the horizon either (a moving obstacle's slabs
+        // end there, and the grid files it only by them): every obstacle then
+        let in_horizon = self.horizon.0 <= t0 && t0 <= t1 && t1 <= self.horizon.1;
+        let (Some(bbox), true) = (bbox, in_horizon) else {
             out.extend(0..n);
             return;
         };
