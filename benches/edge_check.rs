@@ -95,7 +95,7 @@ fn bench(c: &mut Criterion) {
         let es = edges(&s, 5.0, 256, 2);
         let t = std::time::Instant::now();
         let cert = certifier(s);
-        eprintln!("disks-{n}: covers built in {:.3} s ({} cells)", t.elapsed().as_secs_f64(), cert.index().cells);
+        eprintln!("disks-{n}: covers built in {:.3} s ({} cells)", t.elapsed().as_secs_f64(), cert.index().cells());
         let sizes: Vec<f64> = cert.index().cover_hulls().iter().flatten().map(|h| h[0].1 - h[0].0).collect();
         let mut c = Vec::new();
         let mut total = 0;

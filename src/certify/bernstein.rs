@@ -287,17 +287,56 @@ fn bernstein_interval_into(a: &[Interval], out: &mut [Interval]) {
 const TABLE_DEGREE: usize = 64;
 
 /// An enclosure of `1/C(n, i)`: from a table built once for `n ≤ TABLE_DEGREE`, and from
-/// exact integers above.
+/// exact integers above. The table's rows are built from exact 128-bit binomials
+/// ([`reciprocal_enclosure`]); building it with rationals cost milliseconds, paid by the
+/// first proof of every process (a CLI call's first plan).
 fn reciprocal_binomial(n: usize, i: usize) -> Interval {
-    static TABLE: OnceLock<Vec<Interval>> = OnceLock::new();
-    let enclose = |n: usize, i: usize| Interval::enclose_rational(&BigRational::new(BigInt::one(), binomial_big(n, i)));
+    static ROWS: [OnceLock<Vec<Interval>>; TABLE_DEGREE + 1] = [const { OnceLock::new() }; TABLE_DEGREE + 1];
     if n > TABLE_DEGREE {
-        return enclose(n, i);
+        return Interval::enclose_rational(&BigRational::new(BigInt::one(), binomial_big(n, i)));
     }
-    let table = TABLE.get_or_init(|| {
-        (0..=TABLE_DEGREE).flat_map(|n| (0..=n).map(move |i| (n, i))).map(|(n, i)| enclose(n, i)).collect()
+    // one row per degree, on first use (a process proves at a few degrees only)
+    let row = ROWS[n].get_or_init(|| {
+        // C(n, i) by C(n, i+1) = C(n, i)·(n−i)/(i+1): exact, and below 2^63 for n ≤ 64
+        let mut c: u128 = 1;
+        (0..=n)
+            .map(|i| {
+                let r = reciprocal_enclosure(c as u64);
+                c = c * (n - i) as u128 / (i + 1) as u128;
+                r
+            })
+            .collect()
     });
-    table[n * (n + 1) / 2 + i]
+    row[i]
+}
+
+/// The tightest float interval around `1/c` for an integer `c ≥ 1`: the quotient in
+/// floating point, moved to the floats on either side of `1/c` by comparing `r·c` with 1
+/// exactly in integers (`r = m·2^(−k)` with a 53-bit `m` and `k ≤ 116`, so `m·c < 2^128`).
+fn reciprocal_enclosure(c: u64) -> Interval {
+    if c <= 1 {
+        return Interval::point(1.0);
+    }
+    // sign of r·c − 1 for a positive float r ≤ 1 (r ≥ 2^−64 here: normal)
+    let cmp = |r: f64| -> std::cmp::Ordering {
+        let bits = r.to_bits();
+        let exp = ((bits >> 52) & 0x7ff) as i64;
+        let mant = (bits & ((1u64 << 52) - 1)) | (1u64 << 52);
+        let k = 1075 - exp; // r = mant·2^(−k), 52 ≤ k ≤ 116 for 2^−64 ≤ r ≤ 1
+        (mant as u128 * c as u128).cmp(&(1u128 << k))
+    };
+    let r = 1.0 / c as f64;
+    let mut lo = r;
+    while cmp(lo) == std::cmp::Ordering::Greater {
+        lo = lo.next_down();
+    }
+    while cmp(lo.next_up()) != std::cmp::Ordering::Greater {
+        lo = lo.next_up();
+    }
+    if cmp(lo) == std::cmp::Ordering::Equal {
+        return Interval::point(lo);
+    }
+    Interval::new(lo, lo.next_up())
 }
 
 /// `C(n, k)` exactly.
@@ -532,6 +571,22 @@ mod tests {
 
     fn binom(n: usize, k: usize) -> BigRational {
         BigRational::from_integer(binomial_big(n, k))
+    }
+
+    /// The table of reciprocal binomials, built in integers, is the tightest enclosure of
+    /// each exact rational 1/C(n, i) (the oracle: rationals, as the table was built before).
+    #[test]
+    fn reciprocal_binomials_are_the_tightest_enclosures() {
+        for n in 0..=TABLE_DEGREE + 2 {
+            for i in 0..=n {
+                let exact = BigRational::new(BigInt::one(), binomial_big(n, i));
+                assert_eq!(reciprocal_binomial(n, i), Interval::enclose_rational(&exact), "1/C({n}, {i})");
+            }
+        }
+        for c in [3u64, 7, 1 << 40, (1 << 53) + 1, u64::MAX / 3, (1 << 62) - 1] {
+            let exact = BigRational::new(BigInt::one(), BigInt::from(c));
+            assert_eq!(reciprocal_enclosure(c), Interval::enclose_rational(&exact), "1/{c}");
+        }
     }
 
     /// `Σ b_k C(n,k) τ^k (1−τ)^(n−k)` at `t`.

@@ -572,12 +572,10 @@ fn two_sum(a: f64, b: f64) -> (f64, f64) {
 /// conversion), `None` otherwise: a value lost to underflow, subnormal, or overflowed.
 pub fn round_for_model(q: &BigRational) -> Option<(f64, u32)> {
     let v = crate::poly::rational_to_f64(q);
-    let exact = BigRational::from_float(v)?;
-    if &exact == q {
+    if crate::poly::cmp_float_rational(v, q)? == std::cmp::Ordering::Equal {
         return Some((v, 0));
     }
-    let within = || (&exact - q).abs() * BigRational::from_integer((1u64 << 53).into()) <= q.abs();
-    (v.abs() >= MODEL_FLOOR && within()).then_some((v, 1))
+    (v.abs() >= MODEL_FLOOR && crate::poly::float_within_rounding(v, q)).then_some((v, 1))
 }
 
 /// The frame of the compiled variables (docs/design.md §5.10): centred and scaled by
@@ -1068,18 +1066,17 @@ fn max_const(n: &Node) -> f64 {
 /// `p(c + 2^e·z)`: the polynomial in the compiled variables of `frame`, exactly.
 pub fn to_frame(p: &QPoly, frame: &Frame) -> QPoly {
     let two = BigRational::from_integer(2.into());
-    let subs: Vec<Option<Poly<BigRational>>> = frame
+    let maps: Vec<Option<(BigRational, BigRational)>> = frame
         .center
         .iter()
         .zip(&frame.exponents)
-        .enumerate()
-        .map(|(v, (&c, &e))| {
+        .map(|(&c, &e)| {
             let c = BigRational::from_float(c).unwrap_or_default();
             let l: BigRational = num_traits::Pow::pow(&two, e);
-            (!(c.is_zero() && l.is_one())).then(|| Poly::var(v as crate::poly::Var).scale(&l).add(&Poly::constant(c)))
+            (!(c.is_zero() && l.is_one())).then_some((c, l))
         })
         .collect();
-    p.subst(&|v| subs.get(v as usize).cloned().flatten())
+    crate::poly::affine_subst(p, &maps)
 }
 
 /// `∂p/∂x_v`, exactly.
@@ -1136,6 +1133,24 @@ impl CompiledContour {
             second: Compiled::new(&to_frame(&contour.second, frame), nv),
             bounds: std::sync::OnceLock::new(),
         }
+    }
+
+    /// Whether Cantelli's two constraints of eq. (15) are proven at the point `xt`
+    /// (space, then time; floats used exactly) by interval evaluation of the compiled
+    /// E\[P\] and E\[P²\]: `E[P] < 0` and `E[P]² − (1−Δ)·E[P²] > 0` with `1−Δ` enclosed in
+    /// `one_minus_delta`. `false` means not proven here (the caller decides exactly).
+    pub fn proves_point(&self, xt: &[f64], one_minus_delta: Interval) -> bool {
+        if xt.len() != self.frame.len() || xt.iter().any(|v| !v.is_finite()) {
+            return false;
+        }
+        let z = self.frame.point_coords(xt);
+        let m = self.mean.eval_box(&z);
+        // (a NaN bound fails both comparisons: not proven)
+        if m.hi.is_nan() || m.hi >= 0.0 {
+            return false;
+        }
+        let g1 = m * m - one_minus_delta * self.second.eval_box(&z);
+        g1.lo > 0.0
     }
 
     /// The compiled bounds beyond Cantelli of `contour` (the contour this was compiled

@@ -221,7 +221,7 @@ impl RiskContour {
     /// The constraints `g1`, `g2` at risk level Δ (§3.2).
     pub fn constraints(&self, delta: &BigRational) -> Constraints {
         let one_minus = BigRational::one() - delta;
-        Constraints { cantelli: self.mean.mul(&self.mean).sub(&self.second.scale(&one_minus)), mean: self.mean.neg() }
+        Constraints { cantelli: crate::poly::square_minus_scaled(&self.mean, &self.second, &one_minus), mean: self.mean.neg() }
     }
 
     /// E\[P\] and E\[P²\] with outward-rounded interval coefficients (each encloses the

@@ -52,9 +52,9 @@ impl Interval {
                 Interval { lo: f64::NEG_INFINITY, hi: f64::MIN }
             };
         }
-        match BigRational::from_float(f) {
-            Some(exact) if &exact == r => Interval::point(f),
-            Some(exact) if &exact < r => Interval { lo: f, hi: f.next_up() },
+        match super::ring::cmp_float_rational(f, r) {
+            Some(std::cmp::Ordering::Equal) => Interval::point(f),
+            Some(std::cmp::Ordering::Less) => Interval { lo: f, hi: f.next_up() },
             _ => Interval { lo: f.next_down(), hi: f },
         }
     }

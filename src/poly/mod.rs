@@ -8,18 +8,20 @@
 //! (composition), evaluation, degree per variable, the expectation operator E[·]
 //! over independent parameters (§2.3), and printing that [`parse`] reads back.
 
+mod affine;
 mod interval;
 mod parse;
 mod ring;
 mod univariate;
 
+pub use affine::{affine_subst, square_minus_scaled};
 pub use interval::Interval;
 pub use parse::{
     parse, parse_with_budget, product_cost, PolyError, VarResolver, MAX_EXPONENT, MAX_NESTING, MAX_PARSE_DEGREE,
     MAX_PARSE_TERMS, MAX_PARSE_WORK,
 };
 pub use ring::{
-    f64_shortest_decimal, f64_to_rational, parse_decimal, parse_num_text, rational_to_f64, Ring, MAX_DECIMAL_DIGITS,
+    cmp_float_rational, float_within_rounding, f64_shortest_decimal, f64_to_rational, parse_decimal, parse_num_text, rational_to_f64, Ring, MAX_DECIMAL_DIGITS,
     MAX_DECIMAL_EXPONENT,
 };
 pub use univariate::UPoly;
@@ -536,11 +538,14 @@ pub type QPoly = Poly<BigRational>;
 /// `p(x + c)`: the polynomial in centred variables, exactly (`c[v]` for variables
 /// `0..c.len()`).
 pub fn shift(p: &QPoly, c: &[f64]) -> QPoly {
-    let cs: Vec<BigRational> = c.iter().map(|&v| BigRational::from_float(v).unwrap_or_default()).collect();
-    p.subst(&|v| {
-        let v_ = v as usize;
-        (v_ < cs.len() && !cs[v_].is_zero()).then(|| Poly::var(v).add(&Poly::constant(cs[v_].clone())))
-    })
+    let maps: Vec<Option<(BigRational, BigRational)>> = c
+        .iter()
+        .map(|&v| {
+            let c = BigRational::from_float(v).unwrap_or_default();
+            (!num_traits::Zero::is_zero(&c)).then(|| (c, BigRational::from_integer(1.into())))
+        })
+        .collect();
+    affine_subst(p, &maps)
 }
 
 #[cfg(test)]

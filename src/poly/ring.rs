@@ -115,6 +115,44 @@ pub fn rational_to_f64(r: &BigRational) -> f64 {
     }
 }
 
+/// The order of the finite float `v` against the rational `q` (`v.cmp(q)`), exactly, in
+/// integers: `v = m·2^e`, `q = n/d` with `d > 0`, so `v ⋚ q ⟺ m·2^e·d ⋚ n` (the power of
+/// two moved to the side where it is an integer). No gcd: converting a rational to its
+/// enclosure this way costs a few integer products instead of the reduced rational
+/// arithmetic of `BigRational::from_float(v) == q`. `None` for a NaN or infinite `v`.
+pub fn cmp_float_rational(v: f64, q: &BigRational) -> Option<std::cmp::Ordering> {
+    let (m, e) = float_parts(v)?;
+    let (n, d) = (q.numer(), q.denom());
+    Some(if e >= 0 { ((m * d) << e as usize).cmp(n) } else { (m * d).cmp(&(n << (-e) as usize)) })
+}
+
+/// Whether the float `v` is within one relative rounding of the nonzero rational `q`:
+/// `|v − q|·2^53 ≤ |q|`, exactly, in integers (as [`cmp_float_rational`]).
+pub fn float_within_rounding(v: f64, q: &BigRational) -> bool {
+    let Some((m, e)) = float_parts(v) else { return false };
+    let (n, d) = (q.numer(), q.denom());
+    // |m·2^e·d − n|·2^53 ≤ |n|, both sides times 2^(−e) when e < 0
+    let (lhs, rhs) = if e >= 0 { ((m * d) << e as usize, n.clone()) } else { (m * d, n << (-e) as usize) };
+    ((lhs - &rhs).abs() << 53usize) <= rhs.abs()
+}
+
+/// `v = m·2^e` exactly, for a finite float (`m` a signed integer of at most 53 bits).
+fn float_parts(v: f64) -> Option<(BigInt, i64)> {
+    if !v.is_finite() {
+        return None;
+    }
+    if v == 0.0 {
+        return Some((BigInt::zero(), 0));
+    }
+    let bits = v.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i64;
+    let frac = bits & ((1u64 << 52) - 1);
+    // subnormals: exponent field 0, no implicit bit, scale 2^(−1074)
+    let (mant, e) = if exp == 0 { (frac, -1074) } else { (frac | (1u64 << 52), exp - 1075) };
+    let m = BigInt::from(mant);
+    Some((if v < 0.0 { -m } else { m }, e))
+}
+
 /// The exact rational value of a finite `f64` (every finite float is a dyadic rational).
 /// Returns `None` for NaN and ±∞.
 pub fn f64_to_rational(f: f64) -> Option<BigRational> {
@@ -207,6 +245,46 @@ mod tests {
 
     fn q(n: i64, d: i64) -> BigRational {
         BigRational::new(n.into(), d.into())
+    }
+
+    use proptest::prelude::*;
+
+    /// Rationals of any scale: n/d · 10^k, k from −330 to 330 (subnormal to overflow).
+    fn rational() -> impl Strategy<Value = BigRational> {
+        (-1_000_000_000i64..1_000_000_000, 1i64..1_000_000_000, -330i32..330).prop_map(|(n, d, k)| {
+            let ten = BigRational::from_integer(10.into());
+            q(n, d) * num_traits::Pow::pow(&ten, k)
+        })
+    }
+
+    proptest! {
+        /// The integer comparisons agree with reduced rational arithmetic (the oracle) at
+        /// the nearest float and its neighbours, subnormals and zero included.
+        #[test]
+        fn float_rational_comparisons_agree_with_rationals(r in rational(), step in 0usize..3) {
+            let mut v = rational_to_f64(&r);
+            for _ in 0..step {
+                v = v.next_up();
+            }
+            let exact = BigRational::from_float(v);
+            prop_assert_eq!(cmp_float_rational(v, &r), exact.as_ref().map(|e| e.cmp(&r)));
+            if let (Some(e), false) = (exact, Zero::is_zero(&r)) {
+                let within = (&e - &r).abs() * BigRational::from_integer((1u64 << 53).into()) <= r.abs();
+                prop_assert_eq!(float_within_rounding(v, &r), within);
+            }
+        }
+    }
+
+    #[test]
+    fn float_rational_comparisons_at_the_edges() {
+        assert_eq!(cmp_float_rational(0.0, &q(0, 1)), Some(std::cmp::Ordering::Equal));
+        assert_eq!(cmp_float_rational(-0.0, &q(1, 3)), Some(std::cmp::Ordering::Less));
+        let tiny = BigRational::from_float(f64::from_bits(1)).unwrap();
+        assert_eq!(cmp_float_rational(f64::from_bits(1), &tiny), Some(std::cmp::Ordering::Equal));
+        assert_eq!(cmp_float_rational(f64::MAX, &BigRational::from_float(f64::MAX).unwrap()), Some(std::cmp::Ordering::Equal));
+        assert_eq!(cmp_float_rational(f64::INFINITY, &q(1, 1)), None);
+        assert!(float_within_rounding(0.1, &q(1, 10)));
+        assert!(!float_within_rounding(0.1f64.next_up().next_up(), &q(1, 10)));
     }
 
     #[test]

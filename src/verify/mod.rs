@@ -465,7 +465,8 @@ pub const MAX_VERIFY_PIECES: usize = 200_000;
 /// a static obstacle's cover costs about as much as checking it on a few hundred pieces
 /// (`riskplan bench`), and a verify call with fewer pieces checks every obstacle on
 /// every piece instead. A kernel that holds the index (the service's, once a plan or a
-/// large verify built it) always uses it.
+/// large verify made it) always uses the covers it has built (a plan on a small scene
+/// builds them on demand: `certify::scene::LAZY_MAX_OBSTACLES`).
 pub const INDEX_MIN_PIECES: usize = 512;
 
 /// Verifies `pieces` (a trajectory's, or independent segments: each piece is decided on
@@ -495,7 +496,11 @@ pub fn verify_with(
     let use_index = opts.method == Method::Exact
         && (opts.bounds.beyond_cantelli() || scene.obstacles.iter().all(|o| o.pedestrian.is_none()));
     let index = if use_index {
-        kernel.peek_index(cert.deltas()).or_else(|| (pieces.len() >= INDEX_MIN_PIECES).then(|| kernel.index(cert.deltas(), stop)))
+        if pieces.len() >= INDEX_MIN_PIECES {
+            Some(kernel.index(cert.deltas(), stop))
+        } else {
+            kernel.peek_index(cert.deltas())
+        }
     } else {
         None
     };

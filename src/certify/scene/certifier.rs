@@ -3,7 +3,7 @@
 
 use super::decide::{combine, point_obstacle_safe_at, point_status, Method, PointStatus, Status};
 use super::framed::piece_passes_verify_path;
-use super::index::{piece_bbox, SceneIndex};
+use super::index::{piece_bbox, SceneIndex, LAZY_MAX_OBSTACLES};
 use super::kernel::{CompiledSet, SceneKernel};
 use super::workspace::{check_workspace, inside_by_box};
 use crate::certify::fast::Substitution;
@@ -48,6 +48,9 @@ pub struct SceneCertifier {
     levels: Vec<Level>,
     /// Each pedestrian's tail threshold κ at its Δᵢ (docs/design.md §3.11).
     kappas: Vec<Option<f64>>,
+    /// Whether the checker builds covers (all at once on large scenes, each obstacle's
+    /// on demand on small ones: [`LAZY_MAX_OBSTACLES`]).
+    build_covers: bool,
 }
 
 impl SceneCertifier {
@@ -93,6 +96,7 @@ impl SceneCertifier {
             bounds: BoundChoice::default(),
             levels,
             kappas,
+            build_covers: true,
         }
     }
 
@@ -127,12 +131,11 @@ impl SceneCertifier {
     /// piece (sound either way). For planners that check a handful of pieces, for
     /// which building the covers (milliseconds per moving obstacle) would cost more
     /// than it saves.
-    pub fn without_index_build(self) -> Self {
-        let index = self
-            .kernel
-            .peek_index(&self.deltas)
-            .unwrap_or_else(|| Arc::new(SceneIndex::build(&self.scene, &self.deltas, &|| true)));
+    pub fn without_index_build(mut self) -> Self {
+        let index =
+            self.kernel.peek_index(&self.deltas).unwrap_or_else(|| Arc::new(SceneIndex::lazy(&self.scene, &self.deltas, &[])));
         let _ = self.index.set(index);
+        self.build_covers = false;
         self
     }
 
@@ -141,9 +144,21 @@ impl SceneCertifier {
         &self.deltas
     }
 
-    /// The index, built (without interruption) if [`MotionChecker::prepare`] did not.
+    /// The index, built (without interruption) if [`MotionChecker::prepare`] did not:
+    /// on a scene of fewer than [`LAZY_MAX_OBSTACLES`] obstacles with the covers built on
+    /// demand (docs/design.md §5.10).
     pub fn index(&self) -> &Arc<SceneIndex> {
-        self.index.get_or_init(|| self.kernel.index(&self.deltas, &|| false))
+        self.index_until(&|| false)
+    }
+
+    fn index_until(&self, stop: &dyn Fn() -> bool) -> &Arc<SceneIndex> {
+        self.index.get_or_init(|| {
+            if self.scene.obstacles.len() < LAZY_MAX_OBSTACLES {
+                self.kernel.lazy_index(&self.deltas)
+            } else {
+                self.kernel.index(&self.deltas, stop)
+            }
+        })
     }
 
     /// Whether obstacle `i` is proven safe on a piece (`subs`: the piece's centred
@@ -299,7 +314,7 @@ impl MotionChecker for SceneCertifier {
         if !self.fast {
             return;
         }
-        let _ = self.index.get_or_init(|| self.kernel.index(&self.deltas, &|| term.expired()));
+        let _ = self.index_until(&|| term.expired());
     }
 
     fn check(&self, piece: &Piece) -> Motion {
@@ -330,7 +345,22 @@ impl MotionChecker for SceneCertifier {
             return Motion::Rejected;
         }
         let mut cands = Vec::new();
-        self.index().candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
+        let index = self.index();
+        let mut due = Vec::new();
+        let mut count = |i: usize| {
+            if self.build_covers && index.note_direct_check(i) {
+                due.push(i);
+            }
+        };
+        index.candidates_in(bbox.as_deref(), piece.t0, piece.t1, &mut cands, &mut count);
+        if !due.is_empty() {
+            // obstacles checked often enough to pay for their covers: built now, and the
+            // candidates found again with them
+            for &i in &due {
+                index.ensure(&self.scene, i, &|| false);
+            }
+            index.candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
+        }
         // the compiled substitution, for the candidates that use it (not the pedestrians
         // decided by their tail bound)
         let tail_only = self.bounds.beyond_cantelli();

@@ -214,6 +214,13 @@ pub fn point_obstacle_safe_at(
         return crate::certify::tail::piece_clear_exact(p, delta.rational(), pr).is_safe();
     }
     let one_minus = BigRational::from_integer(1.into()) - delta.rational();
+    // the compiled moments in interval arithmetic first (sound; the exact evaluation
+    // below decides what they leave open)
+    if let Some((c, x)) = compiled {
+        if c.proves_point(x, Interval::enclose_rational(&one_minus)) {
+            return true;
+        }
+    }
     let r = o.contour.risk_at(xt);
     let g1 = &r.mean * &r.mean - &one_minus * &r.second_moment;
     if r.mean.is_negative() && g1.is_positive() {

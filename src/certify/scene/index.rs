@@ -92,10 +92,27 @@ fn pedestrian_covers(p: &crate::scene::Pedestrian, kappa: f64, horizon: (f64, f6
     ObstacleCovers { slabs: Some(Arc::new(slabs)), timeless: false }
 }
 
-/// Covers and a grid for one scene and one risk level per obstacle.
+/// Below this many obstacles an index builds each obstacle's covers lazily: the motion
+/// checker decides an obstacle without covers directly (about a microsecond on the
+/// compiled restriction) and asks for its covers only after [`LAZY_COVER_CHECKS`]
+/// pieces were checked against it, so that a cold plan pays for the covers of the
+/// obstacles its edges keep meeting, not for all (docs/design.md §5.10). From this many
+/// on every cover is built at once, and the grid over them.
+pub const LAZY_MAX_OBSTACLES: usize = GRID_MIN_OBSTACLES;
+
+/// Direct checks of one obstacle after which its covers are built: a static obstacle's
+/// covers cost about as much as a few hundred direct checks of it (0.3–1 ms against
+/// 1–3 µs measured on the reference scenes), the rule of ski rental.
+pub const LAZY_COVER_CHECKS: u32 = 256;
+
+/// Covers and a grid for one scene and one risk level per obstacle. Each obstacle's
+/// covers are built once, on demand ([`SceneIndex::ensure`]) or all at once
+/// ([`SceneIndex::ensure_all`]); an obstacle without covers is always a candidate.
 #[derive(Debug)]
 pub struct SceneIndex {
-    covers: Vec<ObstacleCovers>,
+    covers: Vec<std::sync::OnceLock<ObstacleCovers>>,
+    /// Pieces checked directly against each obstacle that has no covers yet.
+    checks: Vec<std::sync::atomic::AtomicU32>,
     /// Each obstacle's contour cell and risk level the covers were built for (to take
     /// them over in the next revision of the scene when both are unchanged). The cells
     /// are held, so that their identities cannot be reused by other contours.
@@ -103,11 +120,11 @@ pub struct SceneIndex {
     lower: Vec<f64>,
     upper: Vec<f64>,
     horizon: (f64, f64),
-    grid: Option<Grid>,
-    /// Seconds spent building the covers.
-    pub build_seconds: f64,
+    grid: std::sync::OnceLock<Grid>,
+    /// Nanoseconds spent building the covers.
+    build_nanos: std::sync::atomic::AtomicU64,
     /// Cells evaluated.
-    pub cells: usize,
+    cells: std::sync::atomic::AtomicUsize,
 }
 
 #[derive(Debug)]
@@ -174,109 +191,111 @@ impl SceneIndex {
         stop: &dyn Fn() -> bool,
         previous: &[Arc<SceneIndex>],
     ) -> SceneIndex {
-        let start = std::time::Instant::now();
+        let index = SceneIndex::lazy(scene, deltas, previous);
+        index.ensure_all(scene, stop);
+        index
+    }
+
+    /// An index with no covers built but those of unchanged obstacles taken from
+    /// `previous` (as [`SceneIndex::build_reusing`]); the rest are built by
+    /// [`SceneIndex::ensure`] and [`SceneIndex::ensure_all`].
+    pub fn lazy(scene: &Scene, deltas: &[RiskLevel], previous: &[Arc<SceneIndex>]) -> SceneIndex {
         let same_box = |p: &SceneIndex| {
             p.lower == scene.workspace.lower && p.upper == scene.workspace.upper && p.horizon == scene.horizon
         };
         let previous: Vec<&Arc<SceneIndex>> = previous.iter().filter(|p| same_box(p)).collect();
         let mut keys = Vec::with_capacity(scene.obstacles.len());
-        let ws = &scene.workspace;
-        let center = scene.center();
-        let (h0, h1) = scene.horizon;
-        let mut cells = 0;
         let mut covers = Vec::with_capacity(scene.obstacles.len());
         for (o, delta) in scene.obstacles.iter().zip(deltas) {
             let key = (o.contour.clone(), delta.clone());
             let reused = previous.iter().find_map(|p| {
                 let j = p.keys.iter().position(|k| k.0.key() == key.0.key() && k.1 == key.1)?;
-                p.covers[j].slabs.is_some().then(|| p.covers[j].clone())
+                p.covers[j].get().filter(|c| c.slabs.is_some()).cloned()
             });
             keys.push(key);
+            let cell = std::sync::OnceLock::new();
             if let Some(c) = reused {
-                covers.push(c);
-                continue;
+                let _ = cell.set(c);
             }
-            if stop() {
-                covers.push(ObstacleCovers { slabs: None, timeless: false });
-                continue;
-            }
-            if let Some(p) = &o.pedestrian {
-                match tail_kappa(p.disk.dim(), delta.rational()) {
-                    Some(k) => covers.push(pedestrian_covers(p, k, scene.horizon)),
-                    None => covers.push(ObstacleCovers { slabs: None, timeless: false }),
-                }
-                continue;
-            }
-            let dynamic = o.is_dynamic();
-            let mut split: Vec<bool> = vec![true; scene.dim];
-            split.push(dynamic);
-            let slab_times: Vec<(f64, f64)> = if dynamic {
-                (0..TIME_SLABS)
-                    .map(|k| {
-                        let a = if k == 0 { h0 } else { h0 + (h1 - h0) * k as f64 / TIME_SLABS as f64 };
-                        let b =
-                            if k + 1 == TIME_SLABS { h1 } else { h0 + (h1 - h0) * (k + 1) as f64 / TIME_SLABS as f64 };
-                        (a, b)
-                    })
-                    .collect()
-            } else {
-                vec![(center[scene.dim], center[scene.dim])]
-            };
-            let mut slabs = Vec::with_capacity(slab_times.len());
-            let mut static_bounds = None;
-            let mut stopped = false;
-            for t in slab_times {
-                // a moving obstacle's slabs are the largest step between two questions
-                if dynamic && stop() {
-                    stopped = true;
-                    break;
-                }
-                let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
-                region.push(t);
-                // centre the bounds near the obstacle: interval bounds of a polynomial
-                // expanded around a far point lose to cancellation
-                let build = || {
-                    let c = obstacle_center(&o.contour, &region);
-                    ConstraintBounds::new(&o.contour, delta.rational(), &c)
-                };
-                let bounds = if dynamic { build() } else { static_bounds.get_or_insert_with(build).clone() };
-                let (cover, st) = unsafe_cover(&bounds, &region, &split);
-                cells += st.cells;
-                let cover = match cover {
-                    Cover::Empty => None,
-                    Cover::Box(mut b) => {
-                        b.truncate(scene.dim);
-                        Some(b)
-                    }
-                };
-                slabs.push(Slab { t, cover });
-            }
-            // an obstacle left without all its slabs is always checked
-            covers.push(ObstacleCovers { slabs: (!stopped).then(|| Arc::new(slabs)), timeless: !dynamic });
+            covers.push(cell);
         }
-        let grid = (scene.obstacles.len() >= GRID_MIN_OBSTACLES).then(|| build_grid(scene, &covers));
+        let checks = (0..covers.len()).map(|_| std::sync::atomic::AtomicU32::new(0)).collect();
         SceneIndex {
             covers,
+            checks,
             keys,
             horizon: scene.horizon,
-            lower: ws.lower.clone(),
-            upper: ws.upper.clone(),
-            grid,
-            build_seconds: start.elapsed().as_secs_f64(),
-            cells,
+            lower: scene.workspace.lower.clone(),
+            upper: scene.workspace.upper.clone(),
+            grid: std::sync::OnceLock::new(),
+            build_nanos: Default::default(),
+            cells: Default::default(),
         }
+    }
+
+    /// Builds every obstacle's covers not built yet, asking `stop` between obstacles (and
+    /// between a moving obstacle's slabs); once all are built and the scene has
+    /// [`GRID_MIN_OBSTACLES`] or more, the grid over them. `scene` must be the scene the
+    /// index was made for.
+    pub fn ensure_all(&self, scene: &Scene, stop: &dyn Fn() -> bool) {
+        for i in 0..self.covers.len() {
+            if stop() {
+                return;
+            }
+            self.ensure(scene, i, stop);
+        }
+        if self.complete() && self.covers.len() >= GRID_MIN_OBSTACLES {
+            let _ = self.grid.get_or_init(|| build_grid(scene, &self.covers));
+        }
+    }
+
+    /// Builds obstacle `i`'s covers if they are not built (`stop` asked between a moving
+    /// obstacle's slabs; covers cut short are not kept, the obstacle stays a candidate).
+    pub fn ensure(&self, scene: &Scene, i: usize, stop: &dyn Fn() -> bool) {
+        if self.covers[i].get().is_some() {
+            return;
+        }
+        let start = std::time::Instant::now();
+        let (covers, cells) = obstacle_covers(scene, i, self.keys[i].1.rational(), stop);
+        self.cells.fetch_add(cells, std::sync::atomic::Ordering::Relaxed);
+        let nanos = u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        self.build_nanos.fetch_add(nanos, std::sync::atomic::Ordering::Relaxed);
+        if covers.slabs.is_some() {
+            let _ = self.covers[i].set(covers);
+        }
+    }
+
+    /// Counts one direct check of obstacle `i` (a candidate without covers); `true` when
+    /// its covers are due ([`LAZY_COVER_CHECKS`]).
+    pub fn note_direct_check(&self, i: usize) -> bool {
+        self.checks[i].fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1 == LAZY_COVER_CHECKS
+    }
+
+    /// Whether obstacle `i` has its covers.
+    pub fn has_covers(&self, i: usize) -> bool {
+        self.covers[i].get().is_some()
+    }
+
+    /// Seconds spent building covers so far.
+    pub fn build_seconds(&self) -> f64 {
+        self.build_nanos.load(std::sync::atomic::Ordering::Relaxed) as f64 * 1e-9
+    }
+
+    /// Cells evaluated by the cover searches so far.
+    pub fn cells(&self) -> usize {
+        self.cells.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Whether every obstacle has its covers (an index cut short by its `stop` has not).
     pub fn complete(&self) -> bool {
-        self.covers.iter().all(|c| c.slabs.is_some())
+        self.covers.iter().all(|c| c.get().is_some_and(|c| c.slabs.is_some()))
     }
 
     /// Whether obstacle `i` may be skipped for a piece whose spatial bounding box is
     /// `bbox` (inside the workspace) on `[t0, t1]`: its cover misses the box in every
     /// slab the piece spans.
     fn skippable(&self, i: usize, bbox: &[(f64, f64)], t0: f64, t1: f64) -> bool {
-        let c = &self.covers[i];
+        let Some(c) = self.covers[i].get() else { return false };
         let Some(slabs) = &c.slabs else { return false };
         if c.timeless {
             return slabs.iter().all(|s| s.cover.as_ref().is_none_or(|b| !overlaps(b, bbox)));
@@ -306,6 +325,19 @@ impl SceneIndex {
     /// box of the piece. **The caller must have proven that the piece stays in the
     /// workspace** (the covers say nothing outside it); `None`: every obstacle.
     pub fn candidates(&self, bbox: Option<&[(f64, f64)]>, t0: f64, t1: f64, out: &mut Vec<usize>) {
+        self.candidates_in(bbox, t0, t1, out, &mut |_| {});
+    }
+
+    /// [`SceneIndex::candidates`], calling `uncovered(i)` for each candidate that has no
+    /// covers (to count its direct checks).
+    pub fn candidates_in(
+        &self,
+        bbox: Option<&[(f64, f64)]>,
+        t0: f64,
+        t1: f64,
+        out: &mut Vec<usize>,
+        uncovered: &mut dyn FnMut(usize),
+    ) {
         out.clear();
         let n = self.covers.len();
         // the covers say nothing outside the horizon either (a moving obstacle's slabs
@@ -322,8 +354,17 @@ impl SceneIndex {
             .map(|(&(lo, hi), (&l, &u))| (lo.max(l), hi.min(u)))
             .collect();
         let bbox = clipped.as_slice();
-        match &self.grid {
-            None => out.extend((0..n).filter(|&i| !self.skippable(i, bbox, t0, t1))),
+        match self.grid.get() {
+            None => {
+                for i in 0..n {
+                    if !self.has_covers(i) {
+                        uncovered(i);
+                        out.push(i);
+                    } else if !self.skippable(i, bbox, t0, t1) {
+                        out.push(i);
+                    }
+                }
+            }
             Some(g) => {
                 let range = g.cell_range(&self.lower, bbox);
                 g.for_each_cell(&range, |c| out.extend(g.cells[c].iter().map(|&i| i as usize)));
@@ -341,7 +382,7 @@ impl SceneIndex {
         self.covers
             .iter()
             .map(|c| {
-                let boxes: Vec<&Vec<(f64, f64)>> = c.slabs.as_ref()?.iter().filter_map(|s| s.cover.as_ref()).collect();
+                let boxes: Vec<&Vec<(f64, f64)>> = c.get()?.slabs.as_ref()?.iter().filter_map(|s| s.cover.as_ref()).collect();
                 let mut h = (*boxes.first()?).clone();
                 for b in &boxes[1..] {
                     for (x, y) in h.iter_mut().zip(b.iter()) {
@@ -356,8 +397,69 @@ impl SceneIndex {
 
     /// Obstacles with a cover that is not the whole workspace (for statistics).
     pub fn filtered(&self) -> usize {
-        self.covers.iter().filter(|c| c.slabs.is_some()).count()
+        self.covers.iter().filter(|c| c.get().is_some_and(|c| c.slabs.is_some())).count()
     }
+}
+
+/// Obstacle `i`'s covers at risk level `delta` and the cells its search evaluated:
+/// a pedestrian's from its tail bound (§3.11), a static obstacle's one cover for all
+/// time, a moving obstacle's per time slab ([`TIME_SLABS`], `stop` asked between
+/// slabs; cut short, no slabs: always checked).
+fn obstacle_covers(
+    scene: &Scene,
+    i: usize,
+    delta: &num_rational::BigRational,
+    stop: &dyn Fn() -> bool,
+) -> (ObstacleCovers, usize) {
+    let o = &scene.obstacles[i];
+    let ws = &scene.workspace;
+    let (h0, h1) = scene.horizon;
+    if let Some(p) = &o.pedestrian {
+        return match tail_kappa(p.disk.dim(), delta) {
+            Some(k) => (pedestrian_covers(p, k, scene.horizon), 0),
+            None => (ObstacleCovers { slabs: None, timeless: false }, 0),
+        };
+    }
+    let center = scene.center();
+    let dynamic = o.is_dynamic();
+    let mut split: Vec<bool> = vec![true; scene.dim];
+    split.push(dynamic);
+    let slab_times: Vec<(f64, f64)> = if dynamic {
+        (0..TIME_SLABS)
+            .map(|k| {
+                let a = if k == 0 { h0 } else { h0 + (h1 - h0) * k as f64 / TIME_SLABS as f64 };
+                let b = if k + 1 == TIME_SLABS { h1 } else { h0 + (h1 - h0) * (k + 1) as f64 / TIME_SLABS as f64 };
+                (a, b)
+            })
+            .collect()
+    } else {
+        vec![(center[scene.dim], center[scene.dim])]
+    };
+    let mut slabs = Vec::with_capacity(slab_times.len());
+    let mut cells = 0;
+    for t in slab_times {
+        // a moving obstacle's slabs are the largest step between two questions
+        if dynamic && stop() {
+            return (ObstacleCovers { slabs: None, timeless: false }, cells);
+        }
+        let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
+        region.push(t);
+        // centre the bounds near the obstacle: interval bounds of a polynomial expanded
+        // around a far point lose to cancellation
+        let c = obstacle_center(&o.contour, &region);
+        let bounds = ConstraintBounds::new(&o.contour, delta, &c);
+        let (cover, st) = unsafe_cover(&bounds, &region, &split);
+        cells += st.cells;
+        let cover = match cover {
+            Cover::Empty => None,
+            Cover::Box(mut b) => {
+                b.truncate(scene.dim);
+                Some(b)
+            }
+        };
+        slabs.push(Slab { t, cover });
+    }
+    (ObstacleCovers { slabs: Some(Arc::new(slabs)), timeless: !dynamic }, cells)
 }
 
 /// Points per dimension of the grid on which [`obstacle_center`] looks for the largest
@@ -389,7 +491,7 @@ pub fn obstacle_center(contour: &crate::contour::RiskContour, region: &[(f64, f6
     best.1
 }
 
-fn build_grid(scene: &Scene, covers: &[ObstacleCovers]) -> Grid {
+fn build_grid(scene: &Scene, covers: &[std::sync::OnceLock<ObstacleCovers>]) -> Grid {
     let ws = &scene.workspace;
     let dim = scene.dim;
     let total = (covers.len() * GRID_CELLS_PER_OBSTACLE).clamp(1, GRID_MAX_CELLS);
@@ -398,7 +500,7 @@ fn build_grid(scene: &Scene, covers: &[ObstacleCovers]) -> Grid {
     let size: Vec<f64> = (0..dim).map(|d| (ws.upper[d] - ws.lower[d]) / per as f64).collect();
     let mut grid = Grid { n, size, cells: vec![Vec::new(); per.pow(dim as u32)], always: Vec::new() };
     for (i, c) in covers.iter().enumerate() {
-        let Some(slabs) = &c.slabs else {
+        let Some(slabs) = c.get().and_then(|c| c.slabs.as_ref()) else {
             grid.always.push(i as u32);
             continue;
         };

@@ -132,22 +132,33 @@ impl SceneKernel {
         v.iter().find(|(d, _)| d == deltas).map(|e| e.1.clone())
     }
 
-    /// The index at `deltas`, built if absent (asking `stop` between obstacles); kept
-    /// only when complete, among the last `INDEXES_PER_SCENE`.
+    /// The index at `deltas` with every obstacle's covers built (asking `stop` between
+    /// obstacles; what a stop leaves unbuilt is built by a later call). Kept among the
+    /// last [`INDEXES_PER_SCENE`].
     pub fn index(&self, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> Arc<SceneIndex> {
+        let index = self.lazy_index(deltas);
+        index.ensure_all(&self.inner.scene, stop);
+        index
+    }
+
+    /// The index at `deltas`, made if absent with no covers built but those taken over
+    /// from the previous revision (its obstacles' covers are built on demand:
+    /// [`SceneIndex::ensure`]). Kept among the last [`INDEXES_PER_SCENE`].
+    pub fn lazy_index(&self, deltas: &[RiskLevel]) -> Arc<SceneIndex> {
         if let Some(i) = self.peek_index(deltas) {
             return i;
         }
-        let built = Arc::new(SceneIndex::build_reusing(&self.inner.scene, deltas, stop, &self.inner.previous));
-        if built.complete() {
-            if let Ok(mut v) = self.inner.indexes.lock() {
-                v.retain(|(d, _)| d != deltas);
-                if v.len() >= INDEXES_PER_SCENE {
-                    v.remove(0);
-                }
-                v.push((deltas.to_vec(), built.clone()));
+        let made = Arc::new(SceneIndex::lazy(&self.inner.scene, deltas, &self.inner.previous));
+        if let Ok(mut v) = self.inner.indexes.lock() {
+            if let Some(e) = v.iter().find(|(d, _)| d == deltas) {
+                // made meanwhile by another thread: share it
+                return e.1.clone();
             }
+            if v.len() >= INDEXES_PER_SCENE {
+                v.remove(0);
+            }
+            v.push((deltas.to_vec(), made.clone()));
         }
-        built
+        made
     }
 }

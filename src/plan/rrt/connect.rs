@@ -207,8 +207,9 @@ impl Planner for ConnectRrt {
         // more candidate paths (fresh trees), each within a few times the first's time:
         // the shortest after shortcutting is kept (a tree may find a long way round)
         let mut others = Vec::new();
+        // the time to the first certified path: before the other candidates are grown
+        let first = t_start.elapsed();
         if found.is_some() && !direct && self.params.kinematics.smooth {
-            let first = t_start.elapsed();
             for _ in 1..self.params.candidates {
                 let sub = term.clone().earliest((first * CANDIDATE_TIME_FACTOR).max(MIN_CANDIDATE_TIME));
                 match self.grow(p, step, &ok, &mut rng, &sub, &mut stats, &mut tree_edges) {
@@ -220,7 +221,7 @@ impl Planner for ConnectRrt {
         let mut trajectory = None;
         let mut reason = None;
         if let Some(points) = found {
-            stats.time_to_feasible_s = Some(t_start.elapsed().as_secs_f64());
+            stats.time_to_feasible_s = Some(first.as_secs_f64());
             stats.feasible_path_length = Some(points.windows(2).map(|w| dist(&w[0], &w[1])).sum());
             let timed = time_at_constant_speed(&points, p.horizon);
             // a re-check of the very pieces returned (a sampling checker's re-check would
