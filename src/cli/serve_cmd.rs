@@ -15,7 +15,8 @@ const SHUTDOWN_GRACE: Duration = Duration::from_secs(1);
 /// and scenes are persisted under --data. Queries (apply, plan, verify, risk, status)
 /// are answered concurrently; certification and planning run on a bounded pool of
 /// --workers threads, and a query that finds --queue jobs already waiting is answered
-/// at once with the error "busy". Stops cleanly on SIGINT or SIGTERM.
+/// at once with the error "busy". Stops cleanly on SIGINT or SIGTERM. With --metrics,
+/// Prometheus metrics are served over HTTP as well.
 #[derive(Args, Debug)]
 pub struct ServeArgs {
     /// A Zenoh JSON5 configuration file (the flags below override it).
@@ -66,6 +67,14 @@ pub struct ServeArgs {
     /// given by --connect, as the servers of deploy/cluster do).
     #[arg(long, value_parser = ["peer", "client"])]
     mode: Option<String>,
+    /// Serve Prometheus metrics on this address: GET http://ADDR/metrics answers the
+    /// OpenMetrics text exposition (request counts, outcomes and latencies per kind, queue
+    /// depth, running jobs, scenes and their revisions, cache hits and misses, build info;
+    /// listed in proto/README.md, "Metrics"). An IP and a port, e.g. 127.0.0.1:9464 (port 0:
+    /// any free port; the address is printed on stderr). Off by default: no listener. The
+    /// endpoint has no authentication: keep it on loopback or a trusted network.
+    #[arg(long, value_name = "ADDR")]
+    metrics: Option<std::net::SocketAddr>,
 }
 
 /// Run a Zenoh router for a cluster of servers and their clients (deploy/cluster):
@@ -181,6 +190,7 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
         listen,
         replica: a.replica,
         server_id: a.server_id,
+        metrics: a.metrics,
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()

@@ -152,3 +152,27 @@ impl From<PlanError> for ServiceError {
 pub fn invalid(field: &str, message: impl Into<String>) -> ServiceError {
     ServiceError::InvalidRequest { message: message.into(), field: Some(field.to_string()) }
 }
+
+/// What can stop the metrics endpoint (`serve --metrics ADDR`) from starting: the
+/// server does not start without it (the flag asked for it).
+#[derive(Debug, Error)]
+pub enum MetricsError {
+    /// The address cannot be listened on (in use, not this host's, a privileged port).
+    #[error("--metrics {addr}: cannot listen for metrics scrapes: {source}")]
+    Bind {
+        /// The address asked for.
+        addr: std::net::SocketAddr,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The listener's own address cannot be read back (to print it).
+    #[error("--metrics {addr}: the listening socket has no address: {source}")]
+    LocalAddr {
+        /// The address asked for.
+        addr: std::net::SocketAddr,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+}

@@ -6,7 +6,7 @@ use super::proto::{
     ApplyRequest, EmbeddedJson, PlanReply, PlanRequest, RiskReply, RiskRequest, Segment, VerifyReply, VerifyRequest,
     MAX_GRID_SIDE, MAX_RISK_POINTS, MAX_VERIFY_PIECES,
 };
-use super::registry::{Entry, Registry};
+use super::registry::{Entry, KernelStats, Registry};
 use crate::app::{self, PlannerKind};
 use crate::contour::{BoundChoice, BoundKind, RiskLevel};
 use crate::scene::{Piece, Trajectory, TRAJECTORY_FORMAT};
@@ -139,7 +139,13 @@ pub fn plan(
         Some(rho) => registry.with_body(entry, rho)?,
         None => entry.kernel.clone(),
     };
-    let (problem, out) = request.run(&kernel, Some(cancel))?;
+    // `request.run`, in its two steps, so that whether the kernel held the scene index
+    // at the plan's risk levels is seen before the planner (the metrics: `registry.kernels`)
+    let mut prepared = request.prepare(&kernel)?;
+    let held = prepared.kernel.peek_index(&prepared.deltas).is_some();
+    let solved = prepared.solve(&request.termination(Some(cancel)));
+    registry.kernels.covers(held);
+    let (problem, out) = (prepared.problem, solved?);
     if let (Some(id), Some(t)) = (req.robot_id.as_deref(), out.trajectory.as_ref()) {
         registry.keep_robot_plan(&entry.scene.name, id, Arc::new(t.clone()));
     }
@@ -205,6 +211,17 @@ fn segment_piece(scene: &crate::scene::Scene, s: &Segment, field: &str) -> Resul
 /// planners' checker ([`verify_with`], docs/design.md §5.10); with `summary`, only the
 /// first piece not safe gets a report.
 pub fn verify_request(entry: &Entry, req: &VerifyRequest, deadline: Instant) -> Result<VerifyReply, ServiceError> {
+    verify_observed(entry, req, deadline, None)
+}
+
+/// [`verify_request`], counting in `stats` (when given) whether the scene's kernel held
+/// the covers at the request's risk level before the check, and after it.
+pub fn verify_observed(
+    entry: &Entry,
+    req: &VerifyRequest,
+    deadline: Instant,
+    stats: Option<&KernelStats>,
+) -> Result<VerifyReply, ServiceError> {
     let scene = &entry.scene;
     let batch = req.segments.is_some();
     let pieces: std::borrow::Cow<'_, [Piece]> = match (&req.trajectory, &req.segment, &req.segments) {
@@ -240,8 +257,14 @@ pub fn verify_request(entry: &Entry, req: &VerifyRequest, deadline: Instant) -> 
     let bounds = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
     let detail = if req.summary.unwrap_or(false) { Detail::FirstNotSafe } else { Detail::Every };
     let opts = VerifyOptions { method, settings: Default::default(), bounds, detail };
-    let out = verify_with(&entry.kernel, &pieces, &delta, &opts, &|| Instant::now() >= deadline)
-        .map_err(|_| ServiceError::DeadlineExceeded(format!("verifying {} pieces", pieces.len())))?;
+    // the risk levels `verify_with` checks at (its covers' key)
+    let deltas = stats.map(|_| vec![delta.clone(); scene.obstacles.len()]);
+    let held = deltas.as_ref().is_some_and(|d| entry.kernel.peek_index(d).is_some());
+    let out = verify_with(&entry.kernel, &pieces, &delta, &opts, &|| Instant::now() >= deadline);
+    if let Some(s) = stats {
+        s.covers(held);
+    }
+    let out = out.map_err(|_| ServiceError::DeadlineExceeded(format!("verifying {} pieces", pieces.len())))?;
     let r = out.report;
     Ok(VerifyReply {
         safe: r.safe,

@@ -4,7 +4,8 @@
 //! never computing on the async runtime.
 //!
 //! Feature `proto` builds the messages, errors, registry and handlers alone (no
-//! transport, no async); `service` adds the Zenoh server and client.
+//! transport, no async); `service` adds the Zenoh server and client, and the opt-in
+//! Prometheus metrics with their HTTP endpoint (`serve --metrics`).
 
 // Internal parts (the `internal!` macro of lib.rs): the fuzz targets and the tests
 // use the handlers, the registry and the store directly, with `test-support`.
@@ -22,6 +23,10 @@ internal! {
 }
 #[cfg(feature = "service")]
 mod jobs;
+#[cfg(feature = "service")]
+mod metrics;
+#[cfg(feature = "service")]
+mod metrics_http;
 pub mod proto;
 #[cfg(feature = "service")]
 mod puts;
@@ -36,7 +41,7 @@ mod state;
 
 #[cfg(feature = "service")]
 pub use client::{Client, ClientError};
-pub use error::ServiceError;
+pub use error::{MetricsError, ServiceError};
 #[cfg(feature = "service")]
 /// Threads for writes besides the workers (see `jobs`).
 pub use jobs::WRITE_LANES;

@@ -3,20 +3,22 @@
 //! thread, so the loop that receives messages never waits for one.
 
 use super::error::ServiceError;
+use super::metrics;
 use super::proto::{Codec, ObstaclePut, MAX_PAYLOAD_BYTES};
 use super::replication;
 use super::routes::{Route, RouteError};
 use super::state::State;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
+use std::time::Instant;
 use tracing::{info, warn};
 use zenoh::sample::SampleKind;
 
 /// Puts and deletes waiting for the put worker before new ones are dropped.
 pub(crate) const PUT_QUEUE: usize = 256;
 
-/// A put or delete as received: key expression, kind, payload.
-pub(crate) type PutMsg = (String, SampleKind, Vec<u8>);
+/// A put or delete as received: key expression, kind, payload, and when it arrived.
+pub(crate) type PutMsg = (String, SampleKind, Vec<u8>, Instant);
 
 /// The put worker: applies puts and deletes one after another, in arrival order, on
 /// a blocking thread, so that the loop receiving messages never waits for one. It
@@ -31,9 +33,9 @@ pub(crate) fn spawn_put_worker(
             warn!("loading the stored scenes failed: {e}");
             state.ready.store(true, Ordering::SeqCst);
         }
-        while let Some((key, kind, bytes)) = rx.recv().await {
+        while let Some((key, kind, bytes, arrived)) = rx.recv().await {
             let st = state.clone();
-            if let Err(e) = tokio::task::spawn_blocking(move || handle_put(&st, &key, kind, &bytes)).await {
+            if let Err(e) = tokio::task::spawn_blocking(move || handle_put(&st, &key, kind, &bytes, arrived)).await {
                 warn!("put handler failed: {e}");
             }
         }
@@ -42,18 +44,21 @@ pub(crate) fn spawn_put_worker(
 }
 
 /// `riskplan/scenes/<scene>` and `.../obstacles/<id>` puts and deletes (a replica:
-/// `riskplan/_replication/scenes/<scene>` puts), logged and counted.
-fn handle_put(state: &State, key: &str, kind: SampleKind, bytes: &[u8]) {
+/// `riskplan/_replication/scenes/<scene>` puts), logged and counted (the metrics: from
+/// `arrived`, queue time included).
+fn handle_put(state: &State, key: &str, kind: SampleKind, bytes: &[u8], arrived: Instant) {
     let route = Route::parse(key);
     let span = tracing::info_span!("put", key = %key);
     let _g = span.enter();
     match apply_put(state, key, route, kind, bytes) {
         Ok(rev) => {
             state.count("put", true);
+            state.record(metrics::PUT, metrics::OK, arrived.elapsed());
             info!(revision = ?rev, "applied");
         }
         Err(e) => {
             state.count("put", false);
+            state.record(metrics::PUT, e.code(), arrived.elapsed());
             warn!(code = e.code(), "put rejected: {e}");
         }
     }

@@ -4,6 +4,7 @@
 
 use super::error::ServiceError;
 use super::handlers;
+use super::metrics;
 use super::proto::*;
 use super::replication;
 use super::routes::{query_log_fields, Route, RouteError};
@@ -66,6 +67,8 @@ pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<
         };
         let ok = result.is_ok();
         state.count(kind, ok);
+        // before the reply: a client that scrapes after its reply finds it counted
+        state.record(kind, result.as_ref().map_or_else(ServiceError::code, |_| metrics::OK), t0.elapsed());
         let span = tracing::Span::current();
         span.record("duration_ms", t0.elapsed().as_secs_f64() * 1e3);
         let sent = match result {
@@ -245,7 +248,15 @@ async fn dispatch(
             let entry = entry_at_least(state, scene, min, arrival, deadline(req.deadline_ms)).await?;
             let rev = entry.revision;
             let until = deadline(req.deadline_ms);
-            let reply = state.jobs.run(until, move || handlers::verify_request(&entry, &req, until)).await?;
+            // the covers are looked at for the metrics only (a verify may take microseconds)
+            let st = state.clone();
+            let observe = state.metrics.is_some();
+            let reply = state
+                .jobs
+                .run(until, move || {
+                    handlers::verify_observed(&entry, &req, until, observe.then_some(&st.registry.kernels))
+                })
+                .await?;
             Ok((codec.encode(&reply), Some(rev)))
         }
         Some(Route::Risk { scene }) => {

@@ -9,6 +9,7 @@ use super::store::Store;
 use crate::certify::scene::SceneKernel;
 use crate::scene::{ContourCache, Scene};
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 
 /// Most changes in one `apply` (a scene holds at most `scene::MAX_OBSTACLES` = 512
@@ -102,6 +103,66 @@ pub struct Registry {
     /// Scenes grown by a request's robot body, by (scene, revision, radius bits); the
     /// last [`MAX_BODY_KERNELS`].
     bodies: Mutex<Vec<(BodyKey, SceneKernel)>>,
+    /// What the scenes' kernels found cached and built (the metrics of `serve --metrics`).
+    pub kernels: KernelStats,
+}
+
+/// What the kernels of the scenes (their proven covers, the grown-body kernels) found
+/// cached and what they built, as the service observes it (`serve --metrics`,
+/// proto/README.md "Metrics"). Counters only: recording is an atomic add.
+#[derive(Debug, Default)]
+pub struct KernelStats {
+    covers_hits: AtomicU64,
+    covers_misses: AtomicU64,
+    body_hits: AtomicU64,
+    body_misses: AtomicU64,
+}
+
+/// The counts of [`KernelStats`] at one moment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct KernelCounts {
+    /// Plan and verify jobs whose scene kernel held the scene index at the job's risk
+    /// levels when the job started (on a scene of fewer than 16 obstacles an index
+    /// builds each obstacle's covers on demand: `certify::scene::LAZY_MAX_OBSTACLES`).
+    pub covers_hits: u64,
+    /// Plan and verify jobs whose scene kernel did not.
+    pub covers_misses: u64,
+    /// Obstacles' proven covers built and kept by the process, over every scene and
+    /// risk level ([`crate::certify::scene::covers_built_total`]; a build cut short by a
+    /// deadline is not kept, nor counted).
+    pub covers_built: u64,
+    /// Requests with a robot body other than the scene's whose grown kernel was kept.
+    pub body_hits: u64,
+    /// Requests with a robot body other than the scene's whose grown kernel was not
+    /// kept: built (or refused, when the body does not fit the scene).
+    pub body_misses: u64,
+}
+
+impl KernelStats {
+    /// Counts one plan or verify job on a kernel that held the scene index at its risk
+    /// levels when it started (`before`) or not.
+    pub fn covers(&self, before: bool) {
+        let add = |c: &AtomicU64| {
+            c.fetch_add(1, Ordering::Relaxed);
+        };
+        if before {
+            add(&self.covers_hits);
+        } else {
+            add(&self.covers_misses);
+        }
+    }
+
+    /// The counts now.
+    pub fn counts(&self) -> KernelCounts {
+        let get = |c: &AtomicU64| c.load(Ordering::Relaxed);
+        KernelCounts {
+            covers_hits: get(&self.covers_hits),
+            covers_misses: get(&self.covers_misses),
+            covers_built: crate::certify::scene::covers_built_total(),
+            body_hits: get(&self.body_hits),
+            body_misses: get(&self.body_misses),
+        }
+    }
 }
 
 /// A grown scene's key: (scene, revision, the body radius's bits).
@@ -153,6 +214,7 @@ impl Registry {
             problems: Mutex::new(Vec::new()),
             robots: Mutex::new(std::collections::HashMap::new()),
             bodies: Mutex::new(Vec::new()),
+            kernels: KernelStats::default(),
         }
     }
 
@@ -193,8 +255,10 @@ impl Registry {
         }
         let key = (entry.scene.name.clone(), entry.revision, rho.to_bits());
         if let Some(k) = self.bodies.lock().map_err(internal)?.iter().find(|e| e.0 == key).map(|e| e.1.clone()) {
+            self.kernels.body_hits.fetch_add(1, Ordering::Relaxed);
             return Ok(k);
         }
+        self.kernels.body_misses.fetch_add(1, Ordering::Relaxed);
         let grown = entry.scene.with_body(rho, &self.cache).map_err(|e| bad(e.to_string()))?;
         let kernel = SceneKernel::new(Arc::new(grown));
         let mut v = self.bodies.lock().map_err(internal)?;

@@ -3,9 +3,12 @@
 //! (`queries.rs`), one subscriber on `riskplan/scenes/**` for puts and deletes
 //! (`puts.rs`), replication between a primary and its replicas (`replication.rs`), a
 //! bounded blocking job pool for computation (`jobs.rs`), start-up, readiness and
-//! clean shutdown on SIGINT/SIGTERM (`startup.rs`).
+//! clean shutdown on SIGINT/SIGTERM (`startup.rs`), and with `--metrics` the Prometheus
+//! metrics (`metrics.rs`) and their HTTP endpoint (`metrics_http.rs`).
 
 use super::jobs::{Cancels, Jobs};
+use super::metrics::{Metrics, DROPPED, PUT};
+use super::metrics_http;
 use super::puts::{spawn_put_worker, PUT_QUEUE};
 use super::registry::Registry;
 use super::replication::{spawn_publisher, spawn_sync};
@@ -14,6 +17,7 @@ use super::startup::{declare, early_keys, load_scenes, serve_queries, serve_when
 use super::state::State;
 use super::store::Store;
 use std::collections::BTreeMap;
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -48,11 +52,26 @@ pub struct ServerConfig {
     /// The server's id (`None`: a random one): its liveliness token and own keys
     /// (proto/README.md, "Discovery").
     pub server_id: Option<String>,
+    /// Serve Prometheus metrics over HTTP on this address (`GET /metrics`; proto/README.md
+    /// "Metrics"); `None`: no metrics, no listener.
+    pub metrics: Option<SocketAddr>,
 }
 
 /// Runs the server until SIGINT or SIGTERM.
 pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
     let store = Store::open(&cfg.data).map_err(|e| format!("--data {}: {e}", cfg.data.display()))?;
+    // the metrics' listener first: an address that cannot be listened on stops the start
+    let scrapes = match cfg.metrics {
+        Some(addr) => Some(metrics_http::bind(addr).await.map_err(|e| e.to_string())?),
+        None => None,
+    };
+    let server_id = match &cfg.server_id {
+        Some(id) if super::routes::valid_server_id(id) => id.clone(),
+        Some(id) => return Err(format!("--server-id '{id}': use 1 to 64 characters from 0-9 a-z A-Z _ -")),
+        None => format!("{:016x}", rand::random::<u64>()),
+    };
+    let role = if cfg.replica { "replica" } else { "primary" };
+    let metrics = scrapes.as_ref().map(|_| Arc::new(Metrics::new(role, &server_id)));
     let state = Arc::new(State {
         registry: Registry::new(store),
         jobs: Jobs::new(cfg.workers.max(1), cfg.queue),
@@ -67,13 +86,20 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         loaded: AtomicBool::new(false),
         primary_id: Mutex::new(None),
         replica: cfg.replica,
-        server_id: match &cfg.server_id {
-            Some(id) if super::routes::valid_server_id(id) => id.clone(),
-            Some(id) => return Err(format!("--server-id '{id}': use 1 to 64 characters from 0-9 a-z A-Z _ -")),
-            None => format!("{:016x}", rand::random::<u64>()),
-        },
+        server_id,
         revision_waiters: std::sync::atomic::AtomicUsize::new(0),
+        metrics: metrics.clone(),
     });
+    // Scrapes read the state through a weak reference (the state holds the metrics),
+    // on their own tasks: the loops below never wait for them.
+    let mut scraper = None;
+    if let (Some(m), Some((listener, local))) = (metrics, scrapes) {
+        let weak = Arc::downgrade(&state);
+        m.set_sampler(move || weak.upgrade().map(|st| st.snapshot()));
+        scraper = Some(metrics_http::spawn(listener, m));
+        eprintln!("riskplan: metrics on http://{local}{}", metrics_http::PATH);
+        info!(%local, "metrics endpoint");
+    }
     let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
     // Complete queryables: with several servers behind a router, a query goes to one
     // of them (Zenoh's BestMatching), never to all. Only `status` and `echo` are
@@ -130,11 +156,13 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
             s = subscriber.recv_async() => match s {
                 Ok(sample) => {
                     let key = sample.key_expr().as_str().to_string();
-                    let put = (key, sample.kind(), sample.payload().to_bytes().into_owned());
+                    let arrived = Instant::now();
+                    let put = (key, sample.kind(), sample.payload().to_bytes().into_owned(), arrived);
                     // Never wait here: the put worker applies puts in arrival order; when
                     // its queue is full the put is dropped (puts have no reply) and counted.
                     if let Err(e) = puts.try_send(put) {
                         state.count("put", false);
+                        state.record(PUT, DROPPED, arrived.elapsed());
                         warn!(key = %e.into_inner().0, "put dropped: {PUT_QUEUE} puts are already waiting");
                     }
                 }
@@ -142,7 +170,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
             },
         }
     }
-    for t in &tasks {
+    for t in tasks.iter().chain(&scraper) {
         t.abort();
     }
     let cancelled = state.cancels.cancel_all();

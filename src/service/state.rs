@@ -3,11 +3,12 @@
 //! `puts.rs`, `replication.rs` and `startup.rs` read it.
 
 use super::jobs::{Cancels, Jobs};
+use super::metrics::{Metrics, Snapshot};
 use super::proto::*;
 use super::registry::Registry;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Shared server state.
@@ -39,6 +40,8 @@ pub(crate) struct State {
     pub(crate) server_id: String,
     /// Reads waiting for a revision (`queries::MAX_REVISION_WAITERS` at most).
     pub(crate) revision_waiters: std::sync::atomic::AtomicUsize,
+    /// The Prometheus metrics, when `serve --metrics` asked for them.
+    pub(crate) metrics: Option<Arc<Metrics>>,
 }
 
 impl State {
@@ -51,6 +54,30 @@ impl State {
             } else {
                 e.failed += 1;
             }
+        }
+    }
+
+    /// Records a request of `kind` for the metrics (when on): its outcome (`metrics::OK`,
+    /// an error code, `metrics::DROPPED`) and how long it took.
+    pub(crate) fn record(&self, kind: &'static str, outcome: &'static str, took: Duration) {
+        if let Some(m) = &self.metrics {
+            m.record(kind, outcome, took);
+        }
+    }
+
+    /// What a metrics scrape reads of the server.
+    pub(crate) fn snapshot(&self) -> Snapshot {
+        let (entries, hits, misses) = self.registry.cache.stats();
+        let queue = self.jobs.status();
+        Snapshot {
+            ready: self.ready.load(Ordering::SeqCst),
+            queue_depth: queue.depth,
+            jobs_running: queue.running,
+            workers: queue.workers,
+            queue_capacity: queue.capacity,
+            scenes: self.registry.list().into_iter().map(|(name, revision, _)| (name, revision)).collect(),
+            contours: (entries as u64, hits, misses),
+            kernels: self.registry.kernels.counts(),
         }
     }
 

@@ -3,7 +3,7 @@
 
 use super::decide::{combine, point_obstacle_safe_at, point_status, Method, PointStatus, Status};
 use super::framed::piece_passes_verify_path;
-use super::index::{piece_bbox, SceneIndex, LAZY_MAX_OBSTACLES};
+use super::index::{piece_bbox, piece_sub_boxes, SceneIndex, LAZY_MAX_OBSTACLES};
 use super::kernel::{CompiledSet, SceneKernel};
 use super::workspace::{check_workspace, inside_by_box};
 use crate::certify::fast::Substitution;
@@ -275,6 +275,40 @@ impl SceneCertifier {
 
 }
 
+/// Fewest candidates of a piece's whole box for which the piece is split into parts
+/// ([`SceneCertifier::candidates`]): a direct check of an obstacle costs a few
+/// microseconds, a part's box and lookup a fraction of one, so splitting pays only when
+/// several obstacles may be dropped.
+pub const SPLIT_MIN_CANDIDATES: usize = 3;
+
+/// Most parts per candidate of the whole box when a piece is split.
+pub const SPLIT_PARTS_PER_CANDIDATE: usize = 2;
+
+impl SceneCertifier {
+    /// The obstacles a piece inside the workspace must be checked against (`bbox`: its
+    /// proven bounding box). A long or curved piece's box meets covers its path stays
+    /// clear of: such a piece is split in time into parts
+    /// ([`SceneIndex::sub_pieces_for`]), each with its own proven box, and the candidates
+    /// are those of the parts (the parts cover the piece: sound).
+    fn candidates(&self, index: &SceneIndex, pr: PieceRef<'_>, bbox: Option<&[(f64, f64)]>, out: &mut Vec<usize>) {
+        index.candidates(bbox, pr.t0, pr.t1, out);
+        if out.len() < SPLIT_MIN_CANDIDATES {
+            return;
+        }
+        // parts cost a box and a lookup each: no more than the candidates they may save
+        let k = bbox.map_or(1, |b| index.sub_pieces_for(b)).min(SPLIT_PARTS_PER_CANDIDATE * out.len());
+        let Some(parts) = (k > 1).then(|| piece_sub_boxes(pr, k)).flatten() else { return };
+        out.clear();
+        let mut part = Vec::new();
+        for (b, (a, z)) in &parts {
+            index.candidates(Some(b), *a, *z, &mut part);
+            out.extend_from_slice(&part);
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+}
+
 /// Receives each constraint's name and its verdicts (one per method).
 pub(crate) type Visit<'a> = dyn FnMut(&'static str, &[(&'static str, Verdict)]) + 'a;
 
@@ -346,20 +380,18 @@ impl MotionChecker for SceneCertifier {
         }
         let mut cands = Vec::new();
         let index = self.index();
-        let mut due = Vec::new();
-        let mut count = |i: usize| {
-            if self.build_covers && index.note_direct_check(i) {
-                due.push(i);
+        self.candidates(index, pr, bbox.as_deref(), &mut cands);
+        if self.build_covers {
+            let due: Vec<usize> =
+                cands.iter().copied().filter(|&i| !index.has_covers(i) && index.note_direct_check(i)).collect();
+            if !due.is_empty() {
+                // obstacles checked often enough to pay for their covers: built now, and
+                // the candidates found again with them
+                for &i in &due {
+                    index.ensure(&self.scene, i, &|| false);
+                }
+                self.candidates(index, pr, bbox.as_deref(), &mut cands);
             }
-        };
-        index.candidates_in(bbox.as_deref(), piece.t0, piece.t1, &mut cands, &mut count);
-        if !due.is_empty() {
-            // obstacles checked often enough to pay for their covers: built now, and the
-            // candidates found again with them
-            for &i in &due {
-                index.ensure(&self.scene, i, &|| false);
-            }
-            index.candidates(bbox.as_deref(), piece.t0, piece.t1, &mut cands);
         }
         // the compiled substitution, for the candidates that use it (not the pedestrians
         // decided by their tail bound)

@@ -235,6 +235,7 @@ pub(crate) fn piece_passes_verify_path(
     // the piece's bounding box (outward-rounded Bernstein hull of each coordinate), for
     // the box tests of distant obstacles
     let bbox = near.and_then(|_| interval_hull(pr));
+    let parts = std::cell::OnceCell::new();
     let ped_hull = std::cell::OnceCell::new();
     scene.obstacles.iter().zip(deltas).enumerate().all(|(i, (o, d))| {
         if let (Some(p), true) = (&o.pedestrian, bounds.beyond_cantelli()) {
@@ -247,8 +248,15 @@ pub(crate) fn piece_passes_verify_path(
         }
         let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational()));
         if let (Some((Some(n), g1)), Some(b)) = (near.map(|(n, c)| (&n[i], &c[i])), &bbox) {
-            if n.clears(b, Interval::new(pr.t0, pr.t1), g1.get_or_init(|| n.cantelli(omd))) {
+            let g1 = g1.get_or_init(|| n.cantelli(omd));
+            if n.clears(b, Interval::new(pr.t0, pr.t1), g1) {
                 return true;
+            }
+            // a long or curved piece: its parts' boxes (they cover the piece)
+            if let Some(parts) = parts.get_or_init(|| sub_hulls(pr, FINAL_CHECK_PARTS)) {
+                if parts.iter().all(|(h, t)| n.clears(h, *t, g1)) {
+                    return true;
+                }
             }
         }
         let (cantelli, mean) = framed.restrict(i, o, pr, omd);
@@ -274,6 +282,27 @@ pub(crate) fn piece_passes_verify_path(
             _ => false,
         }
     })
+}
+
+/// Parts in time of a piece whose boxes the final check's box tests try when the whole
+/// piece's box meets an obstacle's test region ([`sub_hulls`]).
+pub const FINAL_CHECK_PARTS: usize = 8;
+
+/// The piece's time interval in `k` parts with each part's hull ([`interval_hull`] of the
+/// same polynomials on the part) and its time interval: consecutive parts share their
+/// floating-point end times, from `t0` to `t1`, so the parts cover the piece. `None` when
+/// a hull is not available.
+fn sub_hulls(pr: PieceRef<'_>, k: usize) -> Option<Vec<(Vec<Interval>, Interval)>> {
+    let (t0, t1) = (pr.t0, pr.t1);
+    let mut out = Vec::with_capacity(k);
+    let mut a = t0;
+    for j in 1..=k {
+        let b = if j == k { t1 } else { (t0 + (t1 - t0) * (j as f64 / k as f64)).clamp(a, t1) };
+        let part = PieceRef { t0: a, t1: b, coeffs: pr.coeffs };
+        out.push((interval_hull(part)?, Interval::new(a, b)));
+        a = b;
+    }
+    Some(out)
 }
 
 /// Whether a pedestrian is cleared for a piece by a box test, in the verify path's own

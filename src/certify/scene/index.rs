@@ -105,6 +105,17 @@ pub const LAZY_MAX_OBSTACLES: usize = GRID_MIN_OBSTACLES;
 /// 1–3 µs measured on the reference scenes), the rule of ski rental.
 pub const LAZY_COVER_CHECKS: u32 = 256;
 
+/// Obstacles' covers built and kept by every index of the process (a count for the
+/// service's metrics, `riskplan_covers_built_total`).
+static COVERS_BUILT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// How many obstacles' covers (all their time slabs) the process has built and kept so
+/// far, over every scene and risk level; covers taken over from a previous revision are
+/// not counted again.
+pub fn covers_built_total() -> u64 {
+    COVERS_BUILT.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Covers and a grid for one scene and one risk level per obstacle. Each obstacle's
 /// covers are built once, on demand ([`SceneIndex::ensure`]) or all at once
 /// ([`SceneIndex::ensure_all`]); an obstacle without covers is always a candidate.
@@ -125,6 +136,8 @@ pub struct SceneIndex {
     build_nanos: std::sync::atomic::AtomicU64,
     /// Cells evaluated.
     cells: std::sync::atomic::AtomicUsize,
+    /// [`SceneIndex::typical_extent`] once every cover is built.
+    extent: std::sync::OnceLock<f64>,
 }
 
 #[derive(Debug)]
@@ -230,6 +243,7 @@ impl SceneIndex {
             grid: std::sync::OnceLock::new(),
             build_nanos: Default::default(),
             cells: Default::default(),
+            extent: std::sync::OnceLock::new(),
         }
     }
 
@@ -260,8 +274,8 @@ impl SceneIndex {
         self.cells.fetch_add(cells, std::sync::atomic::Ordering::Relaxed);
         let nanos = u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX);
         self.build_nanos.fetch_add(nanos, std::sync::atomic::Ordering::Relaxed);
-        if covers.slabs.is_some() {
-            let _ = self.covers[i].set(covers);
+        if covers.slabs.is_some() && self.covers[i].set(covers).is_ok() {
+            COVERS_BUILT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         }
     }
 
@@ -373,6 +387,57 @@ impl SceneIndex {
                 out.dedup();
                 out.retain(|&i| !self.skippable(i, bbox, t0, t1));
             }
+        }
+    }
+
+    /// Whether obstacle `i` may be skipped for a piece (or a part of one) whose proven
+    /// spatial bounding box is `bbox` on `[t0, t1]`, the piece proven inside the workspace
+    /// (as [`SceneIndex::candidates`]): its cover misses the box in every slab spanned.
+    pub fn misses(&self, i: usize, bbox: &[(f64, f64)], t0: f64, t1: f64) -> bool {
+        if !(self.horizon.0 <= t0 && t0 <= t1 && t1 <= self.horizon.1) {
+            return false;
+        }
+        let clipped: Vec<(f64, f64)> = bbox
+            .iter()
+            .zip(self.lower.iter().zip(&self.upper))
+            .map(|(&(lo, hi), (&l, &u))| (lo.max(l), hi.min(u)))
+            .collect();
+        self.skippable(i, &clipped, t0, t1)
+    }
+
+    /// The median over the built covers of their largest side (a length scale for
+    /// splitting long pieces: [`SceneIndex::sub_pieces_for`]); `None` before any is built.
+    pub fn typical_extent(&self) -> Option<f64> {
+        if let Some(&e) = self.extent.get() {
+            return Some(e);
+        }
+        let mut sides: Vec<f64> = self
+            .covers
+            .iter()
+            .filter_map(|c| c.get()?.slabs.as_ref())
+            .flat_map(|slabs| slabs.iter().filter_map(|s| s.cover.as_ref()))
+            .map(|b| b.iter().map(|(lo, hi)| hi - lo).fold(0.0, f64::max))
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect();
+        if sides.is_empty() {
+            return None;
+        }
+        sides.sort_by(f64::total_cmp);
+        let e = sides[sides.len() / 2];
+        if self.complete() {
+            let _ = self.extent.set(e);
+        }
+        Some(e)
+    }
+
+    /// How many equal parts in time a piece whose bounding box is `bbox` is split into
+    /// for the cover tests: about its longest side over the covers' typical extent, at
+    /// most [`MAX_SUB_PIECES`] (1: not split).
+    pub fn sub_pieces_for(&self, bbox: &[(f64, f64)]) -> usize {
+        let side = bbox.iter().map(|(lo, hi)| hi - lo).fold(0.0, f64::max);
+        match self.typical_extent() {
+            Some(e) if side.is_finite() => ((side / e).ceil() as usize).clamp(1, MAX_SUB_PIECES),
+            _ => 1,
         }
     }
 
@@ -525,6 +590,31 @@ fn build_grid(scene: &Scene, covers: &[std::sync::OnceLock<ObstacleCovers>]) -> 
     grid
 }
 
+/// One part of a piece: its proven spatial bounding box and its time interval.
+pub type PartBox = (Vec<(f64, f64)>, (f64, f64));
+
+/// Most parts a piece is split into for the cover tests ([`SceneIndex::sub_pieces_for`]).
+pub const MAX_SUB_PIECES: usize = 32;
+
+/// The piece's time interval split into `k` parts with each part's proven bounding box
+/// ([`piece_bbox`] of the same polynomials on the part): consecutive parts share their
+/// (floating-point) end times, the first starts at `t0` and the last ends at `t1`, so
+/// the parts cover the piece whatever the rounding of the times between. `None` when a
+/// part's box is not available.
+pub fn piece_sub_boxes(piece: PieceRef<'_>, k: usize) -> Option<Vec<PartBox>> {
+    let k = k.max(1);
+    let (t0, t1) = (piece.t0, piece.t1);
+    let mut out = Vec::with_capacity(k);
+    let mut a = t0;
+    for j in 1..=k {
+        let b = if j == k { t1 } else { (t0 + (t1 - t0) * (j as f64 / k as f64)).clamp(a, t1) };
+        let part = PieceRef { t0: a, t1: b, coeffs: piece.coeffs };
+        out.push((piece_bbox(part)?, (a, b)));
+        a = b;
+    }
+    Some(out)
+}
+
 /// A proven bounding box of a piece's positions over its time interval, from the
 /// Bernstein coefficients of each coordinate (convex hull property), or `None` when
 /// the degree exceeds the compiled capacity or a bound is not finite.
@@ -546,4 +636,51 @@ pub fn piece_bbox(piece: PieceRef<'_>) -> Option<Vec<(f64, f64)>> {
         out.push((b.lo, b.hi));
     }
     Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The parts' boxes cover the piece: every sampled point of the curve, evaluated
+        /// directly (exact rationals, no code of the boxes), lies in the box of a part
+        /// whose time interval holds its time — the property that lets the motion checker
+        /// drop an obstacle whose cover misses every part.
+        #[test]
+        fn sub_boxes_cover_the_piece(
+            coeffs in prop::collection::vec(prop::collection::vec(-1e3f64..1e3, 1..4), 2),
+            t0 in -10.0f64..10.0,
+            len in 1e-6f64..20.0,
+            k in 1usize..40,
+        ) {
+            let t1 = t0 + len;
+            let pr = PieceRef { t0, t1, coeffs: &coeffs };
+            let parts = piece_sub_boxes(pr, k).expect("boxes of a low-degree piece");
+            prop_assert_eq!(parts.len(), k);
+            prop_assert_eq!(parts[0].1 .0, t0);
+            prop_assert_eq!(parts[k - 1].1 .1, t1);
+            for w in parts.windows(2) {
+                prop_assert_eq!(w[0].1 .1, w[1].1 .0);
+            }
+            use num_rational::BigRational;
+            for s in 0..=64 {
+                let t = if s == 64 { t1 } else { t0 + len * s as f64 / 64.0 };
+                let t = t.clamp(t0, t1);
+                let tq = BigRational::from_float(t).unwrap();
+                let x: Vec<BigRational> = coeffs
+                    .iter()
+                    .map(|row| row.iter().rev().fold(BigRational::from_integer(0.into()), |acc, &c| acc * &tq + BigRational::from_float(c).unwrap()))
+                    .collect();
+                let inside = parts.iter().any(|(b, (a, z))| {
+                    *a <= t && t <= *z
+                        && b.iter().zip(&x).all(|(&(lo, hi), v)| {
+                            BigRational::from_float(lo).unwrap() <= *v && *v <= BigRational::from_float(hi).unwrap()
+                        })
+                });
+                prop_assert!(inside, "t = {}", t);
+            }
+        }
+    }
 }

@@ -24,6 +24,6 @@ pub use decide::{
 };
 pub(crate) use framed::piece_passes_verify_path;
 pub use framed::FramedContours;
-pub use index::{obstacle_center, piece_bbox, scene_frame, SceneIndex};
+pub use index::{covers_built_total, obstacle_center, piece_bbox, scene_frame, SceneIndex};
 pub use kernel::SceneKernel;
 pub use workspace::{check_workspace, inside_by_box, interval_hull, WorkspaceStatus};

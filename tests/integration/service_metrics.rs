@@ -1,0 +1,320 @@
+//! `riskplan serve --metrics`: the Prometheus endpoint of a real server, scraped over a
+//! plain TCP socket after requests of known kinds and outcomes sent by the Rust client —
+//! counts per kind and outcome, histogram sample counts, gauges, build info — and bad
+//! HTTP (garbage, other paths and methods, an oversized head, a silent client) answered
+//! with 4xx while the server goes on answering Zenoh queries. Loopback only.
+
+use crate::common;
+use riskplan::service::proto::{ApplyRequest, Change, Codec, PlanRequest, RiskRequest, Segment, VerifyRequest};
+use riskplan::service::{Client, ClientError};
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::process::{Child, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+const SCENE: &str = "illustrative-3";
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+struct KillOnDrop(Child);
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// A server started with `--metrics`, its stderr lines on a channel.
+struct Server {
+    child: KillOnDrop,
+    lines: mpsc::Receiver<String>,
+    endpoint: String,
+    metrics: String,
+    _dir: tempfile::TempDir,
+}
+
+/// Starts `riskplan serve` with illustrative-3 preloaded and metrics on a free port;
+/// waits for its metrics line and its ready line.
+fn start() -> Server {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = dir.path().join("scenes");
+    std::fs::create_dir(&scenes).unwrap();
+    std::fs::copy(common::reference_dir().join(format!("{SCENE}.json")), scenes.join(format!("{SCENE}.json"))).unwrap();
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let metrics = format!("127.0.0.1:{}", free_port());
+    let mut child = KillOnDrop(
+        common::bin()
+            .args(["serve", "--listen", &endpoint, "--workers", "1", "--server-id", "metrics-test"])
+            .args(["--metrics", &metrics])
+            .arg("--data")
+            .arg(dir.path().join("data"))
+            .arg("--preload")
+            .arg(&scenes)
+            .env("OPENBLAS_NUM_THREADS", "1")
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start riskplan serve"),
+    );
+    let (tx, rx) = mpsc::channel();
+    let stderr = child.0.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let t = Instant::now();
+    let (mut announced, mut ready) = (false, false);
+    while !(announced && ready) {
+        let line = rx.recv_timeout(Duration::from_secs(30)).expect("the server did not start within 30 s");
+        announced |= line.contains(&format!("riskplan: metrics on http://{metrics}/metrics"));
+        ready |= line.contains("riskplan: ready");
+        assert!(t.elapsed() < Duration::from_secs(30), "no metrics or ready line");
+    }
+    Server { child, lines: rx, endpoint, metrics, _dir: dir }
+}
+
+/// Sends `request` as is and reads the whole reply (the server closes the connection):
+/// (status code, head, body).
+fn http(addr: &str, request: &[u8]) -> (u16, String, String) {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(15))).unwrap();
+    s.write_all(request).unwrap();
+    let mut reply = Vec::new();
+    s.read_to_end(&mut reply).unwrap();
+    let text = String::from_utf8(reply).expect("a UTF-8 reply");
+    let (head, body) = text.split_once("\r\n\r\n").unwrap_or_else(|| panic!("no head in {text:?}"));
+    let status = head.split(' ').nth(1).and_then(|c| c.parse().ok()).unwrap_or_else(|| panic!("no status: {head}"));
+    (status, head.to_string(), body.to_string())
+}
+
+/// GET /metrics: the exposition, checked to be a complete OpenMetrics reply.
+fn scrape(addr: &str) -> String {
+    let (status, head, body) = http(addr, b"GET /metrics HTTP/1.1\r\nHost: 127.0.0.1\r\nAccept: */*\r\n\r\n");
+    assert_eq!(status, 200, "{head}\n{body}");
+    assert!(head.contains("Content-Type: application/openmetrics-text; version=1.0.0; charset=utf-8\r\n"), "{head}");
+    assert!(head.contains(&format!("Content-Length: {}\r\n", body.len())), "{head}");
+    assert!(body.ends_with("# EOF\n"), "{body}");
+    body
+}
+
+/// Every sample of the exposition: series (name and labels) → value.
+fn samples(text: &str) -> BTreeMap<String, f64> {
+    text.lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let (series, v) = l.rsplit_once(' ').unwrap_or_else(|| panic!("bad line {l:?}"));
+            (series.to_string(), v.parse().unwrap_or_else(|_| panic!("bad value in {l:?}")))
+        })
+        .collect()
+}
+
+fn value(s: &BTreeMap<String, f64>, series: &str) -> f64 {
+    *s.get(series).unwrap_or_else(|| panic!("no {series} in {s:#?}"))
+}
+
+/// The `riskplan_requests_total` samples as (kind, outcome) → count.
+fn request_counts(s: &BTreeMap<String, f64>) -> BTreeMap<(String, String), u64> {
+    s.iter()
+        .filter_map(|(k, v)| {
+            let labels = k.strip_prefix("riskplan_requests_total{kind=\"")?.strip_suffix("\"}")?;
+            let (kind, outcome) = labels.split_once("\",outcome=\"")?;
+            Some(((kind.to_string(), outcome.to_string()), *v as u64))
+        })
+        .collect()
+}
+
+fn expect_counts(pairs: &[(&str, &str, u64)]) -> BTreeMap<(String, String), u64> {
+    pairs.iter().map(|(k, o, n)| ((k.to_string(), o.to_string()), *n)).collect()
+}
+
+fn server_code<T: std::fmt::Debug>(r: Result<T, ClientError>) -> String {
+    match r {
+        Err(ClientError::Server(e)) => e.code,
+        other => panic!("expected a typed error from the server, got {other:?}"),
+    }
+}
+
+#[test]
+fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
+    let server = start();
+    let addr = server.metrics.as_str();
+    // a silent client that never sends its request: it must not hold up anyone else
+    let mut silent = TcpStream::connect(addr).unwrap();
+    silent.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    let silent_since = Instant::now();
+
+    // before any request: build info, the state, nothing counted
+    let s = samples(&scrape(addr));
+    let version = env!("CARGO_PKG_VERSION");
+    let build = s
+        .keys()
+        .find(|k| k.starts_with("riskplan_build_info{"))
+        .unwrap_or_else(|| panic!("no build info in {s:#?}"))
+        .clone();
+    assert!(build.contains(&format!("version=\"{version}\"")), "{build}");
+    assert!(build.contains("role=\"primary\"") && build.contains("server_id=\"metrics-test\""), "{build}");
+    assert!(build.contains("commit=\""), "{build}");
+    assert_eq!(value(&s, &build), 1.0);
+    assert_eq!(value(&s, "riskplan_ready"), 1.0);
+    assert_eq!(value(&s, "riskplan_scenes"), 1.0);
+    assert_eq!(value(&s, &format!("riskplan_scene_revision{{scene=\"{SCENE}\"}}")), 1.0);
+    assert_eq!(value(&s, "riskplan_workers"), 1.0);
+    assert_eq!(value(&s, "riskplan_queue_capacity"), 64.0);
+    assert_eq!(value(&s, "riskplan_queue_depth"), 0.0);
+    assert_eq!(value(&s, "riskplan_jobs_running"), 0.0);
+    assert!(value(&s, "riskplan_scene_cache_misses_total{cache=\"contours\"}") >= 1.0, "the preloaded scene's contour");
+    assert!(request_counts(&s).is_empty(), "{s:#?}");
+    assert_eq!(value(&s, "riskplan_request_duration_seconds_count{kind=\"plan\"}"), 0.0);
+
+    // requests of known kinds and outcomes, through the Rust client
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    rt.block_on(async {
+        let c = Client::connect(&server.endpoint, Duration::from_secs(30), Codec::Bincode).await.unwrap();
+        let plan = c.plan(SCENE, &PlanRequest::default()).await.expect("a plan");
+        assert!(plan.certified);
+        let seg = |from: Vec<f64>, to: Vec<f64>| VerifyRequest {
+            segment: Some(Segment { from, to, t0: None, t1: None }),
+            ..Default::default()
+        };
+        let v = c.verify(SCENE, &seg(vec![-1.0, -1.0], vec![1.0, 1.0])).await.expect("a verify reply");
+        assert!(!v.safe, "the diagonal crosses the disk");
+        assert_eq!(server_code(c.verify(SCENE, &seg(vec![0.0], vec![1.0])).await), "invalid_request");
+        assert_eq!(server_code(c.plan("no-such-scene", &PlanRequest::default()).await), "unknown_scene");
+        let points = RiskRequest { points: Some(vec![vec![0.9, 0.9]]), ..Default::default() };
+        c.risk(SCENE, &points).await.expect("a risk reply");
+        c.status().await.expect("a status reply");
+        let change = Change {
+            op: "put".into(),
+            id: "far".into(),
+            poly: Some("0.01 - (x1 - 0.9)^2 - (x2 + 0.9)^2".into()),
+            params: None,
+            pedestrian: None,
+        };
+        let applied = c
+            .apply(SCENE, &ApplyRequest { changes: Some(vec![change]), ..Default::default() })
+            .await
+            .expect("an apply");
+        assert_eq!(applied.revision, 2);
+        // a put (no reply): counted once applied
+        let mut other = serde_json::from_str::<serde_json::Value>(
+            &std::fs::read_to_string(common::reference_dir().join(format!("{SCENE}.json"))).unwrap(),
+        )
+        .unwrap();
+        other["name"] = "second".into();
+        c.put_scene("second", &other).await.unwrap();
+        c.close().await;
+    });
+    // the put is applied by the put worker: wait for it in the scrapes
+    let t = Instant::now();
+    let s = loop {
+        let s = samples(&scrape(addr));
+        if s.get("riskplan_scenes") == Some(&2.0) {
+            break s;
+        }
+        assert!(t.elapsed() < Duration::from_secs(10), "the put never showed: {s:#?}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let expected = expect_counts(&[
+        ("plan", "ok", 1),
+        ("plan", "unknown_scene", 1),
+        ("verify", "ok", 1),
+        ("verify", "invalid_request", 1),
+        ("risk", "ok", 1),
+        ("status", "ok", 1),
+        ("apply", "ok", 1),
+        ("put", "ok", 1),
+    ]);
+    assert_eq!(request_counts(&s), expected, "{s:#?}");
+    for (kind, n) in [("plan", 2.0), ("verify", 2.0), ("risk", 1.0), ("status", 1.0), ("apply", 1.0), ("put", 1.0)] {
+        let count = format!("riskplan_request_duration_seconds_count{{kind=\"{kind}\"}}");
+        assert_eq!(value(&s, &count), n, "{kind}");
+        assert_eq!(value(&s, &format!("riskplan_request_duration_seconds_bucket{{le=\"+Inf\",kind=\"{kind}\"}}")), n);
+        assert!(value(&s, &format!("riskplan_request_duration_seconds_sum{{kind=\"{kind}\"}}")) > 0.0, "{kind}");
+    }
+    for kind in ["echo", "scene", "unknown"] {
+        assert_eq!(value(&s, &format!("riskplan_request_duration_seconds_count{{kind=\"{kind}\"}}")), 0.0);
+    }
+    assert_eq!(value(&s, &format!("riskplan_scene_revision{{scene=\"{SCENE}\"}}")), 2.0);
+    assert_eq!(value(&s, "riskplan_scene_revision{scene=\"second\"}"), 1.0);
+    // the plan and the verify that reached the checker looked for the covers
+    let covers = value(&s, "riskplan_scene_cache_hits_total{cache=\"covers\"}")
+        + value(&s, "riskplan_scene_cache_misses_total{cache=\"covers\"}");
+    assert_eq!(covers, 2.0, "{s:#?}");
+    // the plan checked the scene's one obstacle on hundreds of edges: its cover was built
+    // (once: LAZY_COVER_CHECKS direct checks), and nothing else built any
+    assert_eq!(value(&s, "riskplan_covers_built_total"), 1.0, "{s:#?}");
+    assert_eq!(value(&s, "riskplan_scene_cache_hits_total{cache=\"body\"}"), 0.0);
+    assert_eq!(value(&s, "riskplan_queue_depth"), 0.0);
+    assert_eq!(value(&s, "riskplan_jobs_running"), 0.0);
+
+    // bad HTTP: each answered, none fatal
+    let (st, _, _) = http(addr, b"\x16\x03\x01\x02\x00garbage that is no HTTP\r\n\r\n");
+    assert_eq!(st, 400);
+    let (st, _, body) = http(addr, b"GET /other HTTP/1.1\r\nHost: x\r\n\r\n");
+    assert_eq!(st, 404, "{body}");
+    let (st, _, _) = http(addr, b"GET / HTTP/1.0\r\n\r\n");
+    assert_eq!(st, 404);
+    let (st, head, _) = http(addr, b"POST /metrics HTTP/1.1\r\nContent-Length: 3\r\n\r\nabc");
+    assert_eq!(st, 405);
+    assert!(head.contains("Allow: GET, HEAD"), "{head}");
+    let (st, _, _) = http(addr, format!("GET /metrics HTTP/1.1\r\nX-Pad: {}\r\n", "a".repeat(10_000)).as_bytes());
+    assert_eq!(st, 431);
+    let (st, head, body) = http(addr, b"HEAD /metrics HTTP/1.1\r\n\r\n");
+    assert_eq!(st, 200, "{head}");
+    assert!(body.is_empty());
+    // a connection closed at once is no trouble either
+    drop(TcpStream::connect(addr).unwrap());
+
+    // the server still answers Zenoh queries, and scrapes, and counted the new status
+    rt.block_on(async {
+        let c = Client::connect(&server.endpoint, Duration::from_secs(30), Codec::Json).await.unwrap();
+        let status = c.status().await.expect("status after the bad HTTP");
+        assert_eq!(status.state, "ready");
+        c.close().await;
+    });
+    let s = samples(&scrape(addr));
+    assert_eq!(request_counts(&s).get(&("status".to_string(), "ok".to_string())), Some(&2));
+
+    // the silent client got 408 after the read timeout (5 s), not before the others
+    let mut reply = String::new();
+    let _ = silent.read_to_string(&mut reply);
+    assert!(reply.starts_with("HTTP/1.1 408 "), "{reply:?}");
+    let waited = silent_since.elapsed();
+    assert!(waited >= Duration::from_secs(4) && waited < Duration::from_secs(15), "{waited:?}");
+    let mut server = server;
+    assert!(server.child.0.try_wait().unwrap().is_none(), "the server ended");
+    let log: Vec<String> = server.lines.try_iter().collect();
+    assert!(!log.iter().any(|l| l.contains("panicked")), "{log:?}");
+}
+
+#[test]
+fn an_address_that_cannot_be_listened_on_stops_the_start_with_a_clear_error() {
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = taken.local_addr().unwrap().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let out = common::bin()
+        .args(["serve", "--listen", &format!("tcp/127.0.0.1:{}", free_port()), "--metrics", &addr])
+        .arg("--data")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("--metrics {addr}: cannot listen for metrics scrapes")), "{stderr}");
+    // not an address at all: refused by the flag's parser
+    let out = common::bin().args(["serve", "--metrics", "localhost"]).arg("--data").arg(dir.path()).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--metrics"));
+}
+
+#[test]
+fn serve_help_explains_the_metrics_flag() {
+    let out = common::bin().args(["serve", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains("--metrics <ADDR>"), "{help}");
+    assert!(help.contains("/metrics"), "{help}");
+}
