@@ -132,6 +132,22 @@ fn bench(c: &mut Criterion) {
         let (_, out) = request.run(&kernel, None).expect("plan");
         assert!(out.certified, "disks-{n}: {:?}", out.reason);
         let smoothed = riskplan::app::PlanRequest::default().run(&kernel, None).expect("plan").1;
+        // the whole default plan, warm (issue 21: ≤ 3× its first path; its edges' cost
+        // ≤ 5× that on 8 disks), seeds 1–3
+        for seed in 1..=3 {
+            let req = riskplan::app::PlanRequest { seed, ..Default::default() };
+            let st = req.run(&kernel, None).expect("plan").1.stats;
+            let first = st.time_to_feasible_s.unwrap_or(f64::NAN);
+            eprintln!(
+                "disks-{n} seed {seed}, whole default plan (warm): first path {:.3} ms, whole {:.2} ms ({:.0}x), final check {:.2} ms, {} edges at {:.2} us each",
+                first * 1e3,
+                st.planning_time_s * 1e3,
+                st.planning_time_s / first,
+                st.final_check.as_ref().map_or(0.0, |f| f.seconds) * 1e3,
+                st.edges_checked,
+                st.checker_time_s / st.edges_checked.max(1) as f64 * 1e6
+            );
+        }
         eprintln!(
             "disks-{n}: first plan {:.4} s, {} edges, checker {:.4} s, final check {:.4} s ({} pieces); with smoothing {:.4} s, length {:.1} → {:.1}",
             out.stats.planning_time_s,
