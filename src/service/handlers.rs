@@ -142,7 +142,7 @@ pub fn plan(
     // `request.run`, in its two steps, so that whether the kernel held the scene index
     // at the plan's risk levels is seen before the planner (the metrics: `registry.kernels`)
     let mut prepared = request.prepare(&kernel)?;
-    let held = prepared.kernel.peek_index(&prepared.deltas).is_some();
+    let held = prepared.kernel.peek_index(&prepared.deltas).is_some_and(|i| i.complete());
     let solved = prepared.solve(&request.termination(Some(cancel)));
     registry.kernels.covers(held);
     let (problem, out) = (prepared.problem, solved?);
@@ -259,7 +259,7 @@ pub fn verify_observed(
     let opts = VerifyOptions { method, settings: Default::default(), bounds, detail };
     // the risk levels `verify_with` checks at (its covers' key)
     let deltas = stats.map(|_| vec![delta.clone(); scene.obstacles.len()]);
-    let held = deltas.as_ref().is_some_and(|d| entry.kernel.peek_index(d).is_some());
+    let held = deltas.as_ref().is_some_and(|d| entry.kernel.peek_index(d).is_some_and(|i| i.complete()));
     let out = verify_with(&entry.kernel, &pieces, &delta, &opts, &|| Instant::now() >= deadline);
     if let Some(s) = stats {
         s.covers(held);

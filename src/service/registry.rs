@@ -121,9 +121,10 @@ pub struct KernelStats {
 /// The counts of [`KernelStats`] at one moment.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct KernelCounts {
-    /// Plan and verify jobs whose scene kernel held the scene index at the job's risk
-    /// levels when the job started (on a scene of fewer than 16 obstacles an index
-    /// builds each obstacle's covers on demand: `certify::scene::LAZY_MAX_OBSTACLES`).
+    /// Plan and verify jobs whose scene kernel held every obstacle's covers (the scene
+    /// index, complete) at the job's risk levels when the job started (on a scene of
+    /// fewer than 16 obstacles an index builds each obstacle's covers on demand:
+    /// `certify::scene::LAZY_MAX_OBSTACLES`).
     pub covers_hits: u64,
     /// Plan and verify jobs whose scene kernel did not.
     pub covers_misses: u64,
@@ -139,8 +140,8 @@ pub struct KernelCounts {
 }
 
 impl KernelStats {
-    /// Counts one plan or verify job on a kernel that held the scene index at its risk
-    /// levels when it started (`before`) or not.
+    /// Counts one plan or verify job on a kernel that held every obstacle's covers at its
+    /// risk levels when it started (`before`) or not.
     pub fn covers(&self, before: bool) {
         let add = |c: &AtomicU64| {
             c.fetch_add(1, Ordering::Relaxed);

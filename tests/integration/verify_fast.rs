@@ -144,3 +144,22 @@ fn pieces_after_the_horizon_are_not_skipped_by_the_index() {
     let late = r.report.pieces[0].obstacles.iter().find(|o| o.id == "late").unwrap();
     assert!(!r.report.safe && late.status != riskplan::verify::Status::Safe, "{late:?}");
 }
+
+/// A piece running backwards in time (t0 > t1) is no piece: the motion checker refuses it,
+/// and splitting it into parts (the cover lookup of long pieces) does not panic — found by
+/// the review of issue 21 (a `clamp` with min > max), reachable through the library only.
+#[test]
+fn a_piece_backwards_in_time_is_refused_without_a_panic() {
+    use riskplan::motion::{Motion, MotionChecker};
+    let s = Arc::new(scene("example-d1-cluttered-2d"));
+    let kernel = SceneKernel::new(s.clone());
+    let deltas = vec![s.risk.clone(); s.obstacles.len()];
+    kernel.index(&deltas, &|| false);
+    let cert = riskplan::verify::SceneCertifier::with_deltas(&kernel, deltas, Method::Exact);
+    let backwards = Piece { t0: 0.9, t1: 0.1, coeffs: vec![vec![0.05, 5.0], vec![0.05, 5.0]] };
+    assert_eq!(cert.check(&backwards), Motion::Rejected);
+    // the same check accepts a piece that stays at the scene's start (a certified point)
+    let start = s.start.clone().expect("d1 has a start");
+    let still = Piece::segment(&start, &start, 0.1, 0.9);
+    assert_eq!(cert.check(&still), Motion::Accepted, "the start, held still");
+}

@@ -353,7 +353,8 @@ impl MotionChecker for SceneCertifier {
 
     fn check(&self, piece: &Piece) -> Motion {
         let pr = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
-        if !pr.is_finite() {
+        // a piece runs forward in time (t0 ≤ t1); anything else is no piece
+        if !pr.is_finite() || pr.t0 > pr.t1 {
             return Motion::Rejected;
         }
         if !self.fast {

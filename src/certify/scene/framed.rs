@@ -294,6 +294,9 @@ pub const FINAL_CHECK_PARTS: usize = 8;
 /// a hull is not available.
 fn sub_hulls(pr: PieceRef<'_>, k: usize) -> Option<Vec<(Vec<Interval>, Interval)>> {
     let (t0, t1) = (pr.t0, pr.t1);
+    if t0.is_nan() || t1.is_nan() || t0 > t1 {
+        return None;
+    }
     let mut out = Vec::with_capacity(k);
     let mut a = t0;
     for j in 1..=k {

@@ -258,7 +258,10 @@ impl SceneIndex {
             }
             self.ensure(scene, i, stop);
         }
-        if self.complete() && self.covers.len() >= GRID_MIN_OBSTACLES {
+        // every build tried (an obstacle whose covers cannot be built, a pedestrian without
+        // a tail threshold, is filed as always checked; covers built later only ever skip
+        // less through the grid's `always` list, which `candidates` still tests)
+        if self.covers.len() >= GRID_MIN_OBSTACLES {
             let _ = self.grid.get_or_init(|| build_grid(scene, &self.covers));
         }
     }
@@ -282,7 +285,8 @@ impl SceneIndex {
     /// Counts one direct check of obstacle `i` (a candidate without covers); `true` when
     /// its covers are due ([`LAZY_COVER_CHECKS`]).
     pub fn note_direct_check(&self, i: usize) -> bool {
-        self.checks[i].fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1 == LAZY_COVER_CHECKS
+        // (the counter wraps after 2³² checks of an obstacle never covered: harmless)
+        self.checks[i].fetch_add(1, std::sync::atomic::Ordering::Relaxed) == LAZY_COVER_CHECKS - 1
     }
 
     /// Whether obstacle `i` has its covers.
@@ -339,19 +343,6 @@ impl SceneIndex {
     /// box of the piece. **The caller must have proven that the piece stays in the
     /// workspace** (the covers say nothing outside it); `None`: every obstacle.
     pub fn candidates(&self, bbox: Option<&[(f64, f64)]>, t0: f64, t1: f64, out: &mut Vec<usize>) {
-        self.candidates_in(bbox, t0, t1, out, &mut |_| {});
-    }
-
-    /// [`SceneIndex::candidates`], calling `uncovered(i)` for each candidate that has no
-    /// covers (to count its direct checks).
-    pub fn candidates_in(
-        &self,
-        bbox: Option<&[(f64, f64)]>,
-        t0: f64,
-        t1: f64,
-        out: &mut Vec<usize>,
-        uncovered: &mut dyn FnMut(usize),
-    ) {
         out.clear();
         let n = self.covers.len();
         // the covers say nothing outside the horizon either (a moving obstacle's slabs
@@ -370,14 +361,7 @@ impl SceneIndex {
         let bbox = clipped.as_slice();
         match self.grid.get() {
             None => {
-                for i in 0..n {
-                    if !self.has_covers(i) {
-                        uncovered(i);
-                        out.push(i);
-                    } else if !self.skippable(i, bbox, t0, t1) {
-                        out.push(i);
-                    }
-                }
+                out.extend((0..n).filter(|&i| !self.skippable(i, bbox, t0, t1)));
             }
             Some(g) => {
                 let range = g.cell_range(&self.lower, bbox);
@@ -388,21 +372,6 @@ impl SceneIndex {
                 out.retain(|&i| !self.skippable(i, bbox, t0, t1));
             }
         }
-    }
-
-    /// Whether obstacle `i` may be skipped for a piece (or a part of one) whose proven
-    /// spatial bounding box is `bbox` on `[t0, t1]`, the piece proven inside the workspace
-    /// (as [`SceneIndex::candidates`]): its cover misses the box in every slab spanned.
-    pub fn misses(&self, i: usize, bbox: &[(f64, f64)], t0: f64, t1: f64) -> bool {
-        if !(self.horizon.0 <= t0 && t0 <= t1 && t1 <= self.horizon.1) {
-            return false;
-        }
-        let clipped: Vec<(f64, f64)> = bbox
-            .iter()
-            .zip(self.lower.iter().zip(&self.upper))
-            .map(|(&(lo, hi), (&l, &u))| (lo.max(l), hi.min(u)))
-            .collect();
-        self.skippable(i, &clipped, t0, t1)
     }
 
     /// The median over the built covers of their largest side (a length scale for
@@ -604,6 +573,9 @@ pub const MAX_SUB_PIECES: usize = 32;
 pub fn piece_sub_boxes(piece: PieceRef<'_>, k: usize) -> Option<Vec<PartBox>> {
     let k = k.max(1);
     let (t0, t1) = (piece.t0, piece.t1);
+    if t0.is_nan() || t1.is_nan() || t0 > t1 {
+        return None;
+    }
     let mut out = Vec::with_capacity(k);
     let mut a = t0;
     for j in 1..=k {
