@@ -288,24 +288,10 @@ pub(crate) fn piece_passes_verify_path(
 /// piece's box meets an obstacle's test region ([`sub_hulls`]).
 pub const FINAL_CHECK_PARTS: usize = 8;
 
-/// The piece's time interval in `k` parts with each part's hull ([`interval_hull`] of the
-/// same polynomials on the part) and its time interval: consecutive parts share their
-/// floating-point end times, from `t0` to `t1`, so the parts cover the piece. `None` when
-/// a hull is not available.
+/// The piece's `k` parts in time ([`super::index::piece_parts`], which cover it) with each
+/// part's hull ([`interval_hull`]) and time interval. `None` when a hull is not available.
 fn sub_hulls(pr: PieceRef<'_>, k: usize) -> Option<Vec<(Vec<Interval>, Interval)>> {
-    let (t0, t1) = (pr.t0, pr.t1);
-    if t0.is_nan() || t1.is_nan() || t0 > t1 {
-        return None;
-    }
-    let mut out = Vec::with_capacity(k);
-    let mut a = t0;
-    for j in 1..=k {
-        let b = if j == k { t1 } else { (t0 + (t1 - t0) * (j as f64 / k as f64)).clamp(a, t1) };
-        let part = PieceRef { t0: a, t1: b, coeffs: pr.coeffs };
-        out.push((interval_hull(part)?, Interval::new(a, b)));
-        a = b;
-    }
-    Some(out)
+    super::index::piece_parts(pr, k)?.into_iter().map(|p| Some((interval_hull(p)?, Interval::new(p.t0, p.t1)))).collect()
 }
 
 /// Whether a pedestrian is cleared for a piece by a box test, in the verify path's own

@@ -565,12 +565,11 @@ pub type PartBox = (Vec<(f64, f64)>, (f64, f64));
 /// Most parts a piece is split into for the cover tests ([`SceneIndex::sub_pieces_for`]).
 pub const MAX_SUB_PIECES: usize = 32;
 
-/// The piece's time interval split into `k` parts with each part's proven bounding box
-/// ([`piece_bbox`] of the same polynomials on the part): consecutive parts share their
-/// (floating-point) end times, the first starts at `t0` and the last ends at `t1`, so
-/// the parts cover the piece whatever the rounding of the times between. `None` when a
-/// part's box is not available.
-pub fn piece_sub_boxes(piece: PieceRef<'_>, k: usize) -> Option<Vec<PartBox>> {
+/// The piece split in time into `k` parts (the same polynomials on sub-intervals):
+/// consecutive parts share their floating-point end times, the first starts at `t0` and
+/// the last ends at `t1`, so the parts cover the piece whatever the rounding of the times
+/// between. `None` unless `t0 ≤ t1`.
+pub fn piece_parts<'a>(piece: PieceRef<'a>, k: usize) -> Option<Vec<PieceRef<'a>>> {
     let k = k.max(1);
     let (t0, t1) = (piece.t0, piece.t1);
     if t0.is_nan() || t1.is_nan() || t0 > t1 {
@@ -580,11 +579,16 @@ pub fn piece_sub_boxes(piece: PieceRef<'_>, k: usize) -> Option<Vec<PartBox>> {
     let mut a = t0;
     for j in 1..=k {
         let b = if j == k { t1 } else { (t0 + (t1 - t0) * (j as f64 / k as f64)).clamp(a, t1) };
-        let part = PieceRef { t0: a, t1: b, coeffs: piece.coeffs };
-        out.push((piece_bbox(part)?, (a, b)));
+        out.push(PieceRef { t0: a, t1: b, coeffs: piece.coeffs });
         a = b;
     }
     Some(out)
+}
+
+/// The piece's [`piece_parts`] with each part's proven bounding box ([`piece_bbox`]) and
+/// time interval. `None` when a part's box is not available.
+pub fn piece_sub_boxes(piece: PieceRef<'_>, k: usize) -> Option<Vec<PartBox>> {
+    piece_parts(piece, k)?.into_iter().map(|p| Some((piece_bbox(p)?, (p.t0, p.t1)))).collect()
 }
 
 /// A proven bounding box of a piece's positions over its time interval, from the
