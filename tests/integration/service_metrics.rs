@@ -208,11 +208,13 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
         c.put_scene("second", &other).await.unwrap();
         c.close().await;
     });
-    // the put is applied by the put worker: wait for it in the scrapes
+    // the put is applied by the put worker, which counts it just after the scene is in:
+    // wait for both in the scrapes (the scene count alone raced with the counter in CI)
     let t = Instant::now();
     let s = loop {
         let s = samples(&scrape(addr));
-        if s.get("riskplan_scenes") == Some(&2.0) {
+        let put_counted = s.get(r#"riskplan_request_duration_seconds_count{kind="put"}"#) == Some(&1.0);
+        if s.get("riskplan_scenes") == Some(&2.0) && put_counted {
             break s;
         }
         assert!(t.elapsed() < Duration::from_secs(10), "the put never showed: {s:#?}");
