@@ -629,7 +629,8 @@ pub const START_TIME_TOLERANCE: f64 = 1e-12;
 /// risk levels. Its Cantelli path shares no code with the compiled fast path of the
 /// planners' checker beyond the contour polynomials and the Bernstein decision; with
 /// `bound: auto`, a piece the general composition of the other bounds cannot cover is
-/// tried once more with their compiled restriction (docs/design.md §5.13: at extreme
+/// tried once more with their compiled restriction, its central moments restricted as the
+/// fast path does (docs/design.md §5.13: at extreme
 /// scales only the frame keeps the digits), so there the final check is not independent
 /// of the fast path — the bound oracle tests are. Asks `stop` before each piece.
 pub fn final_check(

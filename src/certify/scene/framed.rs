@@ -275,8 +275,12 @@ pub(crate) fn piece_passes_verify_path(
                 let hint = if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None };
                 let level = Level::new(d.rational());
                 PieceBounds::for_piece(&o.contour, pr, level).cover(hint).is_ok()
-                    || compiled.map(|c| c.get(i)).is_some_and(|c| {
-                        PieceBounds::for_piece_compiled(&o.contour, c, pr, level).cover(hint).is_ok()
+                    || compiled.is_some_and(|set| {
+                        let sub = super::super::fast::Substitution::new(pr, set.frame());
+                        PieceBounds::for_piece_compiled(&o.contour, set.get(i), pr, level)
+                            .with_substitution(sub.as_ref())
+                            .cover(hint)
+                            .is_ok()
                     })
             }
             _ => false,
