@@ -672,6 +672,8 @@ pub fn final_check(
     let framed = kernel.framed();
     let compiled = bounds.beyond_cantelli().then(|| kernel.compiled());
     let near = framed.near(scene, stop)?;
+    // on crowded scenes, the obstacles each piece must be examined against (§5.12)
+    let grid = framed.grid(scene, deltas, stop)?;
     // each obstacle's Cantelli polynomial for the box tests, formed on first use
     let cantelli: Vec<std::cell::OnceCell<_>> = scene.obstacles.iter().map(|_| std::cell::OnceCell::new()).collect();
     let near = near.map(|n| (n, cantelli.as_slice()));
@@ -680,7 +682,8 @@ pub fn final_check(
             return Err(Interrupted);
         }
         let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
-        if !piece_passes_verify_path(scene, &framed, near, pr, deltas, bounds, compiled.as_deref()) {
+        let only = grid.as_ref().and_then(|g| g.candidates(pr));
+        if !piece_passes_verify_path(scene, &framed, near, pr, deltas, bounds, compiled.as_deref(), only.as_deref()) {
             return Ok(done(Some(FinalFailure::NotProven(i))));
         }
     }

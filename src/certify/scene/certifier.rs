@@ -366,6 +366,7 @@ impl MotionChecker for SceneCertifier {
                 &self.deltas,
                 self.bounds,
                 Some(&self.compiled),
+                None,
             ) {
                 Motion::Accepted
             } else {

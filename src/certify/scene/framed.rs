@@ -35,7 +35,12 @@ pub struct FramedContours {
     /// obstacles without a composition (`None` for an obstacle whose point is not
     /// finite). Built by the first final check that needs it, asking its `stop`.
     near: OnceLock<Option<Vec<Option<Near>>>>,
+    /// The grids of the last few risk allocations ([`NearGrid`], crowded scenes only).
+    grids: std::sync::Mutex<Vec<(Vec<RiskLevel>, std::sync::Arc<NearGrid>)>>,
 }
+
+/// Grids kept per scene (one per list of per-obstacle risk levels), as the covers are.
+pub const GRIDS_PER_SCENE: usize = 4;
 
 type FramedPair = OnceLock<(crate::poly::Poly<Interval>, crate::poly::Poly<Interval>)>;
 
@@ -126,6 +131,32 @@ impl FramedContours {
         Ok(self.near.get_or_init(|| Some(near)).as_deref())
     }
 
+    /// The grid of the box tests at `deltas` ([`NearGrid`]) on a scene of at least
+    /// [`GRID_MIN_OBSTACLES`] obstacles with box tests (`None` otherwise), built on first
+    /// use; `Err` when `stop` says stop first (nothing is kept then).
+    pub(crate) fn grid(
+        &self,
+        scene: &Scene,
+        deltas: &[RiskLevel],
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Option<std::sync::Arc<NearGrid>>, Interrupted> {
+        let Some(near) = self.near(scene, stop)? else { return Ok(None) };
+        if scene.obstacles.len() < GRID_MIN_OBSTACLES || deltas.len() != near.len() {
+            return Ok(None);
+        }
+        if let Some(g) = self.grids.lock().ok().and_then(|v| v.iter().find(|(d, _)| d == deltas).map(|e| e.1.clone())) {
+            return Ok(Some(g));
+        }
+        let g = std::sync::Arc::new(NearGrid::build(scene, near, deltas, stop)?);
+        if let Ok(mut v) = self.grids.lock() {
+            if v.len() >= GRIDS_PER_SCENE {
+                v.remove(0);
+            }
+            v.push((deltas.to_vec(), g.clone()));
+        }
+        Ok(Some(g))
+    }
+
     /// The scene's contours in the verify path's frame (exact substitution, then enclosed).
     pub fn new(scene: &Scene) -> Self {
         let ws = &scene.workspace;
@@ -154,7 +185,7 @@ impl FramedContours {
         }
         if center.iter().all(|&c| c == 0.0) && exps.iter().all(|&e| e == 0) {
             let n = center.len();
-            return FramedContours { center, inv_scale: vec![1.0; n], polys: None, near: OnceLock::new() };
+            return FramedContours { center, inv_scale: vec![1.0; n], polys: None, near: OnceLock::new(), grids: Default::default() };
         }
         let two = BigRational::from_integer(2.into());
         let subs: Vec<crate::poly::QPoly> = center
@@ -170,7 +201,7 @@ impl FramedContours {
             .collect();
         let polys = scene.obstacles.iter().map(|_| OnceLock::new()).collect();
         let inv_scale = exps.iter().map(|&e| crate::certify::fast::pow2(-e)).collect();
-        FramedContours { center, inv_scale, polys: Some((subs, polys)), near: OnceLock::new() }
+        FramedContours { center, inv_scale, polys: Some((subs, polys)), near: OnceLock::new(), grids: Default::default() }
     }
 
     /// The constraints of obstacle `o` (the scene's `i`-th) restricted to a piece, in
@@ -219,7 +250,9 @@ pub(crate) type NearTests<'a> = (&'a [Option<Near>], &'a [std::cell::OnceCell<cr
 /// workspace (exact check) and, for every obstacle, both constraints proven positive
 /// on the general interval restriction in [`FramedContours`] with the exact rational
 /// fallback (the `exact` method of `verify`, without the compiled contours or the
-/// covers of the fast path).
+/// covers of the fast path). `only`: the obstacles to examine, when the others are
+/// proven clear of the piece already (the final check's [`NearGrid`]); `None`: every one.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn piece_passes_verify_path(
     scene: &Scene,
     framed: &FramedContours,
@@ -228,6 +261,7 @@ pub(crate) fn piece_passes_verify_path(
     deltas: &[RiskLevel],
     bounds: BoundChoice,
     compiled: Option<&super::compiled::CompiledSet>,
+    only: Option<&[usize]>,
 ) -> bool {
     if !pr.is_finite() || check_workspace(&scene.workspace.lower, &scene.workspace.upper, pr).status != Status::Safe {
         return false;
@@ -237,7 +271,16 @@ pub(crate) fn piece_passes_verify_path(
     let bbox = near.and_then(|_| interval_hull(pr));
     let parts = std::cell::OnceCell::new();
     let ped_hull = std::cell::OnceCell::new();
-    scene.obstacles.iter().zip(deltas).enumerate().all(|(i, (o, d))| {
+    let all: Vec<usize>;
+    let examined = match only {
+        Some(o) => o,
+        None => {
+            all = (0..scene.obstacles.len()).collect();
+            &all
+        }
+    };
+    examined.iter().all(|&i| {
+        let (Some(o), Some(d)) = (scene.obstacles.get(i), deltas.get(i)) else { return false };
         if let (Some(p), true) = (&o.pedestrian, bounds.beyond_cantelli()) {
             // the tail bound (docs/design.md §3.11): a box test, then exact arithmetic
             let hull = ped_hull.get_or_init(|| interval_hull(pr));
@@ -341,4 +384,335 @@ fn pedestrian_box_clear(p: &crate::scene::Pedestrian, d: &RiskLevel, hull: &[Int
         gap2 = gap2 + Interval::point(g) * Interval::point(g);
     }
     gap2.lo > (Interval::point(r) * Interval::point(r)).hi
+}
+
+/// The final check's own spatial filter on crowded scenes (docs/design.md §5.12): a grid of
+/// cells over the workspace and, per cell, the obstacles its box test ([`Near::clears`])
+/// does not clear over the whole cell and the whole horizon. A piece whose parts' hulls lie
+/// in cells where an obstacle is cleared is safe from it at every point and time (each point
+/// of the piece lies in one of those cells, its time in the horizon): only the obstacles of
+/// the cells its parts' hulls meet are examined. Built from the final check's box tests
+/// alone (nothing of the planners' covers), per list of risk levels, asking `stop`.
+#[derive(Debug)]
+pub(crate) struct NearGrid {
+    /// Per axis, the cell edges `e_0 ≤ … ≤ e_n` (cell `k` is `[e_k, e_{k+1}]`; neighbours
+    /// share the very same float, so the cells leave no gap).
+    edges: Vec<Vec<f64>>,
+    /// Cells per axis (a power of two).
+    per_axis: usize,
+    /// Per cell (row-major, axis 0 slowest), the obstacles not cleared there.
+    cells: Vec<Vec<u32>>,
+    /// Obstacles without a box test, or whose test clears too little to be worth its cells:
+    /// examined on every piece.
+    always: Vec<u32>,
+    /// Obstacles in the scene.
+    obstacles: usize,
+}
+
+/// Fewest obstacles for which the final check builds its grid ([`NearGrid`]): with fewer,
+/// one box test per obstacle and piece costs less than the grid (a few tens of box tests per
+/// obstacle, once per scene and risk allocation).
+pub const GRID_MIN_OBSTACLES: usize = 64;
+
+/// Most cells of the grid in all (16 384: 128² in the plane, 32³ in space).
+pub const GRID_MAX_CELLS: usize = 1 << 14;
+
+/// Cells per axis per `n^(1/dim)` obstacles: about two cells across per obstacle spacing,
+/// so that an obstacle's uncleared cells are a few, and a short piece meets a few cells.
+pub const GRID_CELLS_PER_SPACING: f64 = 2.0;
+
+/// Most box tests spent on one obstacle's cells: an obstacle that needs more (its region
+/// of doubt covers much of the workspace) is examined on every piece instead.
+pub const GRID_MAX_TESTS_PER_OBSTACLE: usize = 1024;
+
+/// Most parts of a piece looked up in the grid: a piece is split into about as many parts
+/// as the cells it spans along its widest axis (each part's hull then meets few cells).
+pub const GRID_MAX_PARTS: usize = 64;
+
+/// Most cells a piece's parts may meet before the grid is not used for it (every obstacle
+/// examined instead, as without a grid).
+pub const GRID_MAX_CELLS_PER_PIECE: usize = 4096;
+
+impl NearGrid {
+    /// Builds the grid for the box tests `near` at risk levels `deltas` (`Err` when `stop`
+    /// says stop first).
+    pub(crate) fn build(
+        scene: &Scene,
+        near: &[Option<Near>],
+        deltas: &[RiskLevel],
+        stop: &dyn Fn() -> bool,
+    ) -> Result<NearGrid, Interrupted> {
+        let dim = scene.dim;
+        let ws = &scene.workspace;
+        let spacing_cells = GRID_CELLS_PER_SPACING * (scene.obstacles.len() as f64).powf(1.0 / dim as f64);
+        let max_per_axis = (GRID_MAX_CELLS as f64).powf(1.0 / dim as f64).floor() as usize;
+        let mut per_axis = 1usize;
+        while per_axis < spacing_cells as usize && per_axis * 2 <= max_per_axis.max(1) {
+            per_axis *= 2;
+        }
+        let edges: Vec<Vec<f64>> = (0..dim)
+            .map(|d| {
+                let (lo, w) = (ws.lower[d], ws.upper[d] - ws.lower[d]);
+                // k/n is exact (n a power of two) and the products and sums are monotone in k
+                (0..=per_axis).map(|k| if k == 0 { lo } else { lo + w * (k as f64 / per_axis as f64) }).collect()
+            })
+            .collect();
+        let total = per_axis.pow(dim as u32);
+        let mut grid = NearGrid { edges, per_axis, cells: vec![Vec::new(); total], always: Vec::new(), obstacles: near.len() };
+        let horizon = Interval::new(scene.horizon.0, scene.horizon.1);
+        let one = BigRational::from_integer(1.into());
+        for (i, (n, d)) in near.iter().zip(deltas).enumerate() {
+            if stop() {
+                return Err(Interrupted);
+            }
+            let Some(n) = n else {
+                grid.always.push(i as u32);
+                continue;
+            };
+            let g1 = n.cantelli(Interval::enclose_rational(&(&one - d.rational())));
+            let mut marked = Vec::new();
+            let mut tests = 0usize;
+            let mut stack = vec![(vec![0usize; dim], vec![per_axis; dim])];
+            let mut gave_up = false;
+            while let Some((lo, hi)) = stack.pop() {
+                tests += 1;
+                if tests > GRID_MAX_TESTS_PER_OBSTACLE {
+                    gave_up = true;
+                    break;
+                }
+                let cell_box: Vec<Interval> =
+                    (0..dim).map(|a| Interval::new(grid.edges[a][lo[a]], grid.edges[a][hi[a]])).collect();
+                if n.clears(&cell_box, horizon, &g1) {
+                    continue;
+                }
+                // the widest axis of the block, halved; a single cell is marked
+                let (axis, width) = (0..dim).map(|a| (a, hi[a] - lo[a])).max_by_key(|&(_, w)| w).unwrap_or((0, 1));
+                if width <= 1 {
+                    marked.push(grid.cell_index(&lo));
+                    continue;
+                }
+                let mid = lo[axis] + width / 2;
+                let (mut lo2, mut hi1) = (lo.clone(), hi.clone());
+                lo2[axis] = mid;
+                hi1[axis] = mid;
+                stack.push((lo2, hi));
+                stack.push((lo, hi1));
+            }
+            if gave_up {
+                grid.always.push(i as u32);
+            } else {
+                for c in marked {
+                    grid.cells[c].push(i as u32);
+                }
+            }
+        }
+        Ok(grid)
+    }
+
+    fn cell_index(&self, k: &[usize]) -> usize {
+        k.iter().fold(0, |acc, &v| acc * self.per_axis + v)
+    }
+
+    /// The cells `[k_lo, k_hi]` per axis that cover `hull` (`None` when it leaves the grid).
+    fn cell_range(&self, hull: &[Interval]) -> Option<Vec<(usize, usize)>> {
+        if hull.len() != self.edges.len() {
+            return None;
+        }
+        hull.iter()
+            .zip(&self.edges)
+            .map(|(h, e)| {
+                let n = e.len() - 1;
+                if !(h.lo >= e[0] && h.hi <= e[n]) {
+                    return None;
+                }
+                // the last cell starting at or below lo, the first ending at or above hi
+                let lo = e.partition_point(|&x| x <= h.lo).saturating_sub(1).min(n - 1);
+                let hi = e.partition_point(|&x| x < h.hi).saturating_sub(1).clamp(lo, n - 1);
+                Some((lo, hi))
+            })
+            .collect()
+    }
+
+    /// The obstacles a piece must be examined against (sorted, without repeats), or `None`
+    /// when the grid does not help (a hull that leaves the grid or is not available, or too
+    /// many cells): then every obstacle.
+    pub(crate) fn candidates(&self, pr: PieceRef<'_>) -> Option<Vec<usize>> {
+        let whole = interval_hull(pr)?;
+        let range = self.cell_range(&whole)?;
+        let span = range.iter().map(|(a, b)| b - a + 1).max().unwrap_or(1);
+        let parts = if span <= 1 {
+            vec![pr]
+        } else {
+            super::index::piece_parts(pr, span.min(GRID_MAX_PARTS))?
+        };
+        let mut seen = vec![false; self.obstacles];
+        let mut out: Vec<usize> = self.always.iter().map(|&i| i as usize).collect();
+        for &i in &out {
+            seen[i] = true;
+        }
+        let mut cells_met = 0usize;
+        for p in parts {
+            let r = if span <= 1 { range.clone() } else { self.cell_range(&interval_hull(p)?)? };
+            let count: usize = r.iter().map(|(a, b)| b - a + 1).product();
+            cells_met += count;
+            if cells_met > GRID_MAX_CELLS_PER_PIECE {
+                return None;
+            }
+            let mut k: Vec<usize> = r.iter().map(|(a, _)| *a).collect();
+            'cells: loop {
+                for &o in &self.cells[self.cell_index(&k)] {
+                    if !seen[o as usize] {
+                        seen[o as usize] = true;
+                        out.push(o as usize);
+                    }
+                }
+                // the next cell of the block (odometer, last axis fastest)
+                for a in (0..k.len()).rev() {
+                    if k[a] < r[a].1 {
+                        k[a] += 1;
+                        continue 'cells;
+                    }
+                    k[a] = r[a].0;
+                }
+                break;
+            }
+        }
+        out.sort_unstable();
+        Some(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::sync::OnceLock;
+
+    /// 96 uncertain disks (radius scaled by s ~ U(0.9, 1.1), centre shifted by d ~ N(0, 0.05))
+    /// at constant density in a square 10·√96 wide, and the grid at Δ = 0.05.
+    fn crowded() -> &'static (Scene, NearGrid, Vec<(f64, f64)>) {
+        static S: OnceLock<(Scene, NearGrid, Vec<(f64, f64)>)> = OnceLock::new();
+        S.get_or_init(|| {
+            use rand::{Rng, SeedableRng};
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+            let n = 96;
+            let side = 10.0 * (n as f64).sqrt();
+            let mut params = serde_json::Map::new();
+            let mut obstacles = Vec::new();
+            let mut centres = Vec::new();
+            for k in 0..n {
+                let (cx, cy, r): (f64, f64, f64) =
+                    (rng.random_range(0.0..side), rng.random_range(0.0..side), rng.random_range(0.8..1.6));
+                centres.push((cx, cy));
+                params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
+                params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
+                obstacles.push(serde_json::json!({
+                    "id": format!("disk{k}"),
+                    "poly": format!("({r}*s{k})^2 - (x1 - {cx} - d{k})^2 - (x2 - {cy})^2"),
+                }));
+            }
+            let text = serde_json::json!({
+                "format": "riskplan-scene/1", "name": "crowded", "dim": 2,
+                "workspace": {"lower": [0, 0], "upper": [side, side]}, "horizon": [0, 1], "risk": 0.05,
+                "params": params, "obstacles": obstacles,
+            })
+            .to_string();
+            let scene = Scene::from_json(&text).unwrap();
+            let framed = FramedContours::new(&scene);
+            let near = framed.near(&scene, &|| false).unwrap().expect("box tests on 96 disks");
+            let deltas = vec![scene.risk.clone(); n];
+            let grid = NearGrid::build(&scene, near, &deltas, &|| false).unwrap();
+            (scene, grid, centres)
+        })
+    }
+
+    /// Distance from a disk's centre beyond which the test's disks are safe (see below).
+    const FAR: f64 = 8.0;
+
+    /// Sampled times per piece.
+    const SAMPLES: usize = 64;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        /// Every obstacle the grid leaves out of a piece's candidates is safe at every sampled
+        /// point of the piece, by exact rational evaluation of E[P] and E[P²] (no code of the
+        /// grid or of the box tests): E[P] < 0 and E[P]² − (1 − Δ)·E[P²] > 0 (eq. 15). Points
+        /// farther than [`FAR`] from a disk's centre are safe by its geometry (radius at most
+        /// 1.6·1.1, a centre within a few 0.05 of nominal: Cantelli holds beyond about three
+        /// radii) and are not evaluated.
+        #[test]
+        fn obstacles_left_out_by_the_grid_are_safe_on_the_piece(
+            a in prop::collection::vec(0.0f64..1.0, 2),
+            b in prop::collection::vec(0.0f64..1.0, 2),
+            bend in prop::collection::vec(-0.2f64..0.2, 2),
+            t0 in 0.0f64..0.5,
+            len in 1e-3f64..0.5,
+        ) {
+            use num_rational::BigRational;
+            let (scene, grid, centres) = crowded();
+            let side = scene.workspace.upper[0];
+            let t1 = t0 + len;
+            // a quadratic from a to b (bent towards the side, kept in the square), local τ in [0, 1]
+            // written in absolute time t: x(t) = p0 + p1·τ + p2·τ², τ = (t − t0)/len
+            let coeffs: Vec<Vec<f64>> = (0..2).map(|d| {
+                let (p, q) = (a[d] * side, b[d] * side);
+                let c = bend[d] * side;
+                let (p0, p1, p2) = (p, q - p + c, -c);
+                // in t: p0 + p1 (t − t0)/len + p2 (t − t0)²/len²
+                let (u, v) = (1.0 / len, 1.0 / (len * len));
+                vec![p0 - p1 * t0 * u + p2 * t0 * t0 * v, p1 * u - 2.0 * p2 * t0 * v, p2 * v]
+            }).collect();
+            let pr = PieceRef { t0, t1, coeffs: &coeffs };
+            let Some(cands) = grid.candidates(pr) else { return Ok(()) };
+            let delta = scene.risk.rational();
+            let omd = BigRational::from_integer(1.into()) - delta;
+            let zero = BigRational::from_integer(0.into());
+            for (i, o) in scene.obstacles.iter().enumerate() {
+                if cands.binary_search(&i).is_ok() {
+                    continue;
+                }
+                for s in 0..=SAMPLES {
+                    let t = (t0 + len * s as f64 / SAMPLES as f64).clamp(t0, t1);
+                    let at: Vec<f64> = coeffs.iter().map(|row| row.iter().rev().fold(0.0, |acc, &c| acc * t + c)).collect();
+                    if (at[0] - centres[i].0).hypot(at[1] - centres[i].1) > FAR {
+                        continue;
+                    }
+                    let tq = BigRational::from_float(t).unwrap();
+                    let mut x: Vec<BigRational> = coeffs.iter().map(|row| {
+                        row.iter().rev().fold(zero.clone(), |acc, &c| acc * &tq + BigRational::from_float(c).unwrap())
+                    }).collect();
+                    // a point outside the workspace is not what the grid speaks of
+                    if x.iter().any(|v| *v < zero || *v > BigRational::from_float(side).unwrap()) {
+                        continue;
+                    }
+                    x.push(tq);
+                    let m = o.contour.mean.eval(&x);
+                    let m2 = o.contour.second.eval(&x);
+                    prop_assert!(m < zero, "obstacle {} left out, E[P] = {} at t = {}", i, m, t);
+                    prop_assert!(&m * &m - &omd * &m2 > zero, "obstacle {} left out, Cantelli fails at t = {}", i, t);
+                }
+            }
+        }
+    }
+
+    /// The grid leaves out most obstacles of a short piece (else it would not pay), and keeps
+    /// the obstacle a piece runs through.
+    #[test]
+    fn the_grid_keeps_what_a_piece_meets_and_drops_the_rest() {
+        let (scene, grid, _) = crowded();
+        let o = &scene.obstacles[0];
+        // obstacle 0's centre: where its mean is largest on its box-test point
+        let c = obstacle_point(scene, 0);
+        let coeffs = vec![vec![c[0] - 0.5, 1.0], vec![c[1], 0.0]];
+        let pr = PieceRef { t0: 0.0, t1: 1.0, coeffs: &coeffs };
+        let cands = grid.candidates(pr).expect("a piece inside the grid");
+        assert!(cands.contains(&0), "{}: {cands:?}", o.id);
+        assert!(cands.len() < scene.obstacles.len() / 4, "{} candidates of {}", cands.len(), scene.obstacles.len());
+    }
+
+    fn obstacle_point(scene: &Scene, i: usize) -> Vec<f64> {
+        let ws = &scene.workspace;
+        let region = vec![(ws.lower[0], ws.upper[0]), (ws.lower[1], ws.upper[1]), scene.horizon];
+        super::super::index::obstacle_center(&scene.obstacles[i].contour, &region)
+    }
 }
