@@ -34,6 +34,14 @@ pub trait MotionChecker: Send + Sync {
     /// covers and index), stopping early when `term` expires. Planners call it once at
     /// the start of `solve`; checking without it works (and builds on first use).
     fn prepare(&self, _term: &Termination) {}
+    /// The checking work done so far, in units that grow with what a check examines (the
+    /// scene certifier: one per piece and one per obstacle decided), or `None` when the
+    /// checker does not count it. Deterministic — unlike time — so that planners can share
+    /// a budget of work between their phases and stay reproducible by seed
+    /// (docs/design.md §6.8).
+    fn work(&self) -> Option<u64> {
+        None
+    }
     /// The obstacle whose contour excludes `x` at time `t`, if the checker knows.
     fn blocking_obstacle(&self, _x: &[f64], _t: f64) -> Option<String> {
         None
@@ -59,6 +67,11 @@ impl CheckCounter {
             self.accepted.fetch_add(1, Ordering::Relaxed);
         }
         m
+    }
+    /// The checker's work so far ([`MotionChecker::work`]), or the checks counted here when
+    /// it does not count its work.
+    pub fn work(&self, c: &dyn MotionChecker) -> u64 {
+        c.work().unwrap_or_else(|| self.checked.load(Ordering::Relaxed))
     }
     /// (checked, accepted, seconds).
     pub fn totals(&self) -> (u64, u64, f64) {

@@ -51,6 +51,8 @@ pub struct SceneCertifier {
     /// Whether the checker builds covers (all at once on large scenes, each obstacle's
     /// on demand on small ones: [`LAZY_MAX_OBSTACLES`]).
     build_covers: bool,
+    /// Checking work done ([`MotionChecker::work`]): one per piece, one per obstacle decided.
+    work: std::sync::atomic::AtomicU64,
 }
 
 impl SceneCertifier {
@@ -97,6 +99,7 @@ impl SceneCertifier {
             levels,
             kappas,
             build_covers: true,
+            work: Default::default(),
         }
     }
 
@@ -335,30 +338,16 @@ impl ObstacleFinding {
     }
 }
 
-impl MotionChecker for SceneCertifier {
-    fn name(&self) -> &str {
-        self.method.as_str()
-    }
-
-    fn sound(&self) -> bool {
-        true
-    }
-
-    fn prepare(&self, term: &Termination) {
-        if !self.fast {
-            return;
-        }
-        let _ = self.index_until(&|| term.expired());
-    }
-
-    fn check(&self, piece: &Piece) -> Motion {
+impl SceneCertifier {
+    /// [`MotionChecker::check`], with the number of obstacles decided (the work).
+    fn check_counting(&self, piece: &Piece) -> (Motion, u64) {
         let pr = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
         // a piece runs forward in time (t0 ≤ t1); anything else is no piece
         if !pr.is_finite() || pr.t0 > pr.t1 {
-            return Motion::Rejected;
+            return (Motion::Rejected, 0);
         }
         if !self.fast {
-            return if piece_passes_verify_path(
+            let m = if piece_passes_verify_path(
                 &self.scene,
                 &self.kernel.framed(),
                 None,
@@ -372,13 +361,14 @@ impl MotionChecker for SceneCertifier {
             } else {
                 Motion::Rejected
             };
+            return (m, self.scene.obstacles.len() as u64);
         }
         let ws = &self.scene.workspace;
         let bbox = piece_bbox(pr);
         if !inside_by_box(&ws.lower, &ws.upper, pr, bbox.as_deref())
             && check_workspace(&ws.lower, &ws.upper, pr).status != Status::Safe
         {
-            return Motion::Rejected;
+            return (Motion::Rejected, 0);
         }
         let mut cands = Vec::new();
         let index = self.index();
@@ -400,12 +390,41 @@ impl MotionChecker for SceneCertifier {
         let tail_only = self.bounds.beyond_cantelli();
         let needs_subs = cands.iter().any(|&i| !(tail_only && self.scene.obstacles[i].pedestrian.is_some()));
         let subs = if needs_subs { Substitution::new(pr, self.compiled.frame()) } else { None };
+        let mut decided = 0;
         for i in cands {
+            decided += 1;
             if !self.obstacle_safe(i, pr, subs.as_ref()) {
-                return Motion::Rejected;
+                return (Motion::Rejected, decided);
             }
         }
-        Motion::Accepted
+        (Motion::Accepted, decided)
+    }
+}
+
+impl MotionChecker for SceneCertifier {
+    fn name(&self) -> &str {
+        self.method.as_str()
+    }
+
+    fn sound(&self) -> bool {
+        true
+    }
+
+    fn prepare(&self, term: &Termination) {
+        if !self.fast {
+            return;
+        }
+        let _ = self.index_until(&|| term.expired());
+    }
+
+    fn work(&self) -> Option<u64> {
+        Some(self.work.load(std::sync::atomic::Ordering::Relaxed))
+    }
+
+    fn check(&self, piece: &Piece) -> Motion {
+        let (motion, decided) = self.check_counting(piece);
+        self.work.fetch_add(1 + decided, std::sync::atomic::Ordering::Relaxed);
+        motion
     }
 
     fn blocking_obstacle(&self, x: &[f64], t: f64) -> Option<String> {

@@ -590,8 +590,11 @@ mod tests {
 
     /// 96 uncertain disks (radius scaled by s ~ U(0.9, 1.1), centre shifted by d ~ N(0, 0.05))
     /// at constant density in a square 10·√96 wide, and the grid at Δ = 0.05.
-    fn crowded() -> &'static (Scene, NearGrid, Vec<(f64, f64)>) {
-        static S: OnceLock<(Scene, NearGrid, Vec<(f64, f64)>)> = OnceLock::new();
+    /// A scene, its grid, and its disks' nominal centres.
+    type Crowded = (Scene, NearGrid, Vec<(f64, f64)>);
+
+    fn crowded() -> &'static Crowded {
+        static S: OnceLock<Crowded> = OnceLock::new();
         S.get_or_init(|| {
             use rand::{Rng, SeedableRng};
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);

@@ -10,7 +10,7 @@
 //! the problem's [`Scale`]: the step is about the spacing of the obstacles.
 
 use super::scale::Scale;
-use super::smooth::{blend, shortcut, straight, time_at_constant_speed, Limits, SmoothStats};
+use super::smooth::{blend, shortcut, straight, time_at_constant_speed, Limits, SmoothStats, WorkBudget};
 use crate::plan::{
     dist, nearest, within_speed, CheckCounter, Kinematics, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome,
     PlanStats, PlanStatus, Planner, Problem, Termination,
@@ -88,6 +88,15 @@ fn steer(from: &[f64], to: &[f64], step: f64) -> Vec<f64> {
     }
 }
 
+/// Post-processing (candidate paths and shortcuts; not the corner blends, which the C¹
+/// output needs) may spend this many times the checking work of the search for the first
+/// path ([`MotionChecker::work`], docs/design.md §6.8).
+pub const SMOOTH_WORK_FACTOR: u64 = 2;
+
+/// ... and at least this much: on small scenes a check decides a handful of obstacles and
+/// costs a few microseconds, and this lets the shortcuts reach their usual length.
+pub const SMOOTH_MIN_WORK: u64 = 2_000;
+
 /// Each further candidate path may take this many times the first one's time.
 pub const CANDIDATE_TIME_FACTOR: u32 = 4;
 
@@ -111,6 +120,7 @@ impl ConnectRrt {
         term: &Termination,
         stats: &mut PlanStats,
         tree_edges: &mut Vec<(Vec<f64>, Vec<f64>)>,
+        over_budget: &dyn Fn() -> bool,
     ) -> Result<Vec<Vec<f64>>, PlanStatus> {
         let ws = &p.scene.workspace;
         let mut trees = [Tree::root(p.start.clone()), Tree::root(p.goal.clone())];
@@ -119,7 +129,7 @@ impl ConnectRrt {
             if term.should_stop() {
                 break Err(if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached });
             }
-            if stats.iterations >= self.params.max_iterations {
+            if stats.iterations >= self.params.max_iterations || over_budget() {
                 break Err(PlanStatus::Exhausted);
             }
             stats.iterations += 1;
@@ -190,6 +200,7 @@ impl Planner for ConnectRrt {
         };
         let step = self.params.step.unwrap_or_else(|| Scale::of(p).connect_step());
         let counter = CheckCounter::default();
+        let work_start = counter.work(checker);
         let seg = |a: &[f64], b: &[f64]| Piece::segment(a, b, p.horizon.0, p.horizon.1);
         let ok = |a: &[f64], b: &[f64]| counter.check(checker, &seg(a, b)) == Motion::Accepted;
         let ws = &p.scene.workspace;
@@ -199,25 +210,18 @@ impl Planner for ConnectRrt {
         let direct = ok(&p.start, &p.goal);
         let mut found: Option<Vec<Vec<f64>>> = direct.then(|| vec![p.start.clone(), p.goal.clone()]);
         if found.is_none() {
-            match self.grow(p, step, &ok, &mut rng, term, &mut stats, &mut tree_edges) {
+            match self.grow(p, step, &ok, &mut rng, term, &mut stats, &mut tree_edges, &|| false) {
                 Ok(path) => found = Some(path),
                 Err(s) => status = s,
             }
         }
-        // more candidate paths (fresh trees), each within a few times the first's time:
-        // the shortest after shortcutting is kept (a tree may find a long way round)
-        let mut others = Vec::new();
-        // the time to the first certified path: before the other candidates are grown
+        // the time to the first certified path, and the work of its search: post-processing
+        // may spend a multiple of that work (at least SMOOTH_MIN_WORK), deterministically
         let first = t_start.elapsed();
-        if found.is_some() && !direct && self.params.kinematics.smooth {
-            for _ in 1..self.params.candidates {
-                let sub = term.clone().earliest((first * CANDIDATE_TIME_FACTOR).max(MIN_CANDIDATE_TIME));
-                match self.grow(p, step, &ok, &mut rng, &sub, &mut stats, &mut tree_edges) {
-                    Ok(path) => others.push(path),
-                    Err(_) => break,
-                }
-            }
-        }
+        let search_work = counter.work(checker).saturating_sub(work_start);
+        let budget = WorkBudget::until(
+            counter.work(checker).saturating_add(search_work.saturating_mul(SMOOTH_WORK_FACTOR).max(SMOOTH_MIN_WORK)),
+        );
         let mut trajectory = None;
         let mut reason = None;
         if let Some(points) = found {
@@ -234,10 +238,22 @@ impl Planner for ConnectRrt {
             let pieces = if self.params.kinematics.smooth {
                 let t_imp = Instant::now();
                 let mut sm = SmoothStats { waypoints_before: timed.len(), ..Default::default() };
-                let mut short = shortcut(timed.clone(), p.horizon, false, None, checker, &counter, &mut rng, term);
-                for other in &others {
-                    let t = time_at_constant_speed(other, p.horizon);
-                    let s = shortcut(t, p.horizon, false, None, checker, &counter, &mut rng, term);
+                let mut short =
+                    shortcut(timed.clone(), p.horizon, false, None, checker, &counter, &mut rng, term, budget);
+                // more candidate paths (fresh trees) while the budget lasts, each within a few
+                // times the first's time: the shortest after shortcutting is kept (a tree may
+                // find a long way round)
+                let over = || !budget.left(&counter, checker);
+                for _ in 1..self.params.candidates {
+                    if direct || over() || term.should_stop() {
+                        break;
+                    }
+                    let sub = term.clone().earliest((first * CANDIDATE_TIME_FACTOR).max(MIN_CANDIDATE_TIME));
+                    let Ok(other) = self.grow(p, step, &ok, &mut rng, &sub, &mut stats, &mut tree_edges, &over) else {
+                        break;
+                    };
+                    let t = time_at_constant_speed(&other, p.horizon);
+                    let s = shortcut(t, p.horizon, false, None, checker, &counter, &mut rng, term, budget);
                     if length(&s) < length(&short) {
                         short = s;
                     }
@@ -276,7 +292,9 @@ impl Planner for ConnectRrt {
                 let mut retries = 0;
                 while raw.is_none() && retries < RAW_PATH_RETRIES && !term.should_stop() {
                     retries += 1;
-                    let Ok(path) = self.grow(p, step, &ok, &mut rng, term, &mut stats, &mut tree_edges) else { break };
+                    let Ok(path) = self.grow(p, step, &ok, &mut rng, term, &mut stats, &mut tree_edges, &|| false) else {
+                        break;
+                    };
                     stats.path_length = Some(path.windows(2).map(|w| dist(&w[0], &w[1])).sum());
                     raw = accept(straight(&time_at_constant_speed(&path, p.horizon), &ws.lower, &ws.upper));
                 }

@@ -13,7 +13,7 @@
 use super::paper_static::steer;
 use super::sampling::{width_range, StripeSampler};
 use super::scale::Scale;
-use super::smooth::{blend, shortcut, Limits, SmoothStats, Waypoint};
+use super::smooth::{blend, shortcut, Limits, SmoothStats, Waypoint, WorkBudget};
 use crate::plan::NoPlanReason;
 use crate::plan::{
     begin, dist, nearest, within_speed, Begin, CheckCounter, Kinematics, Motion, MotionChecker, PlanError, PlanOutcome,
@@ -398,7 +398,17 @@ impl Planner for LayeredRrt {
                 }
                 let mut sm = SmoothStats { waypoints_before: w.len(), ..Default::default() };
                 let short =
-                    shortcut(w, p.horizon, true, self.params.kinematics.max_speed, checker, &counter, &mut rng, term);
+                    shortcut(
+                        w,
+                        p.horizon,
+                        true,
+                        self.params.kinematics.max_speed,
+                        checker,
+                        &counter,
+                        &mut rng,
+                        term,
+                        WorkBudget::UNLIMITED,
+                    );
                 sm.waypoints_after = short.len();
                 let bounds = (ws.lower.as_slice(), ws.upper.as_slice());
                 let limits = Limits::of(&self.params.kinematics);

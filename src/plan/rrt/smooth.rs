@@ -3,8 +3,9 @@
 //!
 //! A plan arrives as waypoints with times, straight at constant velocity in between.
 //! 1. **Shortcut** (`shortcut`): random pairs of points on the path are joined by a
-//!    straight piece when the certifier accepts it; then each interior waypoint is
-//!    dropped when its neighbours can be joined ("reduce vertices"). Static scenes
+//!    straight piece when the certifier accepts it, within a [`WorkBudget`]; then each
+//!    interior waypoint is dropped when its neighbours can be joined ("reduce vertices").
+//!    Static scenes
 //!    shortcut the geometric path and re-time it at constant speed; with moving
 //!    obstacles the times stay attached to the points.
 //! 2. **Blend** (`blend`): each corner at time `tᵢ` between velocities `v⁻` and `v⁺`
@@ -47,6 +48,29 @@ pub const BLEND_HALVINGS: usize = 6;
 /// Largest share of a neighbouring piece's duration a blend may take (a third, so two
 /// blends never overlap and a straight part remains between them).
 pub const BLEND_SHARE: f64 = 1.0 / 3.0;
+
+/// A deterministic budget of checking work for post-processing (docs/design.md §6.8): the
+/// checker's work ([`CheckCounter::work`]) at which shortcutting stops. Work, not time, so
+/// that a plan stays reproducible by seed on a busy machine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WorkBudget {
+    until: Option<u64>,
+}
+
+impl WorkBudget {
+    /// No limit.
+    pub const UNLIMITED: WorkBudget = WorkBudget { until: None };
+
+    /// Ends when the checker's work reaches `work`.
+    pub fn until(work: u64) -> Self {
+        WorkBudget { until: Some(work) }
+    }
+
+    /// Whether work is left.
+    pub fn left(&self, counter: &CheckCounter, checker: &dyn MotionChecker) -> bool {
+        self.until.is_none_or(|u| counter.work(checker) < u)
+    }
+}
 
 /// A waypoint: time and position.
 pub type Waypoint = (f64, Vec<f64>);
@@ -142,6 +166,7 @@ pub fn shortcut(
     counter: &CheckCounter,
     rng: &mut ChaCha8Rng,
     term: &Termination,
+    budget: WorkBudget,
 ) -> Vec<Waypoint> {
     let mut w = path;
     let judge = |a: &Waypoint, b: &Waypoint| {
@@ -156,9 +181,25 @@ pub fn shortcut(
         };
         counter.check(checker, &piece) == Motion::Accepted
     };
+    let left = || !term.expired() && budget.left(counter, checker);
+    // reduce vertices: drop each interior waypoint whose neighbours can be joined, after
+    // the random attempts (on the search's many short steps they find the corners a greedy
+    // reduction misses: one corner at a neck where the reduction leaves two); at most one
+    // check per waypoint, so outside the budget (a path left with dozens of waypoints would
+    // cost more in blends than the reduction)
+    let reduce = |w: &mut Vec<Waypoint>| {
+        let mut k = 1;
+        while k + 1 < w.len() && !term.expired() {
+            if judge(&w[k - 1], &w[k + 1]) {
+                w.remove(k);
+            } else {
+                k += 1;
+            }
+        }
+    };
     let attempts = (w.len() * SHORTCUT_ATTEMPTS_PER_WAYPOINT).max(MIN_SHORTCUT_ATTEMPTS);
     for _ in 0..attempts {
-        if w.len() < 3 || term.expired() {
+        if w.len() < 3 || !left() {
             break;
         }
         // two points on two different pieces (or at waypoints)
@@ -193,15 +234,7 @@ pub fn shortcut(
         next.extend_from_slice(&w[j + 1..]);
         w = next;
     }
-    // reduce vertices: drop each interior waypoint whose neighbours can be joined
-    let mut k = 1;
-    while k + 1 < w.len() && !term.expired() {
-        if judge(&w[k - 1], &w[k + 1]) {
-            w.remove(k);
-        } else {
-            k += 1;
-        }
-    }
+    reduce(&mut w);
     if timed {
         w
     } else {
@@ -851,5 +884,73 @@ mod tests {
         let (pieces, stats) = smooth(&corner(), accel(10.0), false, &no_blend);
         assert_eq!((stats.corners_stopped, stats.accel_violations), (1, 2), "{stats:?}");
         assert!(pieces.iter().all(|pc| (peak_accel(pc) - 16.0).abs() < 1e-9), "{pieces:?}");
+    }
+
+    /// Accepts a straight piece unless it passes within 1 of the origin; counts its work as
+    /// ten per check (as a certifier counts the obstacles it decides).
+    struct DiskAtOrigin {
+        checks: std::sync::atomic::AtomicU64,
+    }
+
+    impl MotionChecker for DiskAtOrigin {
+        fn name(&self) -> &str {
+            "disk-at-origin"
+        }
+        fn sound(&self) -> bool {
+            true
+        }
+        fn check(&self, piece: &Piece) -> Motion {
+            self.checks.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let (a, b) = (piece.at(piece.t0), piece.at(piece.t1));
+            let d: Vec<f64> = b.iter().zip(&a).map(|(y, x)| y - x).collect();
+            let dd: f64 = d.iter().map(|v| v * v).sum();
+            let s = if dd > 0.0 { (-a.iter().zip(&d).map(|(x, v)| x * v).sum::<f64>() / dd).clamp(0.0, 1.0) } else { 0.0 };
+            let closest: f64 = a.iter().zip(&d).map(|(x, v)| (x + s * v).powi(2)).sum::<f64>().sqrt();
+            if closest < 1.0 {
+                Motion::Rejected
+            } else {
+                Motion::Accepted
+            }
+        }
+        fn check_point(&self, _x: &[f64], _t: f64) -> Motion {
+            Motion::Accepted
+        }
+        fn work(&self) -> Option<u64> {
+            Some(10 * self.checks.load(std::sync::atomic::Ordering::Relaxed))
+        }
+    }
+
+    /// The work budget binds the random shortcuts, deterministically: with no work left only
+    /// the vertex reduction runs (at most one check per waypoint), with a budget the
+    /// attempts stop within one attempt (three checks) of it, and unlimited they run on; the
+    /// same seed and budget give the same path.
+    #[test]
+    fn the_work_budget_bounds_the_random_shortcuts() {
+        use rand::SeedableRng;
+        // a half circle of radius 1.5 around the disk, in 24 steps
+        let path: Vec<Waypoint> = (0..=24)
+            .map(|k| {
+                let a = std::f64::consts::PI * (1.0 - k as f64 / 24.0);
+                (k as f64 / 24.0, vec![1.5 * a.cos(), 1.5 * a.sin()])
+            })
+            .collect();
+        let run = |budget: &dyn Fn(&CheckCounter, &DiskAtOrigin) -> WorkBudget| {
+            let checker = DiskAtOrigin { checks: Default::default() };
+            let counter = CheckCounter::default();
+            let b = budget(&counter, &checker);
+            let mut rng = ChaCha8Rng::seed_from_u64(3);
+            let out = shortcut(path.clone(), (0.0, 1.0), true, None, &checker, &counter, &mut rng, &Termination::never(), b);
+            (out, counter.totals().0)
+        };
+        let (_, none) = run(&|c, k| WorkBudget::until(c.work(k)));
+        assert!(none <= 2 * path.len() as u64, "{none} checks with no work left");
+        let (a, some) = run(&|c, k| WorkBudget::until(c.work(k) + 10 * (2 * path.len() as u64 + 8)));
+        // the budget (which the first reduction shares), one attempt's three checks past it,
+        // and the last reduction's check per waypoint left
+        assert!(some <= 2 * path.len() as u64 + 8 + 3 + a.len() as u64, "{some} checks, {} waypoints left", a.len());
+        let (b, again) = run(&|c, k| WorkBudget::until(c.work(k) + 10 * (2 * path.len() as u64 + 8)));
+        assert_eq!((a, some), (b, again), "not reproducible");
+        let (_, all) = run(&|_, _| WorkBudget::UNLIMITED);
+        assert!(all > some, "unlimited: {all} checks, budgeted {some}");
     }
 }
