@@ -5,76 +5,33 @@
 //! with 4xx while the server goes on answering Zenoh queries. Loopback only.
 
 use crate::common;
+use crate::common::server::{free_port, reference_scene, serve, Serve};
 use riskplan::service::proto::{ApplyRequest, Change, Codec, PlanRequest, RiskRequest, Segment, VerifyRequest};
 use riskplan::service::{Client, ClientError};
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::TcpStream;
-use std::process::{Child, Stdio};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 const SCENE: &str = "illustrative-3";
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
-}
-
-struct KillOnDrop(Child);
-impl Drop for KillOnDrop {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// A server started with `--metrics`, its stderr lines on a channel.
+/// A server started with `--metrics`, and its metrics address.
 struct Server {
-    child: KillOnDrop,
-    lines: mpsc::Receiver<String>,
-    endpoint: String,
+    serve: Serve,
     metrics: String,
-    _dir: tempfile::TempDir,
 }
 
 /// Starts `riskplan serve` with illustrative-3 preloaded and metrics on a free port;
 /// waits for its metrics line and its ready line.
 fn start() -> Server {
-    let dir = tempfile::tempdir().unwrap();
-    let scenes = dir.path().join("scenes");
-    std::fs::create_dir(&scenes).unwrap();
-    std::fs::copy(common::reference_dir().join(format!("{SCENE}.json")), scenes.join(format!("{SCENE}.json"))).unwrap();
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     let metrics = format!("127.0.0.1:{}", free_port());
-    let mut child = KillOnDrop(
-        common::bin()
-            .args(["serve", "--listen", &endpoint, "--workers", "1", "--server-id", "metrics-test"])
-            .args(["--metrics", &metrics])
-            .arg("--data")
-            .arg(dir.path().join("data"))
-            .arg("--preload")
-            .arg(&scenes)
-            .env("OPENBLAS_NUM_THREADS", "1")
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start riskplan serve"),
+    let announced = format!("riskplan: metrics on http://{metrics}/metrics");
+    let serve = serve(
+        &[(SCENE, reference_scene(SCENE))],
+        &["--workers", "1", "--server-id", "metrics-test", "--metrics", &metrics],
+        &[&announced, "riskplan: ready"],
     );
-    let (tx, rx) = mpsc::channel();
-    let stderr = child.0.stderr.take().unwrap();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            let _ = tx.send(line);
-        }
-    });
-    let t = Instant::now();
-    let (mut announced, mut ready) = (false, false);
-    while !(announced && ready) {
-        let line = rx.recv_timeout(Duration::from_secs(30)).expect("the server did not start within 30 s");
-        announced |= line.contains(&format!("riskplan: metrics on http://{metrics}/metrics"));
-        ready |= line.contains("riskplan: ready");
-        assert!(t.elapsed() < Duration::from_secs(30), "no metrics or ready line");
-    }
-    Server { child, lines: rx, endpoint, metrics, _dir: dir }
+    Server { serve, metrics }
 }
 
 /// Sends `request` as is and reads the whole reply (the server closes the connection):
@@ -173,7 +130,7 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
     // requests of known kinds and outcomes, through the Rust client
     let rt = tokio::runtime::Runtime::new().unwrap();
     rt.block_on(async {
-        let c = Client::connect(&server.endpoint, Duration::from_secs(30), Codec::Bincode).await.unwrap();
+        let c = Client::connect(&server.serve.endpoint, Duration::from_secs(30), Codec::Bincode).await.unwrap();
         let plan = c.plan(SCENE, &PlanRequest::default()).await.expect("a plan");
         assert!(plan.certified);
         let seg = |from: Vec<f64>, to: Vec<f64>| VerifyRequest {
@@ -201,7 +158,7 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
         assert_eq!(applied.revision, 2);
         // a put (no reply): counted once applied
         let mut other = serde_json::from_str::<serde_json::Value>(
-            &std::fs::read_to_string(common::reference_dir().join(format!("{SCENE}.json"))).unwrap(),
+            &reference_scene(SCENE),
         )
         .unwrap();
         other["name"] = "second".into();
@@ -273,7 +230,7 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
 
     // the server still answers Zenoh queries, and scrapes, and counted the new status
     rt.block_on(async {
-        let c = Client::connect(&server.endpoint, Duration::from_secs(30), Codec::Json).await.unwrap();
+        let c = Client::connect(&server.serve.endpoint, Duration::from_secs(30), Codec::Json).await.unwrap();
         let status = c.status().await.expect("status after the bad HTTP");
         assert_eq!(status.state, "ready");
         c.close().await;
@@ -288,8 +245,8 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
     let waited = silent_since.elapsed();
     assert!(waited >= Duration::from_secs(4) && waited < Duration::from_secs(15), "{waited:?}");
     let mut server = server;
-    assert!(server.child.0.try_wait().unwrap().is_none(), "the server ended");
-    let log: Vec<String> = server.lines.try_iter().collect();
+    assert!(server.serve.child.0.try_wait().unwrap().is_none(), "the server ended");
+    let log: Vec<String> = server.serve.lines.try_iter().collect();
     assert!(!log.iter().any(|l| l.contains("panicked")), "{log:?}");
 }
 

@@ -3,9 +3,8 @@
 //! of waiting for their time limits.
 
 use crate::common;
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Stdio};
-use std::sync::mpsc;
+use crate::common::server::{serve, KillOnDrop};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 /// How soon the server must be gone after SIGTERM.
@@ -33,18 +32,6 @@ fn enclosed_goal_scene() -> serde_json::Value {
     })
 }
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
-}
-
-struct KillOnDrop(Child);
-impl Drop for KillOnDrop {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 fn client(endpoint: &str, args: &[&str]) -> std::process::Command {
     let mut c = common::bin();
     c.args(["client", "--endpoint", endpoint, "--json"]).args(args);
@@ -53,38 +40,12 @@ fn client(endpoint: &str, args: &[&str]) -> std::process::Command {
 
 #[test]
 fn sigterm_during_a_long_plan_ends_the_service_within_2_s() {
-    let dir = tempfile::tempdir().unwrap();
-    let scenes = dir.path().join("scenes");
-    std::fs::create_dir(&scenes).unwrap();
-    std::fs::write(scenes.join("enclosed.json"), enclosed_goal_scene().to_string()).unwrap();
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let mut server = KillOnDrop(
-        common::bin()
-            .args(["serve", "--listen", &endpoint, "--workers", "1", "--max-plan-seconds", "60"])
-            .arg("--data")
-            .arg(dir.path().join("data"))
-            .arg("--preload")
-            .arg(&scenes)
-            .env("OPENBLAS_NUM_THREADS", "1")
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start riskplan serve"),
+    let mut srv = serve(
+        &[("enclosed", enclosed_goal_scene().to_string())],
+        &["--workers", "1", "--max-plan-seconds", "60"],
+        &["riskplan: ready"],
     );
-    let (tx, rx) = mpsc::channel();
-    let stderr = server.0.stderr.take().unwrap();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            let _ = tx.send(line);
-        }
-    });
-    let ready = Instant::now();
-    loop {
-        let line = rx.recv_timeout(Duration::from_secs(30)).expect("the server did not start within 30 s");
-        if line.contains("riskplan: ready") {
-            break;
-        }
-        assert!(ready.elapsed() < Duration::from_secs(30), "no ready line");
-    }
+    let (server, rx, endpoint) = (&mut srv.child, &srv.lines, srv.endpoint.clone());
     let _plan = KillOnDrop(
         client(&endpoint, &["--timeout", "60", "plan", "--scene", "enclosed", "--time-limit", "50"])
             .stdout(Stdio::null())

@@ -2,6 +2,8 @@
 #![allow(dead_code)]
 
 pub mod oracle;
+#[cfg(all(feature = "service", feature = "cli"))]
+pub mod server;
 
 use riskplan::scene::Scene;
 use std::path::PathBuf;
