@@ -10,6 +10,7 @@
 //! The HTTP side is `metrics_http.rs`; this module knows nothing of the server's state
 //! but the [`Snapshot`] its sampler returns (set by `server.rs`).
 
+use super::routes::RouteKind;
 use prometheus_client::collector::Collector;
 use prometheus_client::encoding::{DescriptorEncoder, EncodeLabelSet, EncodeMetric, MetricEncoder, NoLabelSet};
 use prometheus_client::metrics::counter::{ConstCounter, Counter};
@@ -38,22 +39,20 @@ pub(crate) const OK: &str = "ok";
 /// The outcome of a put dropped because `PUT_QUEUE` puts already waited.
 pub(crate) const DROPPED: &str = "dropped";
 
-/// The request kinds: every query kind (`RouteKind::label`), a query on an unknown
-/// key, and puts. Their series are made at start (a histogram per kind, zero until
-/// used); another kind is still counted, through the family's lock.
-const KINDS: [&str; 11] = [
-    "status",
-    "echo",
-    "scene",
-    "apply",
-    "plan",
-    "verify",
-    "risk",
-    "replication_index",
-    "replication_scene",
-    UNKNOWN,
-    PUT,
-];
+/// The request kinds: every query kind (`RouteKind::label` of `RouteKind::ALL`), a query
+/// on an unknown key, and puts. Their series are made at start (a histogram per kind, zero
+/// until used); another kind is still counted, through the family's lock.
+const KINDS: [&str; RouteKind::ALL.len() + 2] = {
+    let mut k = [""; RouteKind::ALL.len() + 2];
+    let mut i = 0;
+    while i < RouteKind::ALL.len() {
+        k[i] = RouteKind::ALL[i].label();
+        i += 1;
+    }
+    k[i] = UNKNOWN;
+    k[i + 1] = PUT;
+    k
+};
 
 /// The outcomes: `ok`, a dropped put, and every error code of `ServiceError::code`.
 /// Their (kind, outcome) counters are made on first use and then reached without a

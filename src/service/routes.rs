@@ -150,7 +150,7 @@ impl RouteKind {
     ];
 
     /// The name of the kind in logs and in `status`'s request counters.
-    pub fn label(self) -> &'static str {
+    pub const fn label(self) -> &'static str {
         match self {
             RouteKind::Status => "status",
             RouteKind::Echo => "echo",
