@@ -157,10 +157,7 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
             .expect("an apply");
         assert_eq!(applied.revision, 2);
         // a put (no reply): counted once applied
-        let mut other = serde_json::from_str::<serde_json::Value>(
-            &reference_scene(SCENE),
-        )
-        .unwrap();
+        let mut other = serde_json::from_str::<serde_json::Value>(&reference_scene(SCENE)).unwrap();
         other["name"] = "second".into();
         c.put_scene("second", &other).await.unwrap();
         c.close().await;

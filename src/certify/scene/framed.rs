@@ -36,8 +36,11 @@ pub struct FramedContours {
     /// finite). Built by the first final check that needs it, asking its `stop`.
     near: OnceLock<Option<Vec<Option<Near>>>>,
     /// The grids of the last few risk allocations ([`NearGrid`], crowded scenes only).
-    grids: std::sync::Mutex<Vec<(Vec<RiskLevel>, Option<std::sync::Arc<NearGrid>>)>>,
+    grids: std::sync::Mutex<Vec<GridEntry>>,
 }
+
+/// A grid (`None`: not worth building) at a list of per-obstacle risk levels.
+type GridEntry = (Vec<RiskLevel>, Option<std::sync::Arc<NearGrid>>);
 
 /// Grids kept per scene (one per list of per-obstacle risk levels), as the covers are.
 pub const GRIDS_PER_SCENE: usize = 4;
@@ -93,7 +96,8 @@ impl Near {
         let mut vals: Vec<Interval> = bbox.iter().zip(&self.center).map(|(&b, &c)| b - Interval::point(c)).collect();
         vals.push(t - Interval::point(self.center[bbox.len()]));
         let m = self.mean.eval(&vals);
-        if !(m.hi < 0.0) {
+        // NaN-safe: a NaN bound is not below 0
+        if m.hi.partial_cmp(&0.0) != Some(std::cmp::Ordering::Less) {
             return false;
         }
         if b.g1.eval(&vals).lo > 0.0 {
