@@ -629,8 +629,8 @@ pub const START_TIME_TOLERANCE: f64 = 1e-12;
 /// risk levels. Its Cantelli path shares no code with the compiled fast path of the
 /// planners' checker beyond the contour polynomials and the Bernstein decision; with
 /// `bound: auto`, a piece the general composition of the other bounds cannot cover is
-/// tried once more with their compiled restriction, its central moments restricted as the
-/// fast path does (docs/design.md §5.13: at extreme
+/// tried once more with their compiled restriction, its moments restricted by the fast
+/// path's own `f64` code (docs/design.md §5.13: at extreme
 /// scales only the frame keeps the digits), so there the final check is not independent
 /// of the fast path — the bound oracle tests are. Asks `stop` before each piece.
 pub fn final_check(
@@ -674,9 +674,17 @@ pub fn final_check(
     let near = framed.near(scene, stop)?;
     // on crowded scenes, the obstacles each piece must be examined against (§5.12)
     let grid = framed.grid(scene, deltas, stop)?;
-    // each obstacle's Cantelli polynomial for the box tests, formed on first use
-    let cantelli: Vec<std::cell::OnceCell<_>> = scene.obstacles.iter().map(|_| std::cell::OnceCell::new()).collect();
-    let near = near.map(|n| (n, cantelli.as_slice()));
+    // each obstacle's box-test polynomials, formed on first use (the grid's, when there is
+    // one: formed once for these risk levels)
+    let local: Vec<std::sync::OnceLock<_>>;
+    let bounds_of_tests = match &grid {
+        Some(g) => g.bounds.as_slice(),
+        None => {
+            local = scene.obstacles.iter().map(|_| std::sync::OnceLock::new()).collect();
+            local.as_slice()
+        }
+    };
+    let near = near.map(|n| (n, bounds_of_tests));
     for (i, pc) in traj.pieces.iter().enumerate() {
         if stop() {
             return Err(Interrupted);

@@ -280,7 +280,12 @@ impl FramedContours {
 
 /// The box tests of a final check: per obstacle its test (if any) and its Cantelli
 /// polynomial at its Δᵢ, formed on first use.
-pub(crate) type NearTests<'a> = (&'a [Option<Near>], &'a [std::cell::OnceCell<NearBound>]);
+pub(crate) type NearTests<'a> = (&'a [Option<Near>], &'a [OnceLock<NearBound>]);
+
+/// 1 − Δ, enclosed (from the exact Δ).
+fn one_minus_enclosed(d: &RiskLevel) -> Interval {
+    Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational()))
+}
 
 /// Whether one piece passes the verify path at one risk level per obstacle: inside the
 /// workspace (exact check) and, for every obstacle, both constraints proven positive
@@ -307,15 +312,7 @@ pub(crate) fn piece_passes_verify_path(
     let bbox = near.and_then(|_| interval_hull(pr));
     let parts = std::cell::OnceCell::new();
     let ped_hull = std::cell::OnceCell::new();
-    let all: Vec<usize>;
-    let examined = match only {
-        Some(o) => o,
-        None => {
-            all = (0..scene.obstacles.len()).collect();
-            &all
-        }
-    };
-    examined.iter().all(|&i| {
+    let obstacle_passes = |i: usize| {
         let (Some(o), Some(d)) = (scene.obstacles.get(i), deltas.get(i)) else { return false };
         if let (Some(p), true) = (&o.pedestrian, bounds.beyond_cantelli()) {
             // the tail bound (docs/design.md §3.11): a box test, then exact arithmetic
@@ -325,7 +322,7 @@ pub(crate) fn piece_passes_verify_path(
             }
             return crate::certify::tail::piece_clear_exact(p, d.rational(), pr).is_safe();
         }
-        let omd = Interval::enclose_rational(&(BigRational::from_integer(1.into()) - d.rational()));
+        let omd = one_minus_enclosed(d);
         if let (Some((Some(n), g1)), Some(b)) = (near.map(|(n, c)| (&n[i], &c[i])), &bbox) {
             let g1 = g1.get_or_init(|| n.cantelli(omd));
             if n.clears(b, Interval::new(pr.t0, pr.t1), g1) {
@@ -364,7 +361,11 @@ pub(crate) fn piece_passes_verify_path(
             }
             _ => false,
         }
-    })
+    };
+    match only {
+        Some(examined) => examined.iter().all(|&i| obstacle_passes(i)),
+        None => (0..scene.obstacles.len()).all(obstacle_passes),
+    }
 }
 
 /// Parts in time of a piece whose boxes the final check's box tests try when the whole
@@ -443,6 +444,10 @@ pub(crate) struct NearGrid {
     always: Vec<u32>,
     /// Obstacles in the scene.
     obstacles: usize,
+    /// Each obstacle's box-test polynomials at its Δᵢ ([`Near::cantelli`]): formed by the
+    /// build for the obstacles it tests, on first use for the others; the final checks at
+    /// these risk levels use them too.
+    pub(crate) bounds: Vec<OnceLock<NearBound>>,
 }
 
 /// Fewest obstacles for which the final check builds its grid ([`NearGrid`]): with fewer,
@@ -512,9 +517,15 @@ impl NearGrid {
             })
             .collect();
         let total = per_axis.pow(dim as u32);
-        let mut grid = NearGrid { edges, per_axis, cells: vec![Vec::new(); total], always: Vec::new(), obstacles: near.len() };
+        let mut grid = NearGrid {
+            edges,
+            per_axis,
+            cells: vec![Vec::new(); total],
+            always: Vec::new(),
+            obstacles: near.len(),
+            bounds: near.iter().map(|_| OnceLock::new()).collect(),
+        };
         let horizon = Interval::new(scene.horizon.0, scene.horizon.1);
-        let one = BigRational::from_integer(1.into());
         let (mut tested, mut gave_up_on) = (0usize, 0usize);
         for (i, (n, d)) in near.iter().zip(deltas).enumerate() {
             if stop() {
@@ -528,7 +539,7 @@ impl NearGrid {
                 continue;
             };
             tested += 1;
-            let g1 = n.cantelli(Interval::enclose_rational(&(&one - d.rational())));
+            let g1 = grid.bounds[i].get_or_init(|| n.cantelli(one_minus_enclosed(d)));
             let mut marked = Vec::new();
             let mut tests = 0usize;
             let mut stack = vec![(vec![0usize; dim], vec![per_axis; dim])];
@@ -541,7 +552,7 @@ impl NearGrid {
                 }
                 let cell_box: Vec<Interval> =
                     (0..dim).map(|a| Interval::new(grid.edges[a][lo[a]], grid.edges[a][hi[a]])).collect();
-                if n.clears(&cell_box, horizon, &g1) {
+                if n.clears(&cell_box, horizon, g1) {
                     continue;
                 }
                 // the widest axis of the block, halved; a single cell is marked
@@ -668,11 +679,11 @@ mod tests {
     use proptest::prelude::*;
     use std::sync::OnceLock;
 
-    /// 96 uncertain disks (radius scaled by s ~ U(0.9, 1.1), centre shifted by d ~ N(0, 0.05))
-    /// at constant density in a square 10·√96 wide, and the grid at Δ = 0.05.
     /// A scene, its grid, and its disks' nominal centres.
     type Crowded = (Scene, NearGrid, Vec<(f64, f64)>);
 
+    /// 96 uncertain disks (radius scaled by s ~ U(0.9, 1.1), centre shifted by d ~ N(0, 0.05))
+    /// at constant density in a square 10·√96 wide, and the grid at Δ = 0.05.
     fn crowded() -> &'static Crowded {
         static S: OnceLock<Crowded> = OnceLock::new();
         S.get_or_init(|| {

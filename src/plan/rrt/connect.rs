@@ -218,10 +218,10 @@ impl Planner for ConnectRrt {
         // the time to the first certified path, and the work of its search: post-processing
         // may spend a multiple of that work (at least SMOOTH_MIN_WORK), deterministically
         let first = t_start.elapsed();
-        let search_work = counter.work(checker).saturating_sub(work_start);
-        let budget = WorkBudget::until(
-            counter.work(checker).saturating_add(search_work.saturating_mul(SMOOTH_WORK_FACTOR).max(SMOOTH_MIN_WORK)),
-        );
+        let work_now = counter.work(checker);
+        let search_work = work_now.saturating_sub(work_start);
+        let budget =
+            WorkBudget::until(work_now.saturating_add(search_work.saturating_mul(SMOOTH_WORK_FACTOR).max(SMOOTH_MIN_WORK)));
         let mut trajectory = None;
         let mut reason = None;
         if let Some(points) = found {

@@ -5,9 +5,8 @@
 //! 1. **Shortcut** (`shortcut`): random pairs of points on the path are joined by a
 //!    straight piece when the certifier accepts it, within a [`WorkBudget`]; then each
 //!    interior waypoint is dropped when its neighbours can be joined ("reduce vertices").
-//!    Static scenes
-//!    shortcut the geometric path and re-time it at constant speed; with moving
-//!    obstacles the times stay attached to the points.
+//!    Static scenes shortcut the geometric path and re-time it at constant speed; with
+//!    moving obstacles the times stay attached to the points.
 //! 2. **Blend** (`blend`): each corner at time `tᵢ` between velocities `v⁻` and `v⁺`
 //!    is replaced on `[tᵢ − δ, tᵢ + δ]` by the parabola
 //!    `x(t) = xᵢ + v⁻(t − tᵢ) + (v⁺ − v⁻)(t − tᵢ + δ)²/(4δ)`, which meets both
@@ -48,6 +47,12 @@ pub const BLEND_HALVINGS: usize = 6;
 /// Largest share of a neighbouring piece's duration a blend may take (a third, so two
 /// blends never overlap and a straight part remains between them).
 pub const BLEND_SHARE: f64 = 1.0 / 3.0;
+
+/// A straight part between two blends that the checker refuses whole is tried again as
+/// 2, 4 and 8 equal pieces ([`straight_part`]): measured on example-d1 (seed 3), a part
+/// starting beside a corner in a contour's Cantelli ring was refused whole and proven in
+/// two halves. Three levels bound the extra checks of a part that is truly refused at 14.
+pub const STRAIGHT_SPLITS: u32 = 3;
 
 /// A deterministic budget of checking work for post-processing (docs/design.md §6.8): the
 /// checker's work ([`CheckCounter::work`]) at which shortcutting stops. Work, not time, so
@@ -182,21 +187,6 @@ pub fn shortcut(
         counter.check(checker, &piece) == Motion::Accepted
     };
     let left = || !term.expired() && budget.left(counter, checker);
-    // reduce vertices: drop each interior waypoint whose neighbours can be joined, after
-    // the random attempts (on the search's many short steps they find the corners a greedy
-    // reduction misses: one corner at a neck where the reduction leaves two); at most one
-    // check per waypoint, so outside the budget (a path left with dozens of waypoints would
-    // cost more in blends than the reduction)
-    let reduce = |w: &mut Vec<Waypoint>| {
-        let mut k = 1;
-        while k + 1 < w.len() && !term.expired() {
-            if judge(&w[k - 1], &w[k + 1]) {
-                w.remove(k);
-            } else {
-                k += 1;
-            }
-        }
-    };
     let attempts = (w.len() * SHORTCUT_ATTEMPTS_PER_WAYPOINT).max(MIN_SHORTCUT_ATTEMPTS);
     for _ in 0..attempts {
         if w.len() < 3 || !left() {
@@ -234,7 +224,19 @@ pub fn shortcut(
         next.extend_from_slice(&w[j + 1..]);
         w = next;
     }
-    reduce(&mut w);
+    // reduce vertices: drop each interior waypoint whose neighbours can be joined, after
+    // the random attempts (on the search's many short steps they find the corners a greedy
+    // reduction misses: one corner at a neck where the reduction leaves two); at most one
+    // check per waypoint, so outside the budget (a path left with dozens of waypoints would
+    // cost more in blends than the reduction)
+    let mut k = 1;
+    while k + 1 < w.len() && !term.expired() {
+        if judge(&w[k - 1], &w[k + 1]) {
+            w.remove(k);
+        } else {
+            k += 1;
+        }
+    }
     if timed {
         w
     } else {
@@ -446,6 +448,50 @@ fn retimed(w: &[Waypoint], corners: &[Corner]) -> Option<(Timing, f64)> {
     Some((timing, u))
 }
 
+/// The straight part from `a` at `ta` to `b` at `tb` as accepted pieces: one piece, or
+/// when the checker refuses it, the same motion split into 2, 4, … 2^[`STRAIGHT_SPLITS`]
+/// pieces of equal duration (collinear, at one velocity: the path stays C¹). A straight
+/// part is a sub-segment of a segment the shortcut step certified, but a proof by the
+/// higher-moment bounds (docs/design.md §5.13) subdivides each piece's own time
+/// dyadically within a depth and node budget, so a part that starts in the middle of a
+/// grazing stretch can miss the covers its parent had; shorter pieces give the search
+/// new subdivisions and budgets. Every returned piece is accepted on its own.
+fn straight_part(
+    a: &[f64],
+    b: &[f64],
+    ta: f64,
+    tb: f64,
+    workspace: (&[f64], &[f64]),
+    accept: &dyn Fn(&Piece) -> bool,
+) -> Option<Vec<Piece>> {
+    let whole = inside(Piece::segment(a, b, ta, tb), workspace.0, workspace.1);
+    if accept(&whole) {
+        return Some(vec![whole]);
+    }
+    for level in 1..=STRAIGHT_SPLITS {
+        let k = 1usize << level;
+        let at = |j: usize| -> (f64, Vec<f64>) {
+            if j == k {
+                (tb, b.to_vec())
+            } else {
+                let s = j as f64 / k as f64;
+                (ta + (tb - ta) * s, lerp(a, b, s))
+            }
+        };
+        let pieces: Option<Vec<Piece>> = (0..k)
+            .map(|j| {
+                let ((t0, p0), (t1, p1)) = (at(j), at(j + 1));
+                let pc = inside(Piece::segment(&p0, &p1, t0, t1), workspace.0, workspace.1);
+                (t1 > t0 && accept(&pc)).then_some(pc)
+            })
+            .collect();
+        if pieces.is_some() {
+            return pieces;
+        }
+    }
+    None
+}
+
 /// How an assembly ended.
 enum Assembly {
     /// Every piece accepted.
@@ -490,11 +536,10 @@ fn assemble(
             }
             out.push(piece);
         } else if tb > ta {
-            let piece = inside(Piece::segment(&a, &b, ta, tb), workspace.0, workspace.1);
-            if !accept(&piece) {
-                return Assembly::Rejected;
+            match straight_part(&a, &b, ta, tb, workspace, accept) {
+                Some(pieces) => out.extend(pieces),
+                None => return Assembly::Rejected,
             }
-            out.push(piece);
         }
         if i + 1 < n - 1 && timing.delta[i + 1] > 0.0 {
             let piece = if timing.retimed {
@@ -843,6 +888,50 @@ mod tests {
         let (sharp, stats) = smooth(&w, Limits { max_speed: Some(10.5), max_accel: None }, false, &no_blend);
         assert_eq!((stats.corners_blended, stats.corners_stopped, stats.corners_sharp), (1, 0, 1), "{stats:?}");
         assert_within(&sharp, 10.5);
+    }
+
+    /// Accepts every piece of degree ≥ 2 and the straight ones of at most `longest`
+    /// duration: a checker whose proofs only succeed on short pieces (as a higher-moment
+    /// cover's depth budget does near a contour).
+    struct ShortStraightOnly {
+        longest: f64,
+    }
+
+    impl MotionChecker for ShortStraightOnly {
+        fn name(&self) -> &str {
+            "short-straight-only"
+        }
+        fn sound(&self) -> bool {
+            true
+        }
+        fn check(&self, piece: &Piece) -> Motion {
+            if piece.degree() >= 2 || piece.t1 - piece.t0 <= self.longest {
+                Motion::Accepted
+            } else {
+                Motion::Rejected
+            }
+        }
+        fn check_point(&self, _x: &[f64], _t: f64) -> Motion {
+            Motion::Accepted
+        }
+    }
+
+    /// A straight part refused whole is split into equal pieces the checker accepts (the
+    /// example-d1 seed-3 failure: a part beside a corner in a Cantelli ring, proven in
+    /// halves), and the path stays C¹ with its corner blended; parts that no split within
+    /// [`STRAIGHT_SPLITS`] levels makes short enough leave the blend undone.
+    #[test]
+    fn a_refused_straight_part_is_split_and_stays_c1() {
+        // the corner's straight parts last 0.5 − δ with δ = 1/6 (BLEND_SHARE of 0.5)
+        let (pieces, stats) = smooth(&corner(), Limits::default(), false, &ShortStraightOnly { longest: 0.2 });
+        assert_eq!(stats.corners_blended, 1, "{stats:?}");
+        assert_eq!(pieces.len(), 5, "two halves on each side of the blend: {pieces:?}");
+        assert!(max_velocity_jump(&pieces) < JUMP_TOLERANCE, "C¹: {}", max_velocity_jump(&pieces));
+        let too_short = 0.34 / (1u32 << STRAIGHT_SPLITS) as f64 * 0.9;
+        let (counter, mut stats) = (CheckCounter::default(), SmoothStats::default());
+        let ws: (&[f64], &[f64]) = (&[-10.0, -10.0], &[10.0, 10.0]);
+        let checker = ShortStraightOnly { longest: too_short };
+        assert!(blend(&corner(), ws, Limits::default(), false, &checker, &counter, &mut stats, &Termination::never()).is_none());
     }
 
     /// `within_speed` on blends and eased parts far from t = 0 (on [10, 10.3], where the
