@@ -5,7 +5,8 @@ Measures, on this host and in one run:
 
 * the CLI, end to end: `riskplan verify` of a random trajectory of N pieces (default
   10 000) on illustrative-3, with the exact and the SOS method, the full (pretty) report
-  and `--summary`, written to a pipe; per piece = (median time of N pieces − median time of 1 piece) /
+  and `--summary`, with the default threads (the machine's cores) and `--threads 1`,
+  written to a pipe; per piece = (median time of N pieces − median time of 1 piece) /
   (N − 1), so that process start, scene loading and the contours' compilation are
   excluded;
 * the service over Zenoh: one `verify` query of a random trajectory of M pieces (default
@@ -83,17 +84,21 @@ def cli_rows(a, env, tmp: Path):
     small, _, _ = random_pieces("illustrative-3", 1, a.seed)
     for name, pieces in (("big", big), ("one", small)):
         (tmp / f"{name}.json").write_text(json.dumps({"format": "riskplan-trajectory/1", "pieces": pieces}))
+    # the default threads (the machine's cores, for 4 096 pieces or more) and one thread
     for method in ("exact", "sos"):
         for report_kind in ("full", "summary"):
-            base = [a.bin, "verify", "--scene", str(scene), "--method", method]
-            base += ["--summary"] if report_kind == "summary" else []
-            base += ["--trajectory"]
-            t1, _ = timed(base + [str(tmp / "one.json")], env, a.reps)
-            tn, out = timed(base + [str(tmp / "big.json")], env, a.reps)
-            report = json.loads(out)
-            rows.append({"method": method, "report": report_kind, "pieces": a.pieces, "not_safe": report["not_safe"],
-                         "output_bytes": len(out), "median_s": round(tn, 4), "one_piece_median_s": round(t1, 4),
-                         "per_piece_us": round((tn - t1) / (a.pieces - 1) * 1e6, 2)})
+            for threads in (None, 1):
+                base = [a.bin, "verify", "--scene", str(scene), "--method", method]
+                base += ["--summary"] if report_kind == "summary" else []
+                base += ["--threads", str(threads)] if threads else []
+                base += ["--trajectory"]
+                t1, _ = timed(base + [str(tmp / "one.json")], env, a.reps)
+                tn, out = timed(base + [str(tmp / "big.json")], env, a.reps)
+                report = json.loads(out)
+                rows.append({"method": method, "report": report_kind, "threads": threads or os.cpu_count(),
+                             "pieces": a.pieces, "not_safe": report["not_safe"],
+                             "output_bytes": len(out), "median_s": round(tn, 4), "one_piece_median_s": round(t1, 4),
+                             "per_piece_us": round((tn - t1) / (a.pieces - 1) * 1e6, 2)})
     return rows
 
 

@@ -43,6 +43,11 @@ pub struct VerifyArgs {
     /// trajectories.
     #[arg(long)]
     summary: bool,
+    /// Threads for trajectories of at least 4096 pieces: contiguous runs of pieces are
+    /// verified at once and the report is the same as with one thread (default: the
+    /// machine's cores; at most 64).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=crate::verify::MAX_VERIFY_THREADS as i64))]
+    threads: Option<u16>,
 }
 
 pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
@@ -59,7 +64,8 @@ pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
     };
     let kernel = crate::verify::SceneKernel::new(std::sync::Arc::new(scene));
     let detail = if a.summary { Detail::FirstNotSafe } else { Detail::Every };
-    let opts = VerifyOptions { method: a.method, settings: Default::default(), bounds: a.bound, detail };
+    let threads = a.threads.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
+    let opts = VerifyOptions { method: a.method, settings: Default::default(), bounds: a.bound, detail, threads };
     let report = crate::verify::verify_with(&kernel, &traj.pieces, &delta, &opts, &|| false)
         .map_err(|_| CliError("verification interrupted".into()))?
         .report;

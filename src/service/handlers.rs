@@ -211,16 +211,24 @@ fn segment_piece(scene: &crate::scene::Scene, s: &Segment, field: &str) -> Resul
 /// planners' checker ([`verify_with`], docs/design.md §5.10); with `summary`, only the
 /// first piece not safe gets a report.
 pub fn verify_request(entry: &Entry, req: &VerifyRequest, deadline: Instant) -> Result<VerifyReply, ServiceError> {
-    verify_observed(entry, req, deadline, None)
+    verify_observed(entry, req, deadline, None, 1)
+}
+
+/// The pieces of a verify request (a trajectory's, or a batch's segments), before
+/// validation: what decides whether the job asks for spare workers.
+pub fn verify_size(req: &VerifyRequest) -> usize {
+    req.trajectory.as_ref().map_or(0, |t| t.pieces.len()) + req.segments.as_ref().map_or(0, Vec::len)
 }
 
 /// [`verify_request`], counting in `stats` (when given) whether the scene's kernel held
-/// the covers at the request's risk level before the check, and after it.
+/// the covers at the request's risk level before the check, and after it; on `threads`
+/// threads when the request has enough pieces ([`crate::verify::PARALLEL_MIN_PIECES`]).
 pub fn verify_observed(
     entry: &Entry,
     req: &VerifyRequest,
     deadline: Instant,
     stats: Option<&KernelStats>,
+    threads: usize,
 ) -> Result<VerifyReply, ServiceError> {
     let scene = &entry.scene;
     let batch = req.segments.is_some();
@@ -256,7 +264,7 @@ pub fn verify_observed(
     let method = method_of(req.method.as_deref(), "method")?;
     let bounds = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
     let detail = if req.summary.unwrap_or(false) { Detail::FirstNotSafe } else { Detail::Every };
-    let opts = VerifyOptions { method, settings: Default::default(), bounds, detail };
+    let opts = VerifyOptions { method, settings: Default::default(), bounds, detail, threads };
     // the risk levels `verify_with` checks at (its covers' key)
     let deltas = stats.map(|_| vec![delta.clone(); scene.obstacles.len()]);
     let held = deltas.as_ref().is_some_and(|d| entry.kernel.peek_index(d).is_some_and(|i| i.complete()));

@@ -95,6 +95,14 @@ impl Jobs {
         }
     }
 
+    /// Up to `most` idle workers' permits, taken without waiting, for a job that can
+    /// split its work (a large `verify`): the job holds them while it runs, so no other
+    /// job starts on those workers meanwhile; on a busy server it gets none and runs on
+    /// its own worker alone. Dropping the returned permits gives the workers back.
+    pub(crate) fn spare(&self, most: usize) -> Option<tokio::sync::OwnedSemaphorePermit> {
+        (1..=most.min(u32::MAX as usize) as u32).rev().find_map(|k| self.sem.clone().try_acquire_many_owned(k).ok())
+    }
+
     pub(crate) fn status(&self) -> QueueStatus {
         let admitted = self.admitted.load(Ordering::SeqCst) as u64;
         let running = self.running.load(Ordering::SeqCst) as u64;
@@ -163,4 +171,32 @@ fn panic_text(p: &Box<dyn std::any::Any + Send>) -> String {
         .map(|s| s.to_string())
         .or_else(|| p.downcast_ref::<String>().cloned())
         .unwrap_or_else(|| "unknown panic".into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A large job takes the idle workers' permits and no more than it asks; a running
+    /// job's worker is not idle; the permits come back when dropped.
+    #[tokio::test]
+    async fn spare_takes_only_idle_workers() {
+        let jobs = Jobs::new(3, 0);
+        let all = jobs.spare(8).expect("three idle workers");
+        assert_eq!(all.num_permits(), 3);
+        assert!(jobs.spare(1).is_none(), "no worker is idle");
+        drop(all);
+        let two = jobs.spare(2).expect("two of three");
+        assert_eq!(two.num_permits(), 2);
+        let last = jobs.spare(5).expect("the last one");
+        assert_eq!(last.num_permits(), 1);
+        assert!(jobs.spare(0).is_none(), "asking for none takes none");
+        drop((two, last));
+        // inside a job, its own worker is taken: the others are spare
+        let spare = jobs.run(Instant::now() + std::time::Duration::from_secs(5), {
+            let sem = jobs.sem.clone();
+            move || Ok(sem.available_permits())
+        });
+        assert_eq!(spare.await.unwrap(), 2);
+    }
 }

@@ -254,7 +254,12 @@ async fn dispatch(
             let reply = state
                 .jobs
                 .run(until, move || {
-                    handlers::verify_observed(&entry, &req, until, observe.then_some(&st.registry.kernels))
+                    // a large batch also runs on the workers idle right now (held until it ends)
+                    let spare = (handlers::verify_size(&req) >= crate::verify::PARALLEL_MIN_PIECES)
+                        .then(|| st.jobs.spare(st.cores.saturating_sub(1)))
+                        .flatten();
+                    let threads = 1 + spare.as_ref().map_or(0, |p| p.num_permits());
+                    handlers::verify_observed(&entry, &req, until, observe.then_some(&st.registry.kernels), threads)
                 })
                 .await?;
             Ok((codec.encode(&reply), Some(rev)))

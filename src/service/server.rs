@@ -75,6 +75,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
     let state = Arc::new(State {
         registry: Registry::new(store),
         jobs: Jobs::new(cfg.workers.max(1), cfg.queue),
+        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         started: Instant::now(),
         counters: Mutex::new(BTreeMap::new()),
         max_plan_seconds: Duration::try_from_secs_f64(cfg.max_plan_seconds)

@@ -18,6 +18,9 @@ pub(crate) struct State {
     pub(crate) registry: Registry,
     /// Job pool.
     pub(crate) jobs: Jobs,
+    /// The machine's cores: a large `verify` takes up to this many workers when they
+    /// are idle (`Jobs::spare`).
+    pub(crate) cores: usize,
     pub(crate) started: Instant,
     pub(crate) counters: Mutex<BTreeMap<String, Counter>>,
     /// Cap on a plan's time limit.

@@ -415,9 +415,9 @@ pub fn verify_until(
     method: Method,
     settings: &sos::SosSettings,
     bounds: BoundChoice,
-    stop: &dyn Fn() -> bool,
+    stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<VerifyReport, Interrupted> {
-    let opts = VerifyOptions { method, settings: settings.clone(), bounds, detail: Detail::Every };
+    let opts = VerifyOptions { method, settings: settings.clone(), bounds, detail: Detail::Every, threads: 1 };
     Ok(verify_with(kernel, &traj.pieces, delta, &opts, stop)?.report)
 }
 
@@ -443,6 +443,11 @@ pub struct VerifyOptions {
     pub bounds: BoundChoice,
     /// How much of the report to build.
     pub detail: Detail,
+    /// Threads for a call of at least [`PARALLEL_MIN_PIECES`] pieces (0 and 1: the
+    /// calling thread only; at most [`MAX_VERIFY_THREADS`]): contiguous chunks are
+    /// verified at once and their reports merged in order, the same report as one
+    /// thread's.
+    pub threads: usize,
 }
 
 /// What [`verify_with`] found.
@@ -459,6 +464,15 @@ pub struct VerifyOutcome {
 /// (microseconds per piece and nearby obstacle) they take well under the service's
 /// default job deadline. A plan has at most [`crate::scene::MAX_PIECES`].
 pub const MAX_VERIFY_PIECES: usize = 200_000;
+
+/// Fewest pieces for which [`verify_with`] splits the work among
+/// [`VerifyOptions::threads`] threads: a piece of a reference scene takes a few
+/// microseconds, a thread's start about 20, so below a few thousand pieces the split
+/// would not pay.
+pub const PARALLEL_MIN_PIECES: usize = 4096;
+
+/// Most threads one [`verify_with`] call uses, whatever it is asked for.
+pub const MAX_VERIFY_THREADS: usize = 64;
 
 /// Fewest pieces for which [`verify_with`] builds the scene index (the obstacles'
 /// proven covers, docs/design.md §5.10) when the kernel does not hold it yet: building
@@ -477,13 +491,13 @@ pub const INDEX_MIN_PIECES: usize = 512;
 /// others on the compiled restriction with the exact fallback, then, when only
 /// Cantelli's g₁ fails and the bounds are `auto`, the other bounds' cover. The final
 /// check of a plan keeps its own independent path ([`final_check`]). Asks `stop`
-/// before each piece and obstacle.
+/// before each piece and obstacle (from every thread with [`VerifyOptions::threads`]).
 pub fn verify_with(
     kernel: &SceneKernel,
     pieces: &[crate::scene::Piece],
     delta: &RiskLevel,
     opts: &VerifyOptions,
-    stop: &dyn Fn() -> bool,
+    stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<VerifyOutcome, Interrupted> {
     let scene = kernel.scene();
     let n = scene.obstacles.len();
@@ -508,82 +522,111 @@ pub fn verify_with(
     let frame = compiled.frame();
     let ws = &scene.workspace;
     let tail_only = |i: usize| opts.bounds.beyond_cantelli() && scene.obstacles[i].pedestrian.is_some();
-    let mut out = VerifyOutcome {
+    let empty = |capacity: usize| VerifyOutcome {
         report: VerifyReport {
             safe: true,
             method: opts.method.as_str().to_string(),
             risk: delta.to_f64(),
             bound: opts.bounds,
-            pieces: Vec::with_capacity(if opts.detail == Detail::Every { pieces.len() } else { 1 }),
+            pieces: Vec::with_capacity(capacity),
             checked: 0,
             not_safe: 0,
             first_not_safe: None,
         },
         not_safe_indices: Vec::new(),
     };
-    let mut cands = Vec::with_capacity(n);
-    let mut near = vec![false; n];
-    for (k, pc) in pieces.iter().enumerate() {
-        let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
-        let bbox = piece_bbox(pr);
-        let workspace = if inside_by_box(&ws.lower, &ws.upper, pr, bbox.as_deref()) {
-            WorkspaceStatus { status: Status::Safe, witness: None }
-        } else {
-            check_workspace(&ws.lower, &ws.upper, pr)
-        };
-        // the covers say nothing outside the workspace
-        match (&index, workspace.status) {
-            (Some(ix), Status::Safe) => ix.candidates(bbox.as_deref(), pc.t0, pc.t1, &mut cands),
-            _ => {
-                cands.clear();
-                cands.extend(0..n);
+    // the pieces `chunk`, the first of which is piece `offset` of the call
+    let run = |offset: usize, chunk: &[crate::scene::Piece]| -> Result<VerifyOutcome, Interrupted> {
+        let mut out = empty(if opts.detail == Detail::Every { chunk.len() } else { 1 });
+        let mut cands = Vec::with_capacity(n);
+        let mut near = vec![false; n];
+        for (k, pc) in chunk.iter().enumerate() {
+            let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
+            let bbox = piece_bbox(pr);
+            let workspace = if inside_by_box(&ws.lower, &ws.upper, pr, bbox.as_deref()) {
+                WorkspaceStatus { status: Status::Safe, witness: None }
+            } else {
+                check_workspace(&ws.lower, &ws.upper, pr)
+            };
+            // the covers say nothing outside the workspace
+            match (&index, workspace.status) {
+                (Some(ix), Status::Safe) => ix.candidates(bbox.as_deref(), pc.t0, pc.t1, &mut cands),
+                _ => {
+                    cands.clear();
+                    cands.extend(0..n);
+                }
+            }
+            let subs = if cands.iter().any(|&i| !tail_only(i)) { Substitution::new(pr, frame) } else { None };
+            let report_it = opts.detail == Detail::Every || out.not_safe_indices.is_empty();
+            // without a report to build, the first obstacle that fails decides
+            let mut safe = workspace.status == Status::Safe;
+            if opts.detail == Detail::FirstNotSafe {
+                for &i in &cands {
+                    if !safe {
+                        break;
+                    }
+                    if stop() {
+                        return Err(Interrupted);
+                    }
+                    safe = cert.obstacle_safe(i, pr, subs.as_ref());
+                }
+            }
+            if report_it && !(opts.detail == Detail::FirstNotSafe && safe) {
+                near.iter_mut().for_each(|b| *b = false);
+                cands.iter().for_each(|&i| near[i] = true);
+                let mut obstacles = Vec::with_capacity(n);
+                for (i, o) in scene.obstacles.iter().enumerate() {
+                    if !near[i] {
+                        obstacles.push(covered_report(o, pr, opts.bounds));
+                        continue;
+                    }
+                    if stop() {
+                        return Err(Interrupted);
+                    }
+                    obstacles.push(if let (Some(p), true) = (&o.pedestrian, opts.bounds.beyond_cantelli()) {
+                        verify_pedestrian(o, p, pr, delta, opts.method)
+                    } else {
+                        let mut constraints = Reports::new(pr, opts.method);
+                        let finding = cert.decide_obstacle(i, pr, subs.as_ref(), true, &mut |name, vs| constraints.add(name, vs));
+                        obstacle_report(&o.id, constraints, finding, pr, opts.bounds)
+                    });
+                }
+                safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
+                if opts.detail == Detail::Every || !safe {
+                    out.report.pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
+                }
+            }
+            out.report.checked += 1;
+            if !safe {
+                out.not_safe_indices.push(offset + k);
             }
         }
-        let subs = if cands.iter().any(|&i| !tail_only(i)) { Substitution::new(pr, frame) } else { None };
-        let report_it = opts.detail == Detail::Every || out.not_safe_indices.is_empty();
-        // without a report to build, the first obstacle that fails decides
-        let mut safe = workspace.status == Status::Safe;
+        Ok(out)
+    };
+    let threads = opts.threads.clamp(1, MAX_VERIFY_THREADS);
+    let mut out = if threads > 1 && pieces.len() >= PARALLEL_MIN_PIECES {
+        // contiguous chunks at once, merged in order: the same reports as one thread
+        let size = pieces.len().div_ceil(threads);
+        let parts: Vec<Result<VerifyOutcome, Interrupted>> = std::thread::scope(|sc| {
+            let handles: Vec<_> =
+                pieces.chunks(size).enumerate().map(|(c, chunk)| sc.spawn(move || run(c * size, chunk))).collect();
+            handles.into_iter().map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))).collect()
+        });
+        let mut all = empty(if opts.detail == Detail::Every { pieces.len() } else { 1 });
+        for part in parts {
+            let part = part?;
+            all.report.checked += part.report.checked;
+            all.report.pieces.extend(part.report.pieces);
+            all.not_safe_indices.extend(part.not_safe_indices);
+        }
         if opts.detail == Detail::FirstNotSafe {
-            for &i in &cands {
-                if !safe {
-                    break;
-                }
-                if stop() {
-                    return Err(Interrupted);
-                }
-                safe = cert.obstacle_safe(i, pr, subs.as_ref());
-            }
+            // each chunk reported its own first piece not safe: the call's is the first
+            all.report.pieces.truncate(1);
         }
-        if report_it && !(opts.detail == Detail::FirstNotSafe && safe) {
-            near.iter_mut().for_each(|b| *b = false);
-            cands.iter().for_each(|&i| near[i] = true);
-            let mut obstacles = Vec::with_capacity(n);
-            for (i, o) in scene.obstacles.iter().enumerate() {
-                if !near[i] {
-                    obstacles.push(covered_report(o, pr, opts.bounds));
-                    continue;
-                }
-                if stop() {
-                    return Err(Interrupted);
-                }
-                obstacles.push(if let (Some(p), true) = (&o.pedestrian, opts.bounds.beyond_cantelli()) {
-                    verify_pedestrian(o, p, pr, delta, opts.method)
-                } else {
-                    let mut constraints = Reports::new(pr, opts.method);
-                    let finding = cert.decide_obstacle(i, pr, subs.as_ref(), true, &mut |name, vs| constraints.add(name, vs));
-                    obstacle_report(&o.id, constraints, finding, pr, opts.bounds)
-                });
-            }
-            safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
-            if opts.detail == Detail::Every || !safe {
-                out.report.pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
-            }
-        }
-        out.report.checked += 1;
-        if !safe {
-            out.not_safe_indices.push(k);
-        }
-    }
+        all
+    } else {
+        run(0, pieces)?
+    };
     let r = &mut out.report;
     r.not_safe = out.not_safe_indices.len();
     r.first_not_safe = out.not_safe_indices.first().copied();

@@ -17,7 +17,9 @@ use crate::common::{oracle, scene, size};
 use riskplan::certify::sos::SosSettings;
 use riskplan::contour::RiskLevel;
 use riskplan::scene::Piece;
-use riskplan::verify::{verify_with, Detail, Method, SceneKernel, VerifyOptions, INDEX_MIN_PIECES};
+use riskplan::verify::{
+    verify_with, Detail, Method, SceneKernel, VerifyOptions, INDEX_MIN_PIECES, PARALLEL_MIN_PIECES,
+};
 use std::sync::Arc;
 
 /// A seeded random trajectory of `n` straight pieces through uniform points of the box
@@ -89,6 +91,31 @@ fn verify_safe_pieces_keep_off_the_disk_in_closed_form() {
             // the disk's Δ-radius is 0.39; a piece certified safe stays outside it
             assert!(d >= 0.39 - 1e-9, "{method:?}: certified piece comes within {d} of the centre: {p:?}");
         }
+    }
+}
+
+/// Several threads give the very outcome of one (reports, indices of the pieces not safe,
+/// counts), in both details, on a trajectory long enough to be split (an odd length, so
+/// the chunks differ in size); a stop that says yes partway interrupts every thread.
+#[test]
+fn threads_give_the_report_of_one_thread() {
+    let s = scene("illustrative-3");
+    let delta = s.risk.clone();
+    let pieces = random_pieces(PARALLEL_MIN_PIECES + 123, -1.0, 1.0, 8);
+    let kernel = SceneKernel::new(Arc::new(s));
+    for detail in [Detail::Every, Detail::FirstNotSafe] {
+        let one = VerifyOptions { detail, threads: 1, ..Default::default() };
+        let base = verify_with(&kernel, &pieces, &delta, &one, &|| false).unwrap();
+        assert!(base.not_safe_indices.len() > pieces.len() / 4, "about half the pieces are not safe");
+        for threads in [2, 3, 1000] {
+            let many = VerifyOptions { threads, ..one.clone() };
+            let out = verify_with(&kernel, &pieces, &delta, &many, &|| false).unwrap();
+            assert_eq!(out, base, "{detail:?}, {threads} threads");
+        }
+        let calls = std::sync::atomic::AtomicUsize::new(0);
+        let stop = || calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed) > 1000;
+        let many = VerifyOptions { threads: 2, ..one.clone() };
+        assert!(verify_with(&kernel, &pieces, &delta, &many, &stop).is_err(), "{detail:?}: not interrupted");
     }
 }
 
