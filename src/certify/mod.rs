@@ -14,6 +14,7 @@ pub mod bounds;
 mod compose;
 pub mod fast;
 pub mod region;
+pub mod path_risk;
 pub mod scene;
 pub mod sos;
 pub mod tail;

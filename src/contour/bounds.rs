@@ -781,6 +781,76 @@ pub fn point_bounds(c: &RiskContour, xt: &[BigRational], support_negative: Optio
     PointBounds { cantelli, support_zero: support_negative, moments, moment_limit: hm.limit.clone() }
 }
 
+/// An upper bound on Prob(r(ω) ≥ 0) for a polynomial `r` in the parameters of the contour's
+/// obstacle alone (no x, no t), from their moments: the smallest of Cantelli's bound
+/// Var(r)/(Var(r) + E\[r\]²) when E\[r\] < 0 (Theorem 1), the shifted Markov bounds of the
+/// orders of [`MOMENT_ORDERS`] (§3.8; any shift b < 1 is sound, the shift is chosen in
+/// floating point), and 0 when every parameter has a bounded support on which `r` is proven
+/// negative (§3.7); 1 when E\[r\] ≥ 0. Used for the Bernstein coefficients of a piece's
+/// restriction (docs/design.md §5.14). E\[r\] is exact; r − E\[r\] is formed exactly and
+/// then enclosed, so the central moments are enclosures (as in [`build_higher_of`]), and
+/// each bound is an upper end of an outward-rounded evaluation. `None` when `r` contains a
+/// variable that is not a parameter, or a moment it needs is unknown.
+pub fn exceedance_bound(c: &RiskContour, r: &QPoly) -> Option<(BoundKind, BigRational)> {
+    let layout = c.layout();
+    let is_param = |v: Var| layout.is_param(v);
+    if r.vars().into_iter().any(|v| !is_param(v)) {
+        return None;
+    }
+    let mean = r.expect(is_param, |v, k| c.raw_moment(v, k)).ok()?.constant_term();
+    let one = BigRational::one();
+    if !mean.is_negative() {
+        return Some((BoundKind::Cantelli, one));
+    }
+    // zero risk from the support: r < 0 on the whole box
+    if let Some(support) = c.support() {
+        let range_of = |v: Var| {
+            support
+                .support
+                .iter()
+                .find(|s| s.0 == v)
+                .map(|(_, lo, hi)| Interval::new(Interval::enclose_rational(lo).lo, Interval::enclose_rational(hi).hi))
+        };
+        if r.vars().into_iter().all(|v| range_of(v).is_some()) {
+            let mut hull = Interval::point(0.0);
+            for (m, k) in r.terms() {
+                hull = hull
+                    + Interval::enclose_rational(k) * monomial_range(m.pairs(), |v| range_of(v).expect("every range"));
+            }
+            if hull.hi < 0.0 {
+                return Some((BoundKind::Support, BigRational::zero()));
+            }
+        }
+    }
+    let z = r.sub(&QPoly::constant(mean.clone())).map_coeffs(Interval::enclose_rational);
+    let raw = EnclosedRaw::new(c);
+    let (central, _) = central_moments(&z, is_param, |v, k| raw.get(v, k), |v| c.param_name(v));
+    let cs: Vec<Interval> = central.iter().map(|p| p.constant_term()).collect();
+    // Cantelli from an upper end of the variance, exactly: v/(v + μ²) grows with v
+    let mut best = (BoundKind::Cantelli, one.clone());
+    if let Some(var) = cs.get(2).and_then(|v| crate::poly::f64_to_rational(v.hi.max(0.0))) {
+        let denom = &var + &mean * &mean;
+        if denom.is_positive() {
+            best.1 = (var / denom).min(one.clone());
+        }
+    }
+    let mu_i = Interval::enclose_rational(&mean);
+    let mu_f = rational_to_f64(&mean);
+    let cf: Vec<f64> = cs.iter().map(|i| i.mid()).collect();
+    for order in MOMENT_ORDERS {
+        if cs.len() <= order as usize {
+            break;
+        }
+        let Some((b, _)) = best_shift(mu_f, &cf, order) else { continue };
+        if let Some(v) = moment_bound_upper(mu_i, &cs, order, b).and_then(crate::poly::f64_to_rational) {
+            if v < best.1 {
+                best = (BoundKind::Moment(order), v);
+            }
+        }
+    }
+    Some(best)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -193,6 +193,12 @@ impl RiskContour {
         self.higher.get().is_some()
     }
 
+    /// The raw moment E\[ω^k\] of a parameter of P, when known (up to
+    /// [`bounds::MAX_MOMENT_ORDER`]·deg_ω P).
+    pub fn param_moment(&self, v: Var, k: u32) -> Option<BigRational> {
+        self.raw_moment(v, k)
+    }
+
     fn raw_moment(&self, v: Var, k: u32) -> Option<BigRational> {
         self.raw.iter().find(|r| r.0 == v).and_then(|r| r.2.get(k as usize)).cloned()
     }
