@@ -252,27 +252,9 @@ fn envelope_bound(
             return None;
         }
         let Some(coeffs) = pooled(contour, piece, ta, tb, depth) else { break };
-        let mut tails: Vec<(QPoly, BigRational)> = Vec::new();
-        for (u, tail) in envelopes(contour, &coeffs).unwrap_or_default() {
-            let t = match tail {
-                None => BigRational::zero(),
-                Some(t) => match tails.iter().find(|(p, _)| p == &t) {
-                    Some((_, v)) => v.clone(),
-                    None => {
-                        let v = exceedance_bound(contour, &t).map_or_else(BigRational::one, |b| b.1);
-                        tails.push((t, v.clone()));
-                        v
-                    }
-                },
-            };
-            if t >= best.0 {
-                continue;
-            }
-            if let Some((kind, v)) = exceedance_bound(contour, &u) {
-                let v = v + t;
-                if v < best.0 {
-                    best = (v, kind);
-                }
+        if let Some((v, kind)) = envelopes_bound(contour, &coeffs) {
+            if v < best.0 {
+                best = (v, kind);
             }
         }
         if upper_f64(&best.0) <= PATH_RISK_NEGLIGIBLE {
@@ -327,6 +309,96 @@ pub fn piece_path_risk(contour: &RiskContour, piece: PieceRef<'_>, stop: &dyn Fn
         }
     }
     Some(best)
+}
+
+/// Most pieces whose coefficients are pooled into one envelope by
+/// [`trajectory_path_risk`] (beyond, the per-piece sum alone: a long trajectory's pieces
+/// far from the obstacle add coefficients that only widen the envelope).
+pub const POOL_MAX_PIECES: usize = 64;
+
+/// The whole-path bound of a trajectory against one obstacle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObstaclePathRisk {
+    /// P(∃ t in the trajectory's time : collision with this obstacle) ≤ `bound` (≤ 1).
+    pub bound: BigRational,
+    /// Each piece's own bound ([`piece_path_risk`]), in order.
+    pub pieces: Vec<BigRational>,
+    /// Whether `bound` is one envelope over every piece's coefficients (else the sum of the
+    /// pieces' bounds, Boole).
+    pub pooled: bool,
+}
+
+/// The whole-path bound of the trajectory `pieces` against the obstacle of `contour`
+/// (docs/design.md §5.14): the smaller of the sum of the pieces' bounds (Boole; the pieces
+/// cover the trajectory's time) and one envelope of the coefficients of every piece pooled
+/// together (refined 2¹–2³ times per piece; up to [`POOL_MAX_PIECES`] pieces) — the
+/// maximum over the whole trajectory of q is at most their maximum, so the events of
+/// consecutive pieces beside one obstacle are not added up. `None` when `stop` said yes.
+pub fn trajectory_path_risk(
+    contour: &RiskContour,
+    pieces: &[PieceRef<'_>],
+    stop: &dyn Fn() -> bool,
+) -> Option<ObstaclePathRisk> {
+    let one = BigRational::one();
+    let mut each = Vec::with_capacity(pieces.len());
+    let mut sum = BigRational::zero();
+    for p in pieces {
+        let b = piece_path_risk(contour, *p, stop)?.bound;
+        sum += &b;
+        each.push(b);
+    }
+    let mut best = (sum.min(one.clone()), false);
+    if pieces.len() > 1 && pieces.len() <= POOL_MAX_PIECES && upper_f64(&best.0) > PATH_RISK_NEGLIGIBLE {
+        for depth in 1..=3 {
+            if stop() {
+                return None;
+            }
+            let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
+            let mut coeffs = Vec::new();
+            for p in pieces {
+                match pooled(contour, *p, &q(p.t0), &q(p.t1), depth) {
+                    Some(c) => coeffs.extend(c),
+                    None => return Some(ObstaclePathRisk { bound: one, pieces: each, pooled: false }),
+                }
+            }
+            if let Some((v, _)) = envelopes_bound(contour, &coeffs) {
+                if v < best.0 {
+                    best = (v, true);
+                }
+            }
+        }
+    }
+    Some(ObstaclePathRisk { bound: best.0, pieces: each, pooled: best.1 })
+}
+
+/// The smallest P(U ≥ 0) + P(T ≥ 0) over the envelopes of `coeffs` ([`envelopes`]), at
+/// most 1, and the bound that gave P(U ≥ 0).
+fn envelopes_bound(contour: &RiskContour, coeffs: &[QPoly]) -> Option<(BigRational, BoundKind)> {
+    let mut best: Option<(BigRational, BoundKind)> = None;
+    let mut tails: Vec<(QPoly, BigRational)> = Vec::new();
+    for (u, tail) in envelopes(contour, coeffs)? {
+        let t = match tail {
+            None => BigRational::zero(),
+            Some(t) => match tails.iter().find(|(p, _)| p == &t) {
+                Some((_, v)) => v.clone(),
+                None => {
+                    let v = exceedance_bound(contour, &t).map_or_else(BigRational::one, |b| b.1);
+                    tails.push((t, v.clone()));
+                    v
+                }
+            },
+        };
+        if best.as_ref().is_some_and(|b| t >= b.0) {
+            continue;
+        }
+        if let Some((kind, v)) = exceedance_bound(contour, &u) {
+            let v = v + t;
+            if best.as_ref().is_none_or(|b| v < b.0) {
+                best = Some((v, kind));
+            }
+        }
+    }
+    best.map(|(b, k)| (b.min(BigRational::one()), k))
 }
 
 #[cfg(test)]

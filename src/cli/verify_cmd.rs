@@ -48,6 +48,12 @@ pub struct VerifyArgs {
     /// machine's cores; at most 64).
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..=crate::verify::MAX_VERIFY_THREADS as i64))]
     threads: Option<u16>,
+    /// Also bound the probability that the trajectory meets any obstacle at any time
+    /// (ω drawn once; docs/design.md §5.14), beyond the per-instant risk of eq. (13):
+    /// `whole_path_risk` in the report, per obstacle and piece (at most 2000 pieces; exact
+    /// arithmetic, about a millisecond per piece and obstacle).
+    #[arg(long)]
+    whole_path: bool,
 }
 
 pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
@@ -65,7 +71,22 @@ pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
     let kernel = crate::verify::SceneKernel::new(std::sync::Arc::new(scene));
     let detail = if a.summary { Detail::FirstNotSafe } else { Detail::Every };
     let threads = a.threads.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
-    let opts = VerifyOptions { method: a.method, settings: Default::default(), bounds: a.bound, detail, threads };
+    if a.whole_path && traj.pieces.len() > crate::verify::MAX_WHOLE_PATH_PIECES {
+        return Err(CliError(format!(
+            "{}: --whole-path takes at most {} pieces, the trajectory has {}",
+            a.trajectory.display(),
+            crate::verify::MAX_WHOLE_PATH_PIECES,
+            traj.pieces.len()
+        )));
+    }
+    let opts = VerifyOptions {
+        method: a.method,
+        settings: Default::default(),
+        bounds: a.bound,
+        detail,
+        threads,
+        whole_path: a.whole_path,
+    };
     let report = crate::verify::verify_with(&kernel, &traj.pieces, &delta, &opts, &|| false)
         .map_err(|_| CliError("verification interrupted".into()))?
         .report;

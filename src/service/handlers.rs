@@ -264,7 +264,21 @@ pub fn verify_observed(
     let method = method_of(req.method.as_deref(), "method")?;
     let bounds = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
     let detail = if req.summary.unwrap_or(false) { Detail::FirstNotSafe } else { Detail::Every };
-    let opts = VerifyOptions { method, settings: Default::default(), bounds, detail, threads };
+    let whole_path = req.whole_path.unwrap_or(false);
+    if whole_path && batch {
+        return Err(invalid("whole_path", "a batch of segments has no whole path: give a trajectory or one segment"));
+    }
+    if whole_path && pieces.len() > crate::verify::MAX_WHOLE_PATH_PIECES {
+        return Err(ServiceError::LimitExceeded {
+            message: format!(
+                "whole_path takes at most {} pieces, the trajectory has {}",
+                crate::verify::MAX_WHOLE_PATH_PIECES,
+                pieces.len()
+            ),
+            field: Some("whole_path".into()),
+        });
+    }
+    let opts = VerifyOptions { method, settings: Default::default(), bounds, detail, threads, whole_path };
     // the risk levels `verify_with` checks at (its covers' key)
     let deltas = stats.map(|_| vec![delta.clone(); scene.obstacles.len()]);
     let held = deltas.as_ref().is_some_and(|d| entry.kernel.peek_index(d).is_some_and(|i| i.complete()));
@@ -285,6 +299,7 @@ pub fn verify_observed(
         not_safe: r.not_safe as u64,
         first_not_safe: r.first_not_safe.map(|i| i as u64),
         not_safe_segments: if batch { out.not_safe_indices.iter().map(|&i| i as u64).collect() } else { Vec::new() },
+        whole_path_risk: r.whole_path_risk,
     })
 }
 

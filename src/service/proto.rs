@@ -252,6 +252,11 @@ pub struct VerifyRequest {
     /// safe get no report built at all.
     #[serde(default)]
     pub summary: Option<bool>,
+    /// `true`: also the whole-path bound (`whole_path_risk` in the reply, docs/design.md
+    /// §5.14) of a trajectory or segment of at most
+    /// [`crate::verify::MAX_WHOLE_PATH_PIECES`] pieces (not of a `segments` batch).
+    #[serde(default)]
+    pub whole_path: Option<bool>,
     /// How long the server may take, in milliseconds from the request's arrival,
     /// queue time included (default and cap: the server's `--max-job-seconds`). Past it
     /// the reply is the error `deadline_exceeded`.
@@ -288,6 +293,10 @@ pub struct VerifyReply {
     /// otherwise).
     #[serde(default)]
     pub not_safe_segments: Vec<u64>,
+    /// With `whole_path`: the certified bound on the probability of meeting any obstacle
+    /// at any time of the trajectory, per obstacle and piece.
+    #[serde(default)]
+    pub whole_path_risk: Option<crate::verify::WholePathRisk>,
 }
 
 /// A grid of a risk query.

@@ -21,6 +21,8 @@ use crate::certify::sos;
 use crate::certify::{PieceRef, Undecided, Verdict};
 use crate::contour::{BoundChoice, BoundKind, RiskLevel};
 use crate::scene::{Obstacle, Trajectory};
+use num_rational::BigRational;
+use num_traits::{One, Zero};
 use serde::{Deserialize, Serialize};
 
 pub use crate::certify::scene::{
@@ -133,6 +135,67 @@ pub struct VerifyReport {
     /// Index of the first piece not proven safe.
     #[serde(default)]
     pub first_not_safe: Option<usize>,
+    /// The certified bound on the probability of meeting any obstacle at any time of the
+    /// trajectory, when asked for ([`VerifyOptions::whole_path`], docs/design.md §5.14).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub whole_path_risk: Option<WholePathRisk>,
+}
+
+/// The whole-path bound of a trajectory (docs/design.md §5.14): with ω drawn once,
+/// P(∃ t, ∃ obstacle : x(t) in it) ≤ `bound` — beyond the per-instant risk the other
+/// fields certify.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WholePathRisk {
+    /// The sum over the obstacles (Boole) of their bounds, at most 1 (a float at or above
+    /// the exact sum).
+    pub bound: f64,
+    /// Per obstacle, in the scene's order.
+    pub obstacles: Vec<ObstacleWholePath>,
+}
+
+/// One obstacle's part of a [`WholePathRisk`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ObstacleWholePath {
+    /// The obstacle's id.
+    pub id: String,
+    /// P(∃ t : x(t) in this obstacle) ≤ `bound` (a float at or above the exact bound).
+    pub bound: f64,
+    /// `pooled`: one envelope over every piece's coefficients; `sum`: the pieces' bounds
+    /// added up.
+    pub how: String,
+    /// Each piece's own bound, in order.
+    pub pieces: Vec<f64>,
+}
+
+/// Most pieces whose whole-path bound [`verify_with`] computes (each piece and obstacle
+/// costs about a millisecond of exact arithmetic): longer trajectories get a typed error
+/// from the front ends.
+pub const MAX_WHOLE_PATH_PIECES: usize = 2_000;
+
+/// The whole-path bound of `pieces` against every obstacle of the kernel's scene
+/// (docs/design.md §5.14): [`trajectory_path_risk`] per obstacle, summed (Boole).
+/// Asks `stop` between steps.
+pub fn whole_path_risk(
+    kernel: &SceneKernel,
+    pieces: &[crate::scene::Piece],
+    stop: &dyn Fn() -> bool,
+) -> Result<WholePathRisk, Interrupted> {
+    use crate::certify::path_risk::{trajectory_path_risk, upper_f64};
+    let scene = kernel.scene();
+    let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
+    let mut total = BigRational::zero();
+    let mut obstacles = Vec::with_capacity(scene.obstacles.len());
+    for o in &scene.obstacles {
+        let r = trajectory_path_risk(o.contour.get(), &refs, stop).ok_or(Interrupted)?;
+        total += &r.bound;
+        obstacles.push(ObstacleWholePath {
+            id: o.id.clone(),
+            bound: upper_f64(&r.bound),
+            how: if r.pooled { "pooled" } else { "sum" }.to_string(),
+            pieces: r.pieces.iter().map(upper_f64).collect(),
+        });
+    }
+    Ok(WholePathRisk { bound: upper_f64(&total.min(BigRational::one())), obstacles })
 }
 
 fn method_report(v: &Verdict, piece: PieceRef<'_>) -> MethodReport {
@@ -400,6 +463,7 @@ pub fn verify(
             checked: 0,
             not_safe: 0,
             first_not_safe: None,
+            whole_path_risk: None,
         },
     )
 }
@@ -417,7 +481,7 @@ pub fn verify_until(
     bounds: BoundChoice,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<VerifyReport, Interrupted> {
-    let opts = VerifyOptions { method, settings: settings.clone(), bounds, detail: Detail::Every, threads: 1 };
+    let opts = VerifyOptions { method, settings: settings.clone(), bounds, detail: Detail::Every, threads: 1, whole_path: false };
     Ok(verify_with(kernel, &traj.pieces, delta, &opts, stop)?.report)
 }
 
@@ -448,6 +512,9 @@ pub struct VerifyOptions {
     /// verified at once and their reports merged in order, the same report as one
     /// thread's.
     pub threads: usize,
+    /// Also the whole-path bound ([`VerifyReport::whole_path_risk`], at most
+    /// [`MAX_WHOLE_PATH_PIECES`] pieces; more are left without it).
+    pub whole_path: bool,
 }
 
 /// What [`verify_with`] found.
@@ -532,6 +599,7 @@ pub fn verify_with(
             checked: 0,
             not_safe: 0,
             first_not_safe: None,
+            whole_path_risk: None,
         },
         not_safe_indices: Vec::new(),
     };
@@ -627,6 +695,9 @@ pub fn verify_with(
     } else {
         run(0, pieces)?
     };
+    if opts.whole_path && pieces.len() <= MAX_WHOLE_PATH_PIECES {
+        out.report.whole_path_risk = Some(whole_path_risk(kernel, pieces, stop)?);
+    }
     let r = &mut out.report;
     r.not_safe = out.not_safe_indices.len();
     r.first_not_safe = out.not_safe_indices.first().copied();

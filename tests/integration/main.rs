@@ -31,3 +31,4 @@ mod service_shutdown;
 mod smooth_limits;
 mod tight_bounds;
 mod verify_fast;
+mod whole_path;

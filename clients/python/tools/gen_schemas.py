@@ -509,6 +509,7 @@ MESSAGES = {
             "delta": ref("delta"),
             "bound": {"enum": ["auto", "cantelli"], "description": "which bounds may prove a piece (default auto); with auto each obstacle report lists under `bounds` which bound proved which part of the piece"},
             "summary": {"type": "boolean", "description": "true: `pieces` in the reply holds only the first piece (or segment) that is not safe (none when safe); no report is built for the others"},
+            "whole_path": {"type": "boolean", "description": "true: the reply's `whole_path_risk` bounds the probability of meeting any obstacle at any time of the trajectory (the parameters drawn once), beyond the per-instant risk; a trajectory of at most 2000 pieces or one segment, not a `segments` batch"},
             "deadline_ms": DEADLINE_MS,
         },
         "oneOf": [{"required": ["trajectory"]}, {"required": ["segment"]}, {"required": ["segments"]}],
@@ -528,6 +529,24 @@ MESSAGES = {
             "not_safe": {**U64, "description": "how many of them are not proven safe"},
             "first_not_safe": {"type": ["integer", "null"], "minimum": 0, "description": "index of the first piece (or segment) not proven safe"},
             "not_safe_segments": {"type": "array", "items": U64, "description": "for a `segments` batch, the index of every segment not proven safe (empty otherwise)"},
+            "whole_path_risk": {
+                "type": ["object", "null"],
+                "description": "with `whole_path`: P(the trajectory meets some obstacle at some time) <= bound, the parameters drawn once (docs/design.md 5.14); the sum over the obstacles of their bounds",
+                "required": ["bound", "obstacles"],
+                "properties": {
+                    "bound": {"type": "number", "minimum": 0, "maximum": 1},
+                    "obstacles": {"type": "array", "items": {
+                        "type": "object",
+                        "required": ["id", "bound", "how", "pieces"],
+                        "properties": {
+                            "id": {"type": "string"},
+                            "bound": {"type": "number", "minimum": 0, "maximum": 1, "description": "P(the trajectory meets this obstacle at some time) <= bound"},
+                            "how": {"enum": ["pooled", "sum"], "description": "pooled: one envelope over every piece; sum: the pieces' bounds added up"},
+                            "pieces": {"type": "array", "items": {"type": "number", "minimum": 0, "maximum": 1}, "description": "each piece's own bound, in order"},
+                        },
+                    }},
+                },
+            },
         },
     },
     "risk_request": {

@@ -562,7 +562,8 @@ class Client:
                segment: Union[None, Json, Sequence] = None, method: Optional[str] = None,
                delta: Optional[float] = None, *, summary: Optional[bool] = None,
                deadline_ms: Optional[int] = None, timeout: Optional[float] = None,
-               bound: Optional[str] = None, segments: Optional[Sequence] = None) -> Json:
+               bound: Optional[str] = None, segments: Optional[Sequence] = None,
+               whole_path: Optional[bool] = None) -> Json:
         """Verifies a trajectory (a :class:`Plan`, a plan_reply dict or a trajectory v1
         dict) or one straight segment (``{"from", "to", "t0"?, "t1"?}`` or a tuple
         ``(from, to[, t0, t1])``) against scene ``name``. Returns the ``verify_reply``
@@ -575,7 +576,11 @@ class Client:
         server answers ``deadline_exceeded`` rather than work past it. ``bound``: ``"auto"``
         (Cantelli, zero risk from bounded support, shifted moment bounds on sub-intervals;
         each obstacle report's ``bounds`` says which bound proved which part) or
-        ``"cantelli"`` (default: ``"auto"``)."""
+        ``"cantelli"`` (default: ``"auto"``). ``whole_path=True`` (a trajectory of at most
+        2 000 pieces, or a segment): the reply's ``whole_path_risk`` bounds the probability
+        that the trajectory meets any obstacle at any time, the parameters drawn once
+        (``{"bound", "obstacles": [{"id", "bound", "how", "pieces"}]}``), beyond the
+        per-instant risk the rest of the reply certifies."""
         if sum(x is not None for x in (trajectory, segment, segments)) != 1:
             raise ValueError("verify needs exactly one of trajectory=, segment= and segments=")
         request: Json = {}
@@ -597,6 +602,8 @@ class Client:
             request["delta"] = float(delta)
         if summary is not None:
             request["summary"] = bool(summary)
+        if whole_path is not None:
+            request["whole_path"] = bool(whole_path)
         request["deadline_ms"] = int(deadline_ms) if deadline_ms is not None else self._deadline_ms(timeout)
         return self.query(scene_key(name, "verify"), request, timeout=timeout)
 

@@ -1,0 +1,67 @@
+//! The whole-path bound in `verify` (issue 22, docs/design.md §5.14): with ω drawn once,
+//! P(the trajectory meets an obstacle at some time) ≤ the report's `whole_path_risk`.
+//! Oracle sharing no code with the bound: illustrative-3's disk ‖x‖ ≤ w, w ~ U[0.3, 0.4],
+//! is met by a trajectory exactly when w ≥ d_min, its smallest distance from the origin
+//! (straight pieces: in closed form), so the whole-path probability is
+//! (0.4 − d_min)/0.1 clamped to [0, 1] — per piece, and for the trajectory with the
+//! trajectory's d_min (not the sum over pieces).
+
+use crate::common::scene;
+use riskplan::scene::Piece;
+use riskplan::verify::{verify_with, Detail, SceneKernel, VerifyOptions};
+use std::sync::Arc;
+
+/// The smallest distance from the origin of the segment a → b.
+fn d_min(a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let vv = dx * dx + dy * dy;
+    let s = if vv > 0.0 { (-(a[0] * dx + a[1] * dy) / vv).clamp(0.0, 1.0) } else { 0.0 };
+    ((a[0] + s * dx).powi(2) + (a[1] + s * dy).powi(2)).sqrt()
+}
+
+fn truth(d: f64) -> f64 {
+    ((0.4 - d) / 0.1).clamp(0.0, 1.0)
+}
+
+/// A trajectory of four straight pieces that runs beside the disk (at 0.37 from its
+/// centre over two pieces): each piece's bound and the whole trajectory's cover the
+/// closed form, and pooling the pieces keeps the trajectory's bound below the sum of the
+/// pieces' (the events of consecutive pieces beside one obstacle are nested, not added).
+#[test]
+fn whole_path_bounds_cover_the_closed_form_and_pool_nested_pieces() {
+    let s = scene("illustrative-3");
+    let delta = s.risk.clone();
+    let pts = [[-0.9, -0.9], [-0.6, 0.37], [0.0, 0.37], [0.6, 0.37], [0.9, 0.9]];
+    let pieces: Vec<Piece> =
+        (0..4).map(|i| Piece::segment(&pts[i], &pts[i + 1], i as f64 / 4.0, (i + 1) as f64 / 4.0)).collect();
+    let kernel = SceneKernel::new(Arc::new(s));
+    let opts = VerifyOptions { whole_path: true, detail: Detail::FirstNotSafe, ..Default::default() };
+    let report = verify_with(&kernel, &pieces, &delta, &opts, &|| false).unwrap().report;
+    let w = report.whole_path_risk.expect("asked for");
+    assert_eq!(w.obstacles.len(), 1);
+    let o = &w.obstacles[0];
+    let whole = truth((0..4).map(|i| d_min(pts[i], pts[i + 1])).fold(f64::INFINITY, f64::min));
+    for (i, &b) in o.pieces.iter().enumerate() {
+        let t = truth(d_min(pts[i], pts[i + 1]));
+        assert!(b >= t, "piece {i}: bound {b} below the closed form {t}");
+    }
+    assert!(w.bound >= whole && o.bound >= whole, "trajectory: bound {} below the closed form {whole}", w.bound);
+    let sum: f64 = o.pieces.iter().sum();
+    println!("whole path: truth {whole:.3}, bound {:.3} ({}), pieces {:?} (sum {sum:.3})", o.bound, o.how, o.pieces);
+    assert_eq!(o.how, "pooled", "the nested pieces are pooled");
+    assert!(o.bound < sum, "pooling beats Boole over the pieces: {} vs {sum}", o.bound);
+    assert!(w.bound <= 1.0);
+}
+
+/// Without the option, no whole-path bound is computed or reported.
+#[test]
+fn whole_path_is_opt_in() {
+    let s = scene("illustrative-3");
+    let delta = s.risk.clone();
+    let pieces = vec![Piece::segment(&[-0.9, 0.5], &[0.9, 0.5], 0.0, 1.0)];
+    let kernel = SceneKernel::new(Arc::new(s));
+    let report = verify_with(&kernel, &pieces, &delta, &VerifyOptions::default(), &|| false).unwrap().report;
+    assert!(report.whole_path_risk.is_none());
+    let json = serde_json::to_string(&report).unwrap();
+    assert!(!json.contains("whole_path_risk"), "{json}");
+}
