@@ -15,18 +15,18 @@
 //! Each bⱼ is a polynomial in ω alone, formed exactly (the piece's floats and the times are
 //! exact dyadic rationals). Boole over the coefficients adds up nearly identical events, so
 //! the maximum of the coefficients (pooled over a dyadic refinement of the control net) is
-//! bounded instead by one polynomial envelope U(ω) outside a tail {r² > R²}
-//! ([`envelopes`]), and P(U ≥ 0), P(r² ≥ R²) from their moments
+//! bounded instead by one polynomial envelope U(ω) ≥ maxⱼ bⱼ(ω) ([`envelopes`]), and
+//! P(U ≥ 0) from its moments
 //! ([`crate::contour::bounds::exceedance_bound`]: Cantelli, the shifted Markov bounds of
 //! orders 4–8, zero risk from a bounded support). Groups of the piece's time are summed
 //! (Boole) where that is smaller.
 
 use super::compose::PieceRef;
-use crate::contour::bounds::exceedance_bound;
+use crate::contour::bounds::{exceedance_bound, support_negative};
 use crate::contour::{BoundKind, RiskContour};
 use crate::poly::{Monomial, QPoly, UPoly};
 use num_rational::BigRational;
-use num_traits::{One, Zero};
+use num_traits::{One, Signed, Zero};
 
 /// Deepest refinement of the control net: the Bernstein coefficients of the restriction on
 /// 2⁻⁴ of a group's time (16 sub-intervals, pooled into one envelope). The coefficients
@@ -72,6 +72,9 @@ impl PiecePathRisk {
 /// A float ≥ `q` (the nearest, moved up when it rounded down).
 pub fn upper_f64(q: &BigRational) -> f64 {
     let f = crate::poly::rational_to_f64(q);
+    if f == f64::NEG_INFINITY {
+        return f64::MIN;
+    }
     match crate::poly::cmp_float_rational(f, q) {
         Some(std::cmp::Ordering::Less) => f.next_up(),
         _ => f,
@@ -86,10 +89,11 @@ pub fn bernstein_in_omega(
     ta: &BigRational,
     tb: &BigRational,
 ) -> Option<Vec<QPoly>> {
-    if !piece.is_finite() {
+    let layout = contour.layout();
+    // a piece of another dimension is not this obstacle's path (no padding, no dropping)
+    if !piece.is_finite() || piece.coeffs.len() != layout.dim {
         return None;
     }
-    let layout = contour.layout();
     let s_var = layout.t();
     let h = tb - ta;
     // x_d(t(s)) and t(s) as polynomials in s (kept in t's variable: t is substituted away)
@@ -106,9 +110,9 @@ pub fn bernstein_in_omega(
         .iter()
         .map(|row| as_poly(&UPoly::new(row.iter().map(|&c| q(c)).collect()).compose_affine(ta, &h)))
         .collect();
-    subs.resize(layout.dim, QPoly::zero());
     subs.push(as_poly(&UPoly::linear(ta.clone(), h.clone())));
-    let restricted = contour.poly().subst(&|v| subs.get(v as usize).filter(|_| (v as usize) <= layout.dim).cloned());
+    // x₁ … x_n and t (indices 0 … n): every other variable is a parameter, kept
+    let restricted = contour.poly().subst(&|v| subs.get(v as usize).cloned());
     // a_k(ω): the coefficient of s^k
     let degree = restricted.degree_in(s_var) as usize;
     let mut a = vec![QPoly::zero(); degree + 1];
@@ -137,47 +141,65 @@ pub fn bernstein_in_omega(
     )
 }
 
-/// The Bernstein coefficients of the restriction on each of the 2^`depth` equal
-/// sub-intervals of [ta, tb], pooled: max over s ∈ [ta, tb] of q(s, ω) is at most their
-/// maximum, for every ω (the control net refined by subdivision).
-fn pooled(contour: &RiskContour, piece: PieceRef<'_>, ta: &BigRational, tb: &BigRational, depth: u32) -> Option<Vec<QPoly>> {
-    let k = 1u64 << depth;
-    let h = (tb - ta) / BigRational::from_integer(k.into());
-    let mut all = Vec::new();
-    for i in 0..k {
-        let a = ta + &h * BigRational::from_integer(i.into());
-        let b = if i + 1 == k { tb.clone() } else { &a + &h };
-        all.extend(bernstein_in_omega(contour, piece, &a, &b)?);
-    }
-    Some(all)
+/// The control nets of one piece: the Bernstein coefficients of the restriction on each
+/// dyadic sub-interval of its time, level by level (level d: 2^d equal parts; computed on
+/// first use, shared by every group and depth). The parts of a level cover the piece's
+/// time exactly (rational end points), so max over the piece of q(s, ω) is at most the
+/// maximum of the coefficients pooled over any level's parts, for every ω.
+struct Net<'a> {
+    contour: &'a RiskContour,
+    piece: PieceRef<'a>,
+    t0: BigRational,
+    t1: BigRational,
+    /// `cells[d][i]`: the coefficients on part i of level d (`None` inside: not computed
+    /// yet; `Some(None)`: the piece cannot be restricted).
+    cells: Vec<Vec<Option<Option<Vec<QPoly>>>>>,
 }
 
-/// A rational ≥ √`x` (x ≥ 0): the float square root moved up until its square is at
-/// least `x`, exactly.
-fn sqrt_up(x: &BigRational) -> Option<BigRational> {
-    let mut f = upper_f64(x).sqrt();
-    for _ in 0..8 {
-        let q = crate::poly::f64_to_rational(f)?;
-        if &(&q * &q) >= x {
-            return Some(q);
+impl<'a> Net<'a> {
+    fn new(contour: &'a RiskContour, piece: PieceRef<'a>) -> Self {
+        let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
+        Net { contour, piece, t0: q(piece.t0), t1: q(piece.t1), cells: Vec::new() }
+    }
+
+    /// The end points of part `i` of level `d`.
+    fn part(&self, d: u32, i: u64) -> (BigRational, BigRational) {
+        let k = 1u64 << d;
+        let h = (&self.t1 - &self.t0) / BigRational::from_integer(k.into());
+        let a = &self.t0 + &h * BigRational::from_integer(i.into());
+        let b = if i + 1 == k { self.t1.clone() } else { &self.t0 + &h * BigRational::from_integer((i + 1).into()) };
+        (a, b)
+    }
+
+    /// The coefficients of parts `first .. first + count` of level `d`, pooled.
+    fn pooled(&mut self, d: u32, first: u64, count: u64) -> Option<Vec<QPoly>> {
+        while self.cells.len() <= d as usize {
+            let n = 1usize << self.cells.len();
+            self.cells.push(vec![None; n]);
         }
-        f = f.next_up();
+        let mut all = Vec::new();
+        for i in first..first + count {
+            if self.cells[d as usize][i as usize].is_none() {
+                let (a, b) = self.part(d, i);
+                self.cells[d as usize][i as usize] = Some(bernstein_in_omega(self.contour, self.piece, &a, &b));
+            }
+            all.extend(self.cells[d as usize][i as usize].clone().flatten()?);
+        }
+        Some(all)
     }
-    None
 }
 
-/// Envelopes of the coefficients' maximum (docs/design.md §5.14): pairs (U, T) with
-/// {maxⱼ bⱼ(ω) ≥ 0} ⊆ {U(ω) ≥ 0} ∪ {T(ω) ≥ 0} for every ω, so that
-/// P(maxⱼ bⱼ ≥ 0) ≤ P(U ≥ 0) + P(T ≥ 0) (T = `None`: the first alone).
+/// Envelopes of the coefficients' maximum (docs/design.md §5.14): polynomials U(ω) with
+/// U(ω) ≥ maxⱼ bⱼ(ω) for every ω, so that P(maxⱼ bⱼ ≥ 0) ≤ P(U ≥ 0).
 ///
 /// With b* the coefficient of largest mean, dⱼ = bⱼ − b* = αⱼ + Σₖ aⱼₖ·(φₖ(ω) − E\[φₖ\])
-/// (αⱼ = E\[dⱼ\], φₖ the monomials of the dⱼ), r = ‖φ − E\[φ\]‖ and Aⱼ ≥ ‖aⱼ‖:
-/// dⱼ ≤ αⱼ + Aⱼ·r (Cauchy–Schwarz). On r ≤ R the maximum over j of these lines in r is
-/// convex, so below its chord: maxⱼ dⱼ ≤ M₀ + (M₁ − M₀)·r/R with M₀ = maxⱼ αⱼ and
-/// M₁ = maxⱼ (αⱼ + Aⱼ·R); and r ≤ (r² + ε²)/(2ε) for every ε > 0. So
-/// U = b* + M₀ + (M₁ − M₀)/R·(r² + ε²)/(2ε) and T = r² − R² (r > R). When the dⱼ are
-/// constants, U = b* + maxⱼ αⱼ is exactly the maximum (no T).
-fn envelopes(contour: &RiskContour, coeffs: &[QPoly]) -> Option<Vec<(QPoly, Option<QPoly>)>> {
+/// (αⱼ = E\[dⱼ\], φₖ the monomials of the dⱼ), r² = ‖φ − E\[φ\]‖² and Aⱼ² = ‖aⱼ‖²:
+/// dⱼ ≤ αⱼ + Aⱼ·r (Cauchy–Schwarz), and for every c > 0 and every real r,
+/// αⱼ + Aⱼ·r ≤ αⱼ + Aⱼ²/(4c) + c·r² (the square (√c·r − Aⱼ/(2√c))² ≥ 0). Hence
+/// U_c = b* + maxⱼ(αⱼ + Aⱼ²/(4c)) + c·r², exactly, for every c of a small grid around the
+/// c that minimises the mean of U_c (a float search: any c > 0 is sound). When the dⱼ are
+/// constants, U = b* + maxⱼ αⱼ is the maximum itself.
+fn envelopes(contour: &RiskContour, coeffs: &[QPoly]) -> Option<Vec<QPoly>> {
     let layout = contour.layout();
     let expect = |p: &QPoly| -> Option<BigRational> {
         Some(p.expect(|v| layout.is_param(v), |v, k| contour.param_moment(v, k)).ok()?.constant_term())
@@ -185,74 +207,70 @@ fn envelopes(contour: &RiskContour, coeffs: &[QPoly]) -> Option<Vec<(QPoly, Opti
     let means: Vec<BigRational> = coeffs.iter().map(expect).collect::<Option<_>>()?;
     let star = (0..coeffs.len()).max_by(|&a, &b| means[a].cmp(&means[b]))?;
     let b_star = &coeffs[star];
-    // the monomials φₖ of the differences, and their means
     let diffs: Vec<QPoly> = coeffs.iter().map(|b| b.sub(b_star)).collect();
     let mut monos: std::collections::BTreeSet<Monomial> = std::collections::BTreeSet::new();
     for d in &diffs {
         monos.extend(d.terms().filter(|(m, _)| m.degree() > 0).map(|(m, _)| m.clone()));
     }
-    let alphas: Vec<BigRational> = (0..coeffs.len()).map(|j| &means[j] - &means[star]).collect();
-    let m0 = alphas.iter().max()?.clone();
+    let alphas: Vec<BigRational> = means.iter().map(|m| m - &means[star]).collect();
     if monos.is_empty() {
-        return Some(vec![(b_star.add(&QPoly::constant(m0)), None)]);
+        let top = alphas.iter().max()?.clone();
+        return Some(vec![b_star.add(&QPoly::constant(top))]);
     }
-    // r² = Σₖ (φₖ − E[φₖ])²
     let mut r2 = QPoly::zero();
     for m in &monos {
         let phi = QPoly::monomial(m.clone(), BigRational::one());
         let centred = phi.sub(&QPoly::constant(expect(&phi)?));
         r2 = r2.add(&centred.mul(&centred));
     }
-    let amps: Vec<BigRational> = diffs
+    let amp2: Vec<BigRational> = diffs
         .iter()
-        .map(|d| sqrt_up(&d.terms().filter(|(m, _)| m.degree() > 0).fold(BigRational::zero(), |acc, (_, c)| acc + c * c)))
-        .collect::<Option<_>>()?;
-    let scale = sqrt_up(&expect(&r2)?)?;
-    if scale.is_zero() {
-        return None;
-    }
-    let two = BigRational::from_integer(2.into());
-    let mut out = Vec::new();
-    for &(rn, rd) in &ENVELOPE_RADII {
-        let big_r = &scale * BigRational::new(rn.into(), rd.into());
-        let m1 = (0..coeffs.len()).map(|j| &alphas[j] + &amps[j] * &big_r).max()?;
-        let slope = (&m1 - &m0) / &big_r;
-        let tail = r2.sub(&QPoly::constant(&big_r * &big_r));
-        for &(en, ed) in &ENVELOPE_EPSILONS {
-            let eps = &big_r * BigRational::new(en.into(), ed.into());
-            let k = &slope / (&two * &eps);
-            let u = b_star.add(&QPoly::constant(m0.clone())).add(&r2.add(&QPoly::constant(&eps * &eps)).scale(&k));
-            out.push((u, Some(tail.clone())));
+        .map(|d| d.terms().filter(|(m, _)| m.degree() > 0).fold(BigRational::zero(), |acc, (_, c)| acc + c * c))
+        .collect();
+    let e_r2 = expect(&r2)?;
+    // the c minimising E[U_c] − E[b*] = maxⱼ(αⱼ + Aⱼ²/(4c)) + c·E[r²] (convex in c), in
+    // floating point, by golden section over log c
+    let (af, a2f, er2) = (
+        alphas.iter().map(crate::poly::rational_to_f64).collect::<Vec<f64>>(),
+        amp2.iter().map(crate::poly::rational_to_f64).collect::<Vec<f64>>(),
+        crate::poly::rational_to_f64(&e_r2),
+    );
+    let mean_excess = |c: f64| af.iter().zip(&a2f).map(|(a, b)| a + b / (4.0 * c)).fold(f64::NEG_INFINITY, f64::max) + c * er2;
+    let (mut lo, mut hi) = (-40.0f64, 40.0f64); // log₂ c
+    for _ in 0..60 {
+        let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
+        if mean_excess(m1.exp2()) <= mean_excess(m2.exp2()) {
+            hi = m2;
+        } else {
+            lo = m1;
         }
+    }
+    let best = (0.5 * (lo + hi)).exp2();
+    let four = BigRational::from_integer(4.into());
+    let mut out = Vec::new();
+    for factor in ENVELOPE_C_FACTORS {
+        let Some(c) = crate::poly::f64_to_rational(best * factor).filter(|c| c.is_positive()) else { continue };
+        let c0 = (0..coeffs.len()).map(|j| &alphas[j] + &amp2[j] / (&four * &c)).max()?;
+        out.push(b_star.add(&QPoly::constant(c0)).add(&r2.scale(&c)));
     }
     Some(out)
 }
 
-/// The radii R of the envelopes, as multiples of √E\[r²\]: beyond R the tail
-/// P(r² ≥ R²) is paid, below it the chord's slope; any R > 0 is sound.
-pub const ENVELOPE_RADII: [(i64, i64); 4] = [(2, 1), (3, 1), (5, 1), (8, 1)];
+/// The multiples of the c minimising the envelope's mean that are tried: the probability
+/// bound is not the mean, so a few points around it; any c > 0 is sound.
+pub const ENVELOPE_C_FACTORS: [f64; 3] = [0.5, 1.0, 2.0];
 
-/// The ε of the envelopes, as multiples of R (the tangent point of r ≤ (r² + ε²)/(2ε));
-/// any ε > 0 is sound, so a few points suffice.
-pub const ENVELOPE_EPSILONS: [(i64, i64); 3] = [(1, 4), (1, 2), (1, 1)];
-
-/// The best bound of P(∃ s ∈ [ta, tb] : q(s, ω) ≥ 0) from one envelope of the pooled
-/// coefficients at each depth `min_depth ..= PATH_RISK_MAX_DEPTH`.
-fn envelope_bound(
-    contour: &RiskContour,
-    piece: PieceRef<'_>,
-    ta: &BigRational,
-    tb: &BigRational,
-    min_depth: u32,
-    stop: &dyn Fn() -> bool,
-) -> Option<(BigRational, BoundKind)> {
+/// The best bound of P(∃ s in group `i` of level `g` : q(s, ω) ≥ 0) from one envelope of
+/// the group's coefficients pooled at each depth `g ..= PATH_RISK_MAX_DEPTH`.
+fn envelope_bound(net: &mut Net<'_>, g: u32, i: u64, stop: &dyn Fn() -> bool) -> Option<(BigRational, BoundKind)> {
     let mut best = (BigRational::one(), BoundKind::Cantelli);
-    for depth in min_depth..=PATH_RISK_MAX_DEPTH {
+    for depth in g..=PATH_RISK_MAX_DEPTH {
         if stop() {
             return None;
         }
-        let Some(coeffs) = pooled(contour, piece, ta, tb, depth) else { break };
-        if let Some((v, kind)) = envelopes_bound(contour, &coeffs) {
+        let per = 1u64 << (depth - g);
+        let Some(coeffs) = net.pooled(depth, i * per, per) else { break };
+        if let Some((v, kind)) = envelopes_bound(net.contour, &coeffs) {
             if v < best.0 {
                 best = (v, kind);
             }
@@ -277,19 +295,19 @@ pub const PATH_RISK_MAX_GROUPS_LEVEL: u32 = 2;
 /// [`PATH_RISK_MAX_GROUPS_LEVEL`], of the sum over the 2^g groups of their envelope
 /// bounds. `stop` is asked between steps; `None` when it said yes.
 pub fn piece_path_risk(contour: &RiskContour, piece: PieceRef<'_>, stop: &dyn Fn() -> bool) -> Option<PiecePathRisk> {
-    let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
-    let (t0, t1) = (q(piece.t0), q(piece.t1));
+    net_path_risk(&mut Net::new(contour, piece), stop)
+}
+
+/// [`piece_path_risk`] on a piece's net (kept by the caller for pooling across pieces).
+fn net_path_risk(net: &mut Net<'_>, stop: &dyn Fn() -> bool) -> Option<PiecePathRisk> {
     let one = BigRational::one();
     let mut best = PiecePathRisk { bound: one.clone(), parts: Vec::new() };
     for g in 0..=PATH_RISK_MAX_GROUPS_LEVEL {
-        let k = 1u64 << g;
-        let h = (&t1 - &t0) / BigRational::from_integer(k.into());
         let mut sum = BigRational::zero();
         let mut parts = Vec::new();
-        for i in 0..k {
-            let a = &t0 + &h * BigRational::from_integer(i.into());
-            let b = if i + 1 == k { t1.clone() } else { &a + &h };
-            let (v, kind) = envelope_bound(contour, piece, &a, &b, g, stop)?;
+        for i in 0..1u64 << g {
+            let (v, kind) = envelope_bound(net, g, i, stop)?;
+            let (a, b) = net.part(g, i);
             sum += &v;
             parts.push(PathRiskPart {
                 t0: crate::poly::rational_to_f64(&a),
@@ -340,10 +358,11 @@ pub fn trajectory_path_risk(
     stop: &dyn Fn() -> bool,
 ) -> Option<ObstaclePathRisk> {
     let one = BigRational::one();
+    let mut nets: Vec<Net<'_>> = pieces.iter().map(|p| Net::new(contour, *p)).collect();
     let mut each = Vec::with_capacity(pieces.len());
     let mut sum = BigRational::zero();
-    for p in pieces {
-        let b = piece_path_risk(contour, *p, stop)?.bound;
+    for net in nets.iter_mut() {
+        let b = net_path_risk(net, stop)?.bound;
         sum += &b;
         each.push(b);
     }
@@ -353,10 +372,9 @@ pub fn trajectory_path_risk(
             if stop() {
                 return None;
             }
-            let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
             let mut coeffs = Vec::new();
-            for p in pieces {
-                match pooled(contour, *p, &q(p.t0), &q(p.t1), depth) {
+            for net in nets.iter_mut() {
+                match net.pooled(depth, 0, 1 << depth) {
                     Some(c) => coeffs.extend(c),
                     None => return Some(ObstaclePathRisk { bound: one, pieces: each, pooled: false }),
                 }
@@ -371,28 +389,17 @@ pub fn trajectory_path_risk(
     Some(ObstaclePathRisk { bound: best.0, pieces: each, pooled: best.1 })
 }
 
-/// The smallest P(U ≥ 0) + P(T ≥ 0) over the envelopes of `coeffs` ([`envelopes`]), at
-/// most 1, and the bound that gave P(U ≥ 0).
+/// The smallest P(U ≥ 0) over the envelopes of `coeffs` ([`envelopes`]), at most 1, and
+/// the bound that gave it.
 fn envelopes_bound(contour: &RiskContour, coeffs: &[QPoly]) -> Option<(BigRational, BoundKind)> {
+    // zero risk when every coefficient is proven negative on the parameters' bounded
+    // support (an envelope's r² term can hide it)
+    if !coeffs.is_empty() && coeffs.iter().all(|b| support_negative(contour, b)) {
+        return Some((BigRational::zero(), BoundKind::Support));
+    }
     let mut best: Option<(BigRational, BoundKind)> = None;
-    let mut tails: Vec<(QPoly, BigRational)> = Vec::new();
-    for (u, tail) in envelopes(contour, coeffs)? {
-        let t = match tail {
-            None => BigRational::zero(),
-            Some(t) => match tails.iter().find(|(p, _)| p == &t) {
-                Some((_, v)) => v.clone(),
-                None => {
-                    let v = exceedance_bound(contour, &t).map_or_else(BigRational::one, |b| b.1);
-                    tails.push((t, v.clone()));
-                    v
-                }
-            },
-        };
-        if best.as_ref().is_some_and(|b| t >= b.0) {
-            continue;
-        }
+    for u in envelopes(contour, coeffs)? {
         if let Some((kind, v)) = exceedance_bound(contour, &u) {
-            let v = v + t;
             if best.as_ref().is_none_or(|b| v < b.0) {
                 best = Some((v, kind));
             }

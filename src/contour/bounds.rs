@@ -781,6 +781,29 @@ pub fn point_bounds(c: &RiskContour, xt: &[BigRational], support_negative: Optio
     PointBounds { cantelli, support_zero: support_negative, moments, moment_limit: hm.limit.clone() }
 }
 
+/// Whether `r`, a polynomial in the parameters of the contour's obstacle, is proven
+/// negative on their bounded support (every parameter of `r` has one): the interval hull
+/// of its terms over the support box is below 0 (§3.7). Then P(r ≥ 0) = 0.
+pub fn support_negative(c: &RiskContour, r: &QPoly) -> bool {
+    let Some(support) = c.support() else { return false };
+    let range_of = |v: Var| {
+        support
+            .support
+            .iter()
+            .find(|s| s.0 == v)
+            .map(|(_, lo, hi)| Interval::new(Interval::enclose_rational(lo).lo, Interval::enclose_rational(hi).hi))
+    };
+    if !r.vars().into_iter().all(|v| range_of(v).is_some()) {
+        return false;
+    }
+    let mut hull = Interval::point(0.0);
+    for (m, k) in r.terms() {
+        let range = monomial_range(m.pairs(), |v| range_of(v).unwrap_or(Interval::new(f64::NEG_INFINITY, f64::INFINITY)));
+        hull = hull + Interval::enclose_rational(k) * range;
+    }
+    hull.hi < 0.0
+}
+
 /// An upper bound on Prob(r(ω) ≥ 0) for a polynomial `r` in the parameters of the contour's
 /// obstacle alone (no x, no t), from their moments: the smallest of Cantelli's bound
 /// Var(r)/(Var(r) + E\[r\]²) when E\[r\] < 0 (Theorem 1), the shifted Markov bounds of the
@@ -802,25 +825,8 @@ pub fn exceedance_bound(c: &RiskContour, r: &QPoly) -> Option<(BoundKind, BigRat
     if !mean.is_negative() {
         return Some((BoundKind::Cantelli, one));
     }
-    // zero risk from the support: r < 0 on the whole box
-    if let Some(support) = c.support() {
-        let range_of = |v: Var| {
-            support
-                .support
-                .iter()
-                .find(|s| s.0 == v)
-                .map(|(_, lo, hi)| Interval::new(Interval::enclose_rational(lo).lo, Interval::enclose_rational(hi).hi))
-        };
-        if r.vars().into_iter().all(|v| range_of(v).is_some()) {
-            let mut hull = Interval::point(0.0);
-            for (m, k) in r.terms() {
-                hull = hull
-                    + Interval::enclose_rational(k) * monomial_range(m.pairs(), |v| range_of(v).expect("every range"));
-            }
-            if hull.hi < 0.0 {
-                return Some((BoundKind::Support, BigRational::zero()));
-            }
-        }
+    if support_negative(c, r) {
+        return Some((BoundKind::Support, BigRational::zero()));
     }
     let z = r.sub(&QPoly::constant(mean.clone())).map_coeffs(Interval::enclose_rational);
     let raw = EnclosedRaw::new(c);

@@ -151,6 +151,16 @@ pub fn ball_points(dim: usize, rho: f64) -> Vec<Vec<f64>> {
     out
 }
 
+/// Whether some point of the body meets the obstacle in scenario `w`: P (reduced to the
+/// parameters at each point of the body) ≥ 0 at one of them.
+fn contact(per_offset: &[Vec<ParamTerm>], w: &[f64]) -> bool {
+    per_offset.iter().any(|terms| {
+        let v: f64 =
+            terms.iter().map(|(c, m)| m.iter().fold(*c, |acc, &(i, e)| acc * w[i].powi(e as i32))).sum();
+        v >= 0.0
+    })
+}
+
 impl McModel {
     /// From obstacle polynomials over all `nvars` scene variables and one sampler per
     /// parameter. The polynomials are in centred variables `(x − c, t − t_c)` with
@@ -204,13 +214,10 @@ impl McModel {
         self.hits_and_any(points, samples, seed).0
     }
 
-    /// [`McModel::hits`], and per point the number of scenarios in which *any*
-    /// obstacle contains it (the joint event; parameters shared between obstacles are
-    /// one random variable, so correlations are kept).
-    pub fn hits_and_any(&self, points: &[Vec<f64>], samples: u64, seed: u64) -> (Vec<Vec<u64>>, Vec<u64>) {
+    /// Per point, per obstacle, per point of the body: P reduced to the parameters.
+    fn reduced(&self, points: &[Vec<f64>]) -> Vec<Vec<Vec<Vec<ParamTerm>>>> {
         let ball = ball_points(self.layout.dim, self.body);
-        // per point, per obstacle, per point of the body: P reduced to the parameters
-        let reduced: Vec<Vec<Vec<Vec<ParamTerm>>>> = points
+        points
             .iter()
             .map(|xt| {
                 (0..self.polys.len())
@@ -227,34 +234,63 @@ impl McModel {
                     })
                     .collect()
             })
-            .collect();
+            .collect()
+    }
+
+    /// Draws `samples` scenarios of the parameters (seeded) and hands each to `f`.
+    fn scenarios(&self, samples: u64, seed: u64, mut f: impl FnMut(&[f64])) {
         let mut rng = ChaCha12Rng::seed_from_u64(seed);
         let mut w = vec![0.0; self.samplers.len()];
-        let mut hits = vec![vec![0u64; self.polys.len()]; points.len()];
-        let mut any = vec![0u64; points.len()];
         for _ in 0..samples {
             for (slot, (_, s)) in w.iter_mut().zip(&self.samplers) {
                 *slot = s.sample(&mut rng);
             }
+            f(&w);
+        }
+    }
+
+    /// [`McModel::hits`], and per point the number of scenarios in which *any*
+    /// obstacle contains it (the joint event; parameters shared between obstacles are
+    /// one random variable, so correlations are kept).
+    pub fn hits_and_any(&self, points: &[Vec<f64>], samples: u64, seed: u64) -> (Vec<Vec<u64>>, Vec<u64>) {
+        let reduced = self.reduced(points);
+        let mut hits = vec![vec![0u64; self.polys.len()]; points.len()];
+        let mut any = vec![0u64; points.len()];
+        self.scenarios(samples, seed, |w| {
             for (pi, per_point) in reduced.iter().enumerate() {
                 let mut hit_any = false;
                 for (oi, per_offset) in per_point.iter().enumerate() {
-                    let hit = per_offset.iter().any(|terms| {
-                        let v: f64 = terms
-                            .iter()
-                            .map(|(c, m)| m.iter().fold(*c, |acc, &(i, e)| acc * w[i].powi(e as i32)))
-                            .sum();
-                        v >= 0.0
-                    });
-                    if hit {
+                    if contact(per_offset, w) {
                         hits[pi][oi] += 1;
                         hit_any = true;
                     }
                 }
                 any[pi] += u64::from(hit_any);
             }
-        }
+        });
         (hits, any)
+    }
+
+    /// The whole-path event (issue 22, docs/design.md §5.14): per obstacle, the number of
+    /// scenarios in which it contains *some* of `points` (one draw of the parameters per
+    /// scenario, shared by every point and obstacle), and the number in which some
+    /// obstacle contains some point. With dense times along a trajectory this estimates
+    /// P(∃ t : collision) from below (a contact between two audited times can be missed).
+    pub fn path_hits(&self, points: &[Vec<f64>], samples: u64, seed: u64) -> (Vec<u64>, u64) {
+        let reduced = self.reduced(points);
+        let mut per_obstacle = vec![0u64; self.polys.len()];
+        let mut any = 0u64;
+        self.scenarios(samples, seed, |w| {
+            let mut hit_any = false;
+            for (oi, count) in per_obstacle.iter_mut().enumerate() {
+                if reduced.iter().any(|per_point| contact(&per_point[oi], w)) {
+                    *count += 1;
+                    hit_any = true;
+                }
+            }
+            any += u64::from(hit_any);
+        });
+        (per_obstacle, any)
     }
 
     /// Per-obstacle estimates of Prob(P(x, ω, t) ≥ 0) at one point.

@@ -2,7 +2,7 @@
 //! of collision along it, to compare with the certified bound Δ. An audit is
 //! evidence for a test or a benchmark, never a decision (docs/design.md, Monte Carlo).
 
-use crate::mc::clopper_pearson;
+use crate::mc::{clopper_pearson, McEstimate};
 use crate::scene::{Scene, SceneError, Trajectory};
 
 /// How to audit.
@@ -73,10 +73,11 @@ pub fn audit_trajectory_joint(
     audit(scene, traj, delta, o, true)
 }
 
-fn audit(scene: &Scene, traj: &Trajectory, delta: f64, o: &AuditOptions, joint: bool) -> Result<Audit, SceneError> {
-    let model = scene.mc_model()?;
-    let n = o.times_per_piece.max(2);
-    let points: Vec<Vec<f64>> = traj
+/// The audited points `(x, t)` of a trajectory: `times_per_piece` (≥ 2) evenly spaced
+/// times per piece, both ends included.
+fn audited_points(traj: &Trajectory, times_per_piece: usize) -> Vec<Vec<f64>> {
+    let n = times_per_piece.max(2);
+    traj
         .pieces
         .iter()
         .flat_map(|pc| {
@@ -87,7 +88,33 @@ fn audit(scene: &Scene, traj: &Trajectory, delta: f64, o: &AuditOptions, joint: 
                 x
             })
         })
-        .collect();
+        .collect()
+}
+
+/// The Monte Carlo audit of the whole-path event (issue 22, docs/design.md §5.14): one
+/// draw of the parameters per scenario, shared by every audited time and obstacle (and by
+/// every point of the robot's body, when the scene has one); per obstacle, the scenarios
+/// in which it meets the trajectory at some audited time, and those in which some
+/// obstacle does — Clopper–Pearson intervals at `o.confidence`. Dense times
+/// (`o.times_per_piece`) estimate P(∃ t : collision) from below (a contact between two
+/// audited times is missed). Evidence for tests and benchmarks, never a decision.
+pub fn audit_whole_path(
+    scene: &Scene,
+    traj: &Trajectory,
+    o: &AuditOptions,
+) -> Result<(Vec<(String, McEstimate)>, McEstimate), SceneError> {
+    let model = scene.mc_model()?;
+    let points = audited_points(traj, o.times_per_piece);
+    let (per_obstacle, any) = model.path_hits(&points, o.samples, o.seed);
+    Ok((
+        scene.obstacles.iter().zip(per_obstacle).map(|(ob, k)| (ob.id.clone(), McEstimate::new(k, o.samples, o.confidence))).collect(),
+        McEstimate::new(any, o.samples, o.confidence),
+    ))
+}
+
+fn audit(scene: &Scene, traj: &Trajectory, delta: f64, o: &AuditOptions, joint: bool) -> Result<Audit, SceneError> {
+    let model = scene.mc_model()?;
+    let points = audited_points(traj, o.times_per_piece);
     let (hits, any) = model.hits_and_any(&points, o.samples, o.seed);
     let mut audit = Audit { max_estimate: 0.0, exceedances: Vec::new(), audited: 0 };
     let mut record = |name: &str, p: &Vec<f64>, k: u64| {

@@ -29,7 +29,7 @@ pub use crate::certify::scene::{
     check_workspace, point_safe, point_safe_with, point_status, Interrupted, Method, PointStatus, SceneCertifier,
     SceneIndex, SceneKernel, Status, WitnessReport, WorkspaceStatus,
 };
-pub use audit::{audit_trajectory, audit_trajectory_joint, Audit, AuditOptions, Exceedance};
+pub use audit::{audit_trajectory, audit_trajectory_joint, audit_whole_path, Audit, AuditOptions, Exceedance};
 
 /// One method's verdict on one constraint.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

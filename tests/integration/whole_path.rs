@@ -6,9 +6,10 @@
 //! (0.4 − d_min)/0.1 clamped to [0, 1] — per piece, and for the trajectory with the
 //! trajectory's d_min (not the sum over pieces).
 
-use crate::common::scene;
+use crate::common::{scene, size};
+use riskplan::app::PlanRequest;
 use riskplan::scene::Piece;
-use riskplan::verify::{verify_with, Detail, SceneKernel, VerifyOptions};
+use riskplan::verify::{audit_whole_path, verify_with, AuditOptions, Detail, SceneKernel, VerifyOptions};
 use std::sync::Arc;
 
 /// The smallest distance from the origin of the segment a → b.
@@ -64,4 +65,43 @@ fn whole_path_is_opt_in() {
     assert!(report.whole_path_risk.is_none());
     let json = serde_json::to_string(&report).unwrap();
     assert!(!json.contains("whole_path_risk"), "{json}");
+}
+
+/// example-d1's default plan (per-instant risk, Δ = 0.1): the whole-path bound of every
+/// obstacle and of the trajectory is at least the seeded Monte Carlo audit of the
+/// whole-path event (one draw of the 16 centre offsets per scenario, 100 times per piece;
+/// the audit's lower Clopper–Pearson end at 99 %, so a sound bound fails with
+/// probability ≤ 1 % per comparison at most, and the seed is fixed).
+#[test]
+fn whole_path_bound_covers_the_audit_on_d1() {
+    let s = Arc::new(scene("example-d1-cluttered-2d"));
+    let delta = s.risk.clone();
+    let (_, out) = PlanRequest::default().run(s.clone(), None).unwrap();
+    let traj = out.trajectory.expect("a plan");
+    let kernel = SceneKernel::new(s.clone());
+    let opts = VerifyOptions { whole_path: true, detail: Detail::FirstNotSafe, ..Default::default() };
+    let t = std::time::Instant::now();
+    let report = verify_with(&kernel, &traj.pieces, &delta, &opts, &|| false).unwrap().report;
+    let seconds = t.elapsed().as_secs_f64();
+    let w = report.whole_path_risk.expect("asked for");
+    let samples = size("WHOLE_PATH_SAMPLES", 20_000, 100_000) as u64;
+    let audit = AuditOptions { times_per_piece: 100, samples, seed: 22, confidence: 0.98 };
+    let (per, any) = audit_whole_path(&s, &traj, &audit).unwrap();
+    for ((id, est), o) in per.iter().zip(&w.obstacles) {
+        assert_eq!(id, &o.id);
+        println!(
+            "{id}: bound {:.2e} ({}), audit {:.2e} [{:.2e}, {:.2e}]",
+            o.bound, o.how, est.estimate, est.lower, est.upper
+        );
+        assert!(o.bound >= est.lower, "{id}: bound {} below the audit's lower end {}", o.bound, est.lower);
+    }
+    println!(
+        "d1 default plan, {} pieces: whole-path bound {:.3e} in {seconds:.2} s, audit {:.3e} [{:.3e}, {:.3e}]",
+        traj.pieces.len(),
+        w.bound,
+        any.estimate,
+        any.lower,
+        any.upper
+    );
+    assert!(w.bound >= any.lower, "bound {} below the audit's lower end {}", w.bound, any.lower);
 }
