@@ -196,26 +196,40 @@ impl<'a> Net<'a> {
 /// (αⱼ = E\[dⱼ\], φₖ the monomials of the dⱼ), r² = ‖φ − E\[φ\]‖² and Aⱼ² = ‖aⱼ‖²:
 /// dⱼ ≤ αⱼ + Aⱼ·r (Cauchy–Schwarz), and for every c > 0 and every real r,
 /// αⱼ + Aⱼ·r ≤ αⱼ + Aⱼ²/(4c) + c·r² (the square (√c·r − Aⱼ/(2√c))² ≥ 0). Hence
-/// U_c = b* + maxⱼ(αⱼ + Aⱼ²/(4c)) + c·r², exactly, for every c of a small grid around the
-/// c that minimises the mean of U_c (a float search: any c > 0 is sound). When the dⱼ are
-/// constants, U = b* + maxⱼ αⱼ is the maximum itself.
+/// U_c = b* + c₀ + c·r² with c₀ a rational at or above maxⱼ(αⱼ + Aⱼ²/(4c)) (the upper end
+/// of outward-rounded enclosures of the αⱼ and Aⱼ²), for every c of a small grid around
+/// the c that minimises the mean of U_c (a float search: any c > 0 is sound). When the dⱼ
+/// are constants, U = b* + c₀ with c₀ ≥ maxⱼ αⱼ within rounding: the maximum itself.
 fn envelopes(contour: &RiskContour, coeffs: &[QPoly]) -> Option<Vec<QPoly>> {
     let layout = contour.layout();
     let expect = |p: &QPoly| -> Option<BigRational> {
         Some(p.expect(|v| layout.is_param(v), |v, k| contour.param_moment(v, k)).ok()?.constant_term())
     };
-    let means: Vec<BigRational> = coeffs.iter().map(expect).collect::<Option<_>>()?;
-    let star = (0..coeffs.len()).max_by(|&a, &b| means[a].cmp(&means[b]))?;
+    // the means and amplitudes as enclosures (exact rationals with the parameters' long
+    // moments made the exact version cost seconds per trajectory): every U below adds an
+    // upper end of maxⱼ(αⱼ + Aⱼ²/(4c)), which only makes it larger, so still ≥ maxⱼ bⱼ
+    let enclose = |p: &QPoly| p.map_coeffs(crate::poly::Interval::enclose_rational);
+    let mean_i = |p: &QPoly| -> Option<crate::poly::Interval> {
+        Some(enclose(p).expect(|v| layout.is_param(v), |v, k| contour.param_moment_interval(v, k)).ok()?.constant_term())
+    };
+    let means: Vec<crate::poly::Interval> = coeffs.iter().map(mean_i).collect::<Option<_>>()?;
+    let star = (0..coeffs.len()).max_by(|&a, &b| means[a].mid().total_cmp(&means[b].mid()))?;
     let b_star = &coeffs[star];
     let diffs: Vec<QPoly> = coeffs.iter().map(|b| b.sub(b_star)).collect();
     let mut monos: std::collections::BTreeSet<Monomial> = std::collections::BTreeSet::new();
     for d in &diffs {
         monos.extend(d.terms().filter(|(m, _)| m.degree() > 0).map(|(m, _)| m.clone()));
     }
-    let alphas: Vec<BigRational> = means.iter().map(|m| m - &means[star]).collect();
+    // αⱼ = E[bⱼ] − E[b*], enclosed
+    let alphas: Vec<crate::poly::Interval> = means.iter().map(|m| *m - means[star]).collect();
+    // a rational at or above the largest upper end, or nothing when one is not finite
+    let top = |terms: &mut dyn Iterator<Item = crate::poly::Interval>| -> Option<BigRational> {
+        let hi = terms.map(|t| t.hi).fold(f64::NEG_INFINITY, |a, b| if a.is_nan() || b.is_nan() { f64::NAN } else { a.max(b) });
+        hi.is_finite().then(|| crate::poly::f64_to_rational(hi)).flatten()
+    };
     if monos.is_empty() {
-        let top = alphas.iter().max()?.clone();
-        return Some(vec![b_star.add(&QPoly::constant(top))]);
+        let c0 = top(&mut alphas.iter().copied())?;
+        return Some(vec![b_star.add(&QPoly::constant(c0))]);
     }
     let mut r2 = QPoly::zero();
     for m in &monos {
@@ -223,18 +237,20 @@ fn envelopes(contour: &RiskContour, coeffs: &[QPoly]) -> Option<Vec<QPoly>> {
         let centred = phi.sub(&QPoly::constant(expect(&phi)?));
         r2 = r2.add(&centred.mul(&centred));
     }
-    let amp2: Vec<BigRational> = diffs
+    // Aⱼ² = Σ aⱼₖ², enclosed
+    let amp2: Vec<crate::poly::Interval> = diffs
         .iter()
-        .map(|d| d.terms().filter(|(m, _)| m.degree() > 0).fold(BigRational::zero(), |acc, (_, c)| acc + c * c))
+        .map(|d| {
+            d.terms().filter(|(m, _)| m.degree() > 0).fold(crate::poly::Interval::point(0.0), |acc, (_, c)| {
+                let ci = crate::poly::Interval::enclose_rational(c);
+                acc + ci * ci
+            })
+        })
         .collect();
-    let e_r2 = expect(&r2)?;
+    let er2 = mean_i(&r2)?.mid();
     // the c minimising E[U_c] − E[b*] = maxⱼ(αⱼ + Aⱼ²/(4c)) + c·E[r²] (convex in c), in
     // floating point, by golden section over log c
-    let (af, a2f, er2) = (
-        alphas.iter().map(crate::poly::rational_to_f64).collect::<Vec<f64>>(),
-        amp2.iter().map(crate::poly::rational_to_f64).collect::<Vec<f64>>(),
-        crate::poly::rational_to_f64(&e_r2),
-    );
+    let (af, a2f): (Vec<f64>, Vec<f64>) = alphas.iter().zip(&amp2).map(|(a, b)| (a.mid(), b.mid())).unzip();
     let mean_excess = |c: f64| af.iter().zip(&a2f).map(|(a, b)| a + b / (4.0 * c)).fold(f64::NEG_INFINITY, f64::max) + c * er2;
     let (mut lo, mut hi) = (-40.0f64, 40.0f64); // log₂ c
     for _ in 0..60 {
@@ -250,7 +266,9 @@ fn envelopes(contour: &RiskContour, coeffs: &[QPoly]) -> Option<Vec<QPoly>> {
     let mut out = Vec::new();
     for factor in ENVELOPE_C_FACTORS {
         let Some(c) = crate::poly::f64_to_rational(best * factor).filter(|c| c.is_positive()) else { continue };
-        let c0 = (0..coeffs.len()).map(|j| &alphas[j] + &amp2[j] / (&four * &c)).max()?;
+        // 1/(4c) enclosed from its exact value
+        let k = crate::poly::Interval::enclose_rational(&(BigRational::one() / (&four * &c)));
+        let Some(c0) = top(&mut alphas.iter().zip(&amp2).map(|(a, b)| *a + *b * k)) else { continue };
         out.push(b_star.add(&QPoly::constant(c0)).add(&r2.scale(&c)));
     }
     Some(out)

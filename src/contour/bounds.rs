@@ -829,8 +829,7 @@ pub fn exceedance_bound(c: &RiskContour, r: &QPoly) -> Option<(BoundKind, BigRat
         return Some((BoundKind::Support, BigRational::zero()));
     }
     let z = r.sub(&QPoly::constant(mean.clone())).map_coeffs(Interval::enclose_rational);
-    let raw = EnclosedRaw::new(c);
-    let (central, _) = central_moments(&z, is_param, |v, k| raw.get(v, k), |v| c.param_name(v));
+    let (central, _) = central_moments(&z, is_param, |v, k| c.param_moment_interval(v, k), |v| c.param_name(v));
     let cs: Vec<Interval> = central.iter().map(|p| p.constant_term()).collect();
     // Cantelli from an upper end of the variance, exactly: v/(v + μ²) grows with v
     let mut best = (BoundKind::Cantelli, one.clone());

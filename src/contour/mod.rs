@@ -99,6 +99,9 @@ pub fn cantelli_bound_f64(mean: f64, second: f64) -> f64 {
     ((second - mean * mean) / second).clamp(0.0, 1.0)
 }
 
+/// Enclosures of a contour's raw parameter moments: per parameter, E[ω^k] for k = 0, 1, …
+type EnclosedMoments = Vec<(Var, Vec<Interval>)>;
+
 /// The moment-expanded contour polynomials of one obstacle, kept for its lifetime.
 #[derive(Clone, Debug)]
 pub struct RiskContour {
@@ -121,6 +124,9 @@ pub struct RiskContour {
     support: Option<Arc<SupportForm>>,
     /// Central moments, built on first use (docs/design.md §3.8).
     higher: OnceLock<Arc<HigherMoments>>,
+    /// The raw moments of `raw` as enclosures, converted once on first use (the
+    /// whole-path bound asks for them thousands of times per trajectory, §5.14).
+    raw_i: OnceLock<Arc<EnclosedMoments>>,
 }
 
 impl RiskContour {
@@ -162,6 +168,7 @@ impl RiskContour {
             raw,
             support: None,
             higher: OnceLock::new(),
+            raw_i: OnceLock::new(),
         })
     }
 
@@ -197,6 +204,16 @@ impl RiskContour {
     /// [`bounds::MAX_MOMENT_ORDER`]·deg_ω P).
     pub fn param_moment(&self, v: Var, k: u32) -> Option<BigRational> {
         self.raw_moment(v, k)
+    }
+
+    /// An enclosure of E\[ω^k\] ([`Self::param_moment`]), converted once per contour.
+    pub fn param_moment_interval(&self, v: Var, k: u32) -> Option<Interval> {
+        let all = self.raw_i.get_or_init(|| {
+            Arc::new(
+                self.raw.iter().map(|(v, _, ms)| (*v, ms.iter().map(Interval::enclose_rational).collect())).collect(),
+            )
+        });
+        all.iter().find(|r| r.0 == v).and_then(|r| r.1.get(k as usize)).copied()
     }
 
     fn raw_moment(&self, v: Var, k: u32) -> Option<BigRational> {
