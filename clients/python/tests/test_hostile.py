@@ -178,6 +178,31 @@ def test_verify_batches_of_segments_and_large_trajectories(client, unique):
     assert_alive(client)
 
 
+def test_verify_whole_path(client, unique):
+    """``whole_path=True``: the reply bounds the probability that the trajectory meets the
+    obstacle at some time; on illustrative-3 (radius w ~ U[0.3, 0.4]) a segment passing
+    0.35 from the centre is met when w ≥ 0.35, with probability 0.5 (closed form): the
+    bound is at least that and at most 1; it is absent unless asked for; a batch of
+    segments and a trajectory beyond 2 000 pieces are typed errors."""
+    name = unique()
+    client.apply(name, scene=load_scene("illustrative-3"))
+    seg = ([-0.9, 0.35], [0.9, 0.35])
+    plain = client.verify(name, segment=seg, summary=True)
+    assert plain.get("whole_path_risk") is None
+    reply = client.verify(name, segment=seg, summary=True, whole_path=True)
+    validate("verify_reply", reply)
+    w = reply["whole_path_risk"]
+    assert 0.5 <= w["bound"] <= 1.0 and [o["id"] for o in w["obstacles"]] == ["disk"]
+    assert len(w["obstacles"][0]["pieces"]) == 1 and w["obstacles"][0]["how"] in ("pooled", "sum")
+    with pytest.raises(riskplan.InvalidRequestError):
+        client.verify(name, segments=[seg, seg], whole_path=True)
+    n = 2_001
+    pieces = [{"t0": i / n, "t1": (i + 1) / n if i + 1 < n else 1.0, "coeffs": [[0.9, 0.0], [0.9, 0.0]]} for i in range(n)]
+    with pytest.raises(riskplan.LimitExceededError):
+        client.verify(name, trajectory={"format": "riskplan-trajectory/1", "pieces": pieces}, whole_path=True)
+    assert_alive(client)
+
+
 def slow_scene(scene3: dict, obstacles: int = 1) -> dict:
     """A valid scene whose contour takes a few tenths of a second to build: one
     462-term obstacle, near the scene's contour budget (a second one would exceed it)."""
