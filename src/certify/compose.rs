@@ -41,7 +41,15 @@ pub struct Restricted<C> {
     pub mean: UPoly<C>,
 }
 
-fn substitutions<C: Ring>(piece: PieceRef<'_>, dim: usize, t0: C, h: C, conv: impl Fn(f64) -> C) -> Vec<UPoly<C>> {
+/// The substitutions x_d(τ) (d < `dim`, missing rows as 0) and t(τ) = t0 + h·τ of a piece,
+/// its coefficients converted by `conv`.
+pub(super) fn substitutions<C: Ring>(
+    piece: PieceRef<'_>,
+    dim: usize,
+    t0: C,
+    h: C,
+    conv: impl Fn(f64) -> C,
+) -> Vec<UPoly<C>> {
     let mut subs: Vec<UPoly<C>> = piece
         .coeffs
         .iter()

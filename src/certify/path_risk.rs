@@ -35,7 +35,7 @@ use num_traits::{One, Signed, Zero};
 /// derivative's range at this depth.
 pub const PATH_RISK_MAX_DEPTH: u32 = 4;
 
-/// A sub-interval whose bound is at most this is not split further: the bound is already
+/// A bound at most this ends the search (no finer net, no more groups): it is already
 /// negligible beside any risk level a plan uses (10⁻¹² is a millionth of Δ = 10⁻⁶).
 pub const PATH_RISK_NEGLIGIBLE: f64 = 1e-12;
 
@@ -46,9 +46,9 @@ pub struct PathRiskPart {
     pub t0: f64,
     /// End (absolute time).
     pub t1: f64,
-    /// Σⱼ of the coefficients' bounds (at most 1).
+    /// The bound of the event on this sub-interval (at most 1): its best envelope's.
     pub bound: BigRational,
-    /// The bound that gave the largest term.
+    /// The moment bound that gave it.
     pub kind: BoundKind,
 }
 
@@ -57,8 +57,8 @@ pub struct PathRiskPart {
 pub struct PiecePathRisk {
     /// P(∃ t ∈ [t0, t1] : P(x(t), ω, t) ≥ 0) ≤ `bound` (≤ 1).
     pub bound: BigRational,
-    /// The sub-intervals whose bounds add up to `bound` (empty when it is 1 by default:
-    /// some coefficient's mean is not negative).
+    /// The groups whose bounds add up to `bound` (empty when no group level gave less
+    /// than 1).
     pub parts: Vec<PathRiskPart>,
 }
 
@@ -69,16 +69,9 @@ impl PiecePathRisk {
     }
 }
 
-/// A float ≥ `q` (the nearest, moved up when it rounded down).
+/// A float ≥ `q`: the upper end of its outward-rounded enclosure.
 pub fn upper_f64(q: &BigRational) -> f64 {
-    let f = crate::poly::rational_to_f64(q);
-    if f == f64::NEG_INFINITY {
-        return f64::MIN;
-    }
-    match crate::poly::cmp_float_rational(f, q) {
-        Some(std::cmp::Ordering::Less) => f.next_up(),
-        _ => f,
-    }
+    crate::poly::Interval::enclose_rational(q).hi
 }
 
 /// The Bernstein coefficients bⱼ(ω), j = 0 … D, of q(s, ω) = P(x(t(s)), ω, t(s)) on
@@ -95,7 +88,6 @@ pub fn bernstein_in_omega(
         return None;
     }
     let s_var = layout.t();
-    let h = tb - ta;
     // x_d(t(s)) and t(s) as polynomials in s (kept in t's variable: t is substituted away)
     let as_poly = |u: &UPoly<BigRational>| {
         let mut p = QPoly::zero();
@@ -104,13 +96,9 @@ pub fn bernstein_in_omega(
         }
         p
     };
-    let q = |f: f64| BigRational::from_float(f).unwrap_or_default();
-    let mut subs: Vec<QPoly> = piece
-        .coeffs
-        .iter()
-        .map(|row| as_poly(&UPoly::new(row.iter().map(|&c| q(c)).collect()).compose_affine(ta, &h)))
-        .collect();
-    subs.push(as_poly(&UPoly::linear(ta.clone(), h.clone())));
+    let exact = |f: f64| BigRational::from_float(f).unwrap_or_default();
+    let subs: Vec<QPoly> =
+        super::compose::substitutions(piece, layout.dim, ta.clone(), tb - ta, exact).iter().map(as_poly).collect();
     // x₁ … x_n and t (indices 0 … n): every other variable is a parameter, kept
     let restricted = contour.poly().subst(&|v| subs.get(v as usize).cloned());
     // a_k(ω): the coefficient of s^k
@@ -121,11 +109,7 @@ pub fn bernstein_in_omega(
         a[s_part.exp(s_var) as usize].add_term(rest, c.clone());
     }
     // bⱼ = Σ_{k ≤ j} C(j, k)/C(D, k)·a_k
-    let binom = |n: usize, k: usize| -> BigRational {
-        (0..k).fold(BigRational::one(), |acc, i| {
-            acc * BigRational::from_integer((n - i).into()) / BigRational::from_integer((i + 1).into())
-        })
-    };
+    let binom = |n: usize, k: usize| crate::moments::binomial(n as u32, k as u32);
     Some(
         (0..=degree)
             .map(|j| {

@@ -354,29 +354,6 @@ fn central_moments_expanded<C: crate::poly::Ring>(
     (central, limit)
 }
 
-/// Builds the enclosures of the central moments up to [`MAX_MOMENT_ORDER`] (centring first
-/// keeps the large mean out of every power).
-/// The raw moments of a contour's parameters as enclosures, each converted once on first
-/// use (the big-integer conversion dominated the central moments' build).
-struct EnclosedRaw<'a> {
-    contour: &'a RiskContour,
-    memo: std::cell::RefCell<std::collections::HashMap<(Var, u32), Option<Interval>>>,
-}
-
-impl<'a> EnclosedRaw<'a> {
-    fn new(contour: &'a RiskContour) -> Self {
-        EnclosedRaw { contour, memo: Default::default() }
-    }
-
-    fn get(&self, v: Var, k: u32) -> Option<Interval> {
-        *self
-            .memo
-            .borrow_mut()
-            .entry((v, k))
-            .or_insert_with(|| self.contour.raw_moment(v, k).map(|m| Interval::enclose_rational(&m)))
-    }
-}
-
 pub(super) fn build_higher(c: &RiskContour) -> HigherMoments {
     build_higher_of(c, &c.poly, &c.mean)
 }
@@ -389,8 +366,7 @@ pub(super) fn build_higher(c: &RiskContour) -> HigherMoments {
 pub fn build_higher_of(c: &RiskContour, poly: &QPoly, mean: &QPoly) -> HigherMoments {
     let layout = c.layout();
     let z = poly.sub(mean).map_coeffs(Interval::enclose_rational);
-    let raw = EnclosedRaw::new(c);
-    let moment = |v: Var, k: u32| raw.get(v, k);
+    let moment = |v: Var, k: u32| c.param_moment_interval(v, k);
     let (central_i, limit) = central_moments(
         &z,
         |v| layout.is_param(v),
@@ -735,8 +711,7 @@ pub fn central_at_point(c: &RiskContour, xt: &[BigRational]) -> Option<Vec<Inter
         }
         *parts.entry(params).or_insert_with(BigRational::zero) += v;
     }
-    let raw = EnclosedRaw::new(c);
-    let moment = |v: Var, k: u32| raw.get(v, k);
+    let moment = |v: Var, k: u32| c.param_moment_interval(v, k);
     let mut z: Poly<Interval> = Poly::zero();
     let mut shift = Interval::point(0.0);
     for (m, a) in &parts {

@@ -125,7 +125,8 @@ pub struct RiskContour {
     /// Central moments, built on first use (docs/design.md §3.8).
     higher: OnceLock<Arc<HigherMoments>>,
     /// The raw moments of `raw` as enclosures, converted once on first use (the
-    /// whole-path bound asks for them thousands of times per trajectory, §5.14).
+    /// big-integer conversion dominated the central moments' build; the whole-path bound
+    /// asks for them thousands of times per trajectory, §5.14).
     raw_i: OnceLock<Arc<EnclosedMoments>>,
 }
 

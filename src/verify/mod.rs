@@ -167,9 +167,9 @@ pub struct ObstacleWholePath {
     pub pieces: Vec<f64>,
 }
 
-/// Most pieces whose whole-path bound [`verify_with`] computes (each piece and obstacle
-/// costs about a millisecond of exact arithmetic): longer trajectories get a typed error
-/// from the front ends.
+/// Most pieces whose whole-path bound [`verify_with`] computes (a piece near an obstacle
+/// costs tens of milliseconds of exact arithmetic: example-d1's 7-piece plan takes 3 s):
+/// longer trajectories get a typed error from the front ends.
 pub const MAX_WHOLE_PATH_PIECES: usize = 2_000;
 
 /// The whole-path bound of `pieces` against every obstacle of the kernel's scene

@@ -758,32 +758,36 @@ mod tests {
     use super::*;
     use crate::plan::within_speed;
 
-    /// Rejects every parabolic blend (degree 2) that starts or ends within `radius` of
-    /// `point`, and accepts every other piece: a corner there whose blend is never
-    /// certified (an obstacle inside the turn), so `blend` has to stop at it.
-    struct NoBlendNear {
-        point: Vec<f64>,
-        radius: f64,
-    }
+    /// A test checker that accepts the pieces `accepts` says yes to (and every point).
+    struct Accepts<F: Fn(&Piece) -> bool + Send + Sync>(F);
 
-    impl MotionChecker for NoBlendNear {
+    impl<F: Fn(&Piece) -> bool + Send + Sync> MotionChecker for Accepts<F> {
         fn name(&self) -> &str {
-            "no-blend-near"
+            "test"
         }
         fn sound(&self) -> bool {
             true
         }
         fn check(&self, piece: &Piece) -> Motion {
-            let near = |t: f64| dist(&piece.at(t), &self.point) <= self.radius;
-            if piece.degree() == 2 && (near(piece.t0) || near(piece.t1)) {
-                Motion::Rejected
-            } else {
+            if (self.0)(piece) {
                 Motion::Accepted
+            } else {
+                Motion::Rejected
             }
         }
         fn check_point(&self, _x: &[f64], _t: f64) -> Motion {
             Motion::Accepted
         }
+    }
+
+    /// Rejects every parabolic blend (degree 2) that starts or ends within `radius` of
+    /// `point`, and accepts every other piece: a corner there whose blend is never
+    /// certified (an obstacle inside the turn), so `blend` has to stop at it.
+    fn no_blend_near(point: Vec<f64>, radius: f64) -> Accepts<impl Fn(&Piece) -> bool + Send + Sync> {
+        Accepts(move |piece: &Piece| {
+            let near = |t: f64| dist(&piece.at(t), &point) <= radius;
+            !(piece.degree() == 2 && (near(piece.t0) || near(piece.t1)))
+        })
     }
 
     /// Relative velocity jump at a joint below which the pieces are C¹ (the coefficients
@@ -838,7 +842,7 @@ mod tests {
     /// returned a piece of sampled peak speed 2.667 under max_speed 2.2.)
     #[test]
     fn stopped_corner_keeps_a_tight_speed_limit() {
-        let no_blend = NoBlendNear { point: vec![1.0, 0.0], radius: 1.0 };
+        let no_blend = no_blend_near(vec![1.0, 0.0], 1.0);
         let (free, stats) = smooth(&corner(), Limits::default(), false, &no_blend);
         assert_eq!(stats.corners_stopped, 1, "{stats:?}");
         let peak = sampled_peak_speed(&free);
@@ -856,7 +860,7 @@ mod tests {
     /// the limit is refused; one they keep is kept.
     #[test]
     fn stopped_corner_in_time_keeps_the_speed_limit() {
-        let no_blend = NoBlendNear { point: vec![1.0, 0.0], radius: 1.0 };
+        let no_blend = no_blend_near(vec![1.0, 0.0], 1.0);
         let (tight, stats) = smooth(&corner(), Limits { max_speed: Some(2.2), max_accel: None }, true, &no_blend);
         assert_eq!((stats.corners_stopped, stats.corners_sharp), (0, 1), "{stats:?}");
         assert_within(&tight, 2.2);
@@ -874,7 +878,7 @@ mod tests {
     fn retiming_keeps_a_stop_the_segment_timing_cannot() {
         let pts = [vec![0.0, 0.0], vec![4.0, 0.0], vec![4.0, 1.0], vec![8.0, 1.0]];
         let w = time_at_constant_speed(&pts, (0.0, 1.0));
-        let no_blend = NoBlendNear { point: vec![4.0, 1.0], radius: 0.5 };
+        let no_blend = no_blend_near(vec![4.0, 1.0], 0.5);
         let (free, stats) = smooth(&w, Limits::default(), false, &no_blend);
         assert_eq!((stats.corners_blended, stats.corners_stopped), (1, 1), "{stats:?}");
         let peak = sampled_peak_speed(&free);
@@ -893,27 +897,8 @@ mod tests {
     /// Accepts every piece of degree ≥ 2 and the straight ones of at most `longest`
     /// duration: a checker whose proofs only succeed on short pieces (as a higher-moment
     /// cover's depth budget does near a contour).
-    struct ShortStraightOnly {
-        longest: f64,
-    }
-
-    impl MotionChecker for ShortStraightOnly {
-        fn name(&self) -> &str {
-            "short-straight-only"
-        }
-        fn sound(&self) -> bool {
-            true
-        }
-        fn check(&self, piece: &Piece) -> Motion {
-            if piece.degree() >= 2 || piece.t1 - piece.t0 <= self.longest {
-                Motion::Accepted
-            } else {
-                Motion::Rejected
-            }
-        }
-        fn check_point(&self, _x: &[f64], _t: f64) -> Motion {
-            Motion::Accepted
-        }
+    fn short_straight_only(longest: f64) -> Accepts<impl Fn(&Piece) -> bool + Send + Sync> {
+        Accepts(move |piece: &Piece| piece.degree() >= 2 || piece.t1 - piece.t0 <= longest)
     }
 
     /// A straight part refused whole is split into equal pieces the checker accepts (the
@@ -923,14 +908,14 @@ mod tests {
     #[test]
     fn a_refused_straight_part_is_split_and_stays_c1() {
         // the corner's straight parts last 0.5 − δ with δ = 1/6 (BLEND_SHARE of 0.5)
-        let (pieces, stats) = smooth(&corner(), Limits::default(), false, &ShortStraightOnly { longest: 0.2 });
+        let (pieces, stats) = smooth(&corner(), Limits::default(), false, &short_straight_only(0.2));
         assert_eq!(stats.corners_blended, 1, "{stats:?}");
         assert_eq!(pieces.len(), 5, "two halves on each side of the blend: {pieces:?}");
         assert!(max_velocity_jump(&pieces) < JUMP_TOLERANCE, "C¹: {}", max_velocity_jump(&pieces));
         let too_short = 0.34 / (1u32 << STRAIGHT_SPLITS) as f64 * 0.9;
         let (counter, mut stats) = (CheckCounter::default(), SmoothStats::default());
         let ws: (&[f64], &[f64]) = (&[-10.0, -10.0], &[10.0, 10.0]);
-        let checker = ShortStraightOnly { longest: too_short };
+        let checker = short_straight_only(too_short);
         assert!(blend(&corner(), ws, Limits::default(), false, &checker, &counter, &mut stats, &Termination::never()).is_none());
     }
 
@@ -962,14 +947,14 @@ mod tests {
     /// (1, 0) over length 1 in time 1/2 at up to 4/(1/2)² = 16.
     #[test]
     fn accel_violations_count_blends_and_eases_over_the_target() {
-        let anywhere = NoBlendNear { point: vec![100.0, 100.0], radius: 1.0 };
+        let anywhere = no_blend_near(vec![100.0, 100.0], 1.0);
         let accel = |a: f64| Limits { max_speed: None, max_accel: Some(a) };
         let (pieces, stats) = smooth(&corner(), accel(0.1), false, &anywhere);
         assert_eq!((stats.corners_blended, stats.accel_violations), (1, 1), "{stats:?}");
         assert!((peak_accel(&pieces[1]) - 6.0 * 2f64.sqrt()).abs() < 1e-9, "{}", peak_accel(&pieces[1]));
         let (_, stats) = smooth(&corner(), accel(100.0), false, &anywhere);
         assert_eq!((stats.corners_blended, stats.accel_violations), (1, 0), "{stats:?}");
-        let no_blend = NoBlendNear { point: vec![1.0, 0.0], radius: 1.0 };
+        let no_blend = no_blend_near(vec![1.0, 0.0], 1.0);
         let (pieces, stats) = smooth(&corner(), accel(10.0), false, &no_blend);
         assert_eq!((stats.corners_stopped, stats.accel_violations), (1, 2), "{stats:?}");
         assert!(pieces.iter().all(|pc| (peak_accel(pc) - 16.0).abs() < 1e-9), "{pieces:?}");
