@@ -128,6 +128,9 @@ pub struct RiskContour {
     /// big-integer conversion dominated the central moments' build; the whole-path bound
     /// asks for them thousands of times per trajectory, §5.14).
     raw_i: OnceLock<Arc<EnclosedMoments>>,
+    /// The parameters' laws where their distribution function can be bounded rigorously
+    /// (the whole-path bound's partition of the parameter space, §5.14).
+    laws: Vec<(Var, crate::moments::cdf::CdfLaw)>,
 }
 
 impl RiskContour {
@@ -170,6 +173,7 @@ impl RiskContour {
             support: None,
             higher: OnceLock::new(),
             raw_i: OnceLock::new(),
+            laws: Vec::new(),
         })
     }
 
@@ -179,6 +183,20 @@ impl RiskContour {
         let layout = self.layout;
         self.support = SupportForm::new(&self.poly, |v| layout.is_param(v), support).map(Arc::new);
         self
+    }
+
+    /// The same contour with the parameters' distributions: those with a rigorous
+    /// distribution function ([`crate::moments::cdf::CdfLaw`]) are kept for the whole-path
+    /// bound (docs/design.md §5.14); the others are ignored.
+    pub fn with_laws(mut self, laws: &[(Var, &crate::moments::Distribution)]) -> Self {
+        self.laws = laws.iter().filter_map(|(v, d)| Some((*v, crate::moments::cdf::CdfLaw::of(d)?))).collect();
+        self
+    }
+
+    /// The law of parameter `v`, when [`Self::with_laws`] gave one with a rigorous
+    /// distribution function.
+    pub fn law(&self, v: Var) -> Option<&crate::moments::cdf::CdfLaw> {
+        self.laws.iter().find(|l| l.0 == v).map(|l| &l.1)
     }
 
     /// The obstacle polynomial P(x, ω, t).

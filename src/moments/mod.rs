@@ -6,6 +6,7 @@
 //! E\[P²\] − E\[P\]² that floats suffer when a mean dominates its spread (§1.4).
 //! [`Sampler`] draws the same distributions with `rand_distr` for Monte Carlo.
 
+pub mod cdf;
 mod sample;
 
 pub use sample::Sampler;

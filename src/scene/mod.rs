@@ -364,6 +364,7 @@ impl Scene {
         let mut moments: Option<BTreeMap<Var, Vec<BigRational>>> = None;
         let supports: Vec<(Var, BigRational, BigRational)> =
             params.iter().filter_map(|p| p.dist.support().map(|(lo, hi)| (p.var, lo, hi))).collect();
+        let laws: Vec<(Var, &crate::moments::Distribution)> = params.iter().map(|p| (p.var, &p.dist)).collect();
         let name = |v: Var| vars.name(v);
         let mut obstacles = Vec::with_capacity(parsed.len());
         for (i, (o, parsed)) in file.obstacles.iter().zip(parsed).enumerate() {
@@ -400,7 +401,8 @@ impl Scene {
                         |v: Var, k: u32| moments.and_then(|m| m.get(&v)).and_then(|m| m.get(k as usize)).cloned();
                     let c = RiskContour::new(layout, &poly, &lookup, &name)
                         .map_err(|e| SceneError { path: format!("obstacles[{i}].poly"), kind: e.into() })?
-                        .with_support(&supports);
+                        .with_support(&supports)
+                        .with_laws(&laws);
                     cache.insert(key, Arc::new(c))
                 }
             };

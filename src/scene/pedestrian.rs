@@ -218,7 +218,10 @@ impl Pedestrian {
         let supports: Vec<(Var, BigRational, BigRational)> =
             self.params.iter().filter_map(|p| p.dist.support().map(|(lo, hi)| (p.var, lo, hi))).collect();
         match RiskContour::new(layout, self.poly(), &lookup, &name) {
-            Ok(c) => c.with_support(&supports),
+            Ok(c) => {
+                let laws: Vec<(Var, &crate::moments::Distribution)> = self.params.iter().map(|p| (p.var, &p.dist)).collect();
+                c.with_support(&supports).with_laws(&laws)
+            }
             Err(_) => RiskContour::new(layout, &Poly::constant(BigRational::from_integer(1.into())), &lookup, &name)
                 .expect("a constant polynomial needs no moment"),
         }

@@ -21,8 +21,6 @@ use crate::certify::sos;
 use crate::certify::{PieceRef, Undecided, Verdict};
 use crate::contour::{BoundChoice, BoundKind, RiskLevel};
 use crate::scene::{Obstacle, Trajectory};
-use num_rational::BigRational;
-use num_traits::{One, Zero};
 use serde::{Deserialize, Serialize};
 
 pub use crate::certify::scene::{
@@ -160,8 +158,9 @@ pub struct ObstacleWholePath {
     pub id: String,
     /// P(∃ t : x(t) in this obstacle) ≤ `bound` (a float at or above the exact bound).
     pub bound: f64,
-    /// `pooled`: one envelope over every piece's coefficients; `sum`: the pieces' bounds
-    /// added up.
+    /// `partition`: the parameter space partitioned over every piece at once; `pooled`:
+    /// one moment envelope over every piece's coefficients; `sum`: the pieces' moment
+    /// bounds added up.
     pub how: String,
     /// Each piece's own bound, in order.
     pub pieces: Vec<f64>,
@@ -180,22 +179,23 @@ pub fn whole_path_risk(
     pieces: &[crate::scene::Piece],
     stop: &dyn Fn() -> bool,
 ) -> Result<WholePathRisk, Interrupted> {
-    use crate::certify::path_risk::{trajectory_path_risk, upper_f64};
+    use crate::certify::path_risk::trajectory_path_risk;
     let scene = kernel.scene();
     let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
-    let mut total = BigRational::zero();
+    let mut total = 0.0f64;
     let mut obstacles = Vec::with_capacity(scene.obstacles.len());
     for o in &scene.obstacles {
         let r = trajectory_path_risk(o.contour.get(), &refs, stop).ok_or(Interrupted)?;
-        total += &r.bound;
+        // the sum rounded up: a float at or above the exact sum of the obstacles' bounds
+        total = if r.bound == 0.0 { total } else { (total + r.bound).next_up() };
         obstacles.push(ObstacleWholePath {
             id: o.id.clone(),
-            bound: upper_f64(&r.bound),
-            how: if r.pooled { "pooled" } else { "sum" }.to_string(),
-            pieces: r.pieces.iter().map(upper_f64).collect(),
+            bound: r.bound,
+            how: r.how.as_str().to_string(),
+            pieces: r.pieces,
         });
     }
-    Ok(WholePathRisk { bound: upper_f64(&total.min(BigRational::one())), obstacles })
+    Ok(WholePathRisk { bound: total.min(1.0), obstacles })
 }
 
 fn method_report(v: &Verdict, piece: PieceRef<'_>) -> MethodReport {

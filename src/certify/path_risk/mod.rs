@@ -21,6 +21,10 @@
 //! orders 4–8, zero risk from a bounded support). Groups of the piece's time are summed
 //! (Boole) where that is smaller.
 
+mod cells;
+
+pub use cells::{cells_path_risk, CellEffort, CellsBound, CELLS_MAX_DEPTH};
+
 use super::compose::PieceRef;
 use crate::contour::bounds::{exceedance_bound, support_negative};
 use crate::contour::{BoundKind, RiskContour};
@@ -336,29 +340,65 @@ fn net_path_risk(net: &mut Net<'_>, stop: &dyn Fn() -> bool) -> Option<PiecePath
 /// far from the obstacle add coefficients that only widen the envelope).
 pub const POOL_MAX_PIECES: usize = 64;
 
+/// How an obstacle's whole-path bound was formed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathRiskHow {
+    /// The partition of the parameter space over every piece at once ([`cells_path_risk`]).
+    Partition,
+    /// One moment envelope over every piece's coefficients.
+    Pooled,
+    /// The pieces' moment bounds added up (Boole).
+    Sum,
+}
+
+impl PathRiskHow {
+    /// `partition`, `pooled`, `sum` (reports).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PathRiskHow::Partition => "partition",
+            PathRiskHow::Pooled => "pooled",
+            PathRiskHow::Sum => "sum",
+        }
+    }
+}
+
 /// The whole-path bound of a trajectory against one obstacle.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ObstaclePathRisk {
-    /// P(∃ t in the trajectory's time : collision with this obstacle) ≤ `bound` (≤ 1).
-    pub bound: BigRational,
-    /// Each piece's own bound ([`piece_path_risk`]), in order.
-    pub pieces: Vec<BigRational>,
-    /// Whether `bound` is one envelope over every piece's coefficients (else the sum of the
-    /// pieces' bounds, Boole).
-    pub pooled: bool,
+    /// P(∃ t in the trajectory's time : collision with this obstacle) ≤ `bound` (≤ 1; a
+    /// float at or above the exact bound).
+    pub bound: f64,
+    /// Each piece's own bound, in order (by the same method).
+    pub pieces: Vec<f64>,
+    /// How `bound` was formed.
+    pub how: PathRiskHow,
 }
 
 /// The whole-path bound of the trajectory `pieces` against the obstacle of `contour`
-/// (docs/design.md §5.14): the smaller of the sum of the pieces' bounds (Boole; the pieces
-/// cover the trajectory's time) and one envelope of the coefficients of every piece pooled
-/// together (refined 2¹–2³ times per piece; up to [`POOL_MAX_PIECES`] pieces) — the
-/// maximum over the whole trajectory of q is at most their maximum, so the events of
-/// consecutive pieces beside one obstacle are not added up. `None` when `stop` said yes.
+/// (docs/design.md §5.14). When every parameter of the obstacle has a rigorous
+/// distribution function: the partition of the parameter space ([`cells_path_risk`]) over
+/// all pieces at once (and per piece, for the report). Otherwise the moment envelopes: the
+/// smaller of the sum of the pieces' bounds (Boole; the pieces cover the trajectory's
+/// time) and one envelope of the coefficients of every piece pooled together (refined
+/// 2¹–2³ times per piece; up to [`POOL_MAX_PIECES`] pieces) — the maximum over the whole
+/// trajectory of q is at most their maximum, so the events of consecutive pieces beside
+/// one obstacle are not added up. `None` when `stop` said yes.
 pub fn trajectory_path_risk(
     contour: &RiskContour,
     pieces: &[PieceRef<'_>],
     stop: &dyn Fn() -> bool,
 ) -> Option<ObstaclePathRisk> {
+    if let Some(all) = cells_path_risk(contour, pieces, CellEffort::REPORT, stop) {
+        let mut each = Vec::with_capacity(pieces.len());
+        for p in pieces {
+            each.push(cells_path_risk(contour, std::slice::from_ref(p), CellEffort::REPORT, stop)?.bound);
+        }
+        let sum = each.iter().fold(0.0f64, |a, b| (a + b).next_up()).min(1.0);
+        return Some(ObstaclePathRisk { bound: all.bound.min(sum), pieces: each, how: PathRiskHow::Partition });
+    }
+    if stop() {
+        return None;
+    }
     let one = BigRational::one();
     let mut nets: Vec<Net<'_>> = pieces.iter().map(|p| Net::new(contour, *p)).collect();
     let mut each = Vec::with_capacity(pieces.len());
@@ -368,7 +408,8 @@ pub fn trajectory_path_risk(
         sum += &b;
         each.push(b);
     }
-    let mut best = (sum.min(one.clone()), false);
+    let each_f: Vec<f64> = each.iter().map(upper_f64).collect();
+    let mut best = (sum.min(one.clone()), PathRiskHow::Sum);
     if pieces.len() > 1 && pieces.len() <= POOL_MAX_PIECES && upper_f64(&best.0) > PATH_RISK_NEGLIGIBLE {
         for depth in 1..=3 {
             if stop() {
@@ -378,17 +419,17 @@ pub fn trajectory_path_risk(
             for net in nets.iter_mut() {
                 match net.pooled(depth, 0, 1 << depth) {
                     Some(c) => coeffs.extend(c),
-                    None => return Some(ObstaclePathRisk { bound: one, pieces: each, pooled: false }),
+                    None => return Some(ObstaclePathRisk { bound: 1.0, pieces: each_f, how: PathRiskHow::Sum }),
                 }
             }
             if let Some((v, _)) = envelopes_bound(contour, &coeffs) {
                 if v < best.0 {
-                    best = (v, true);
+                    best = (v, PathRiskHow::Pooled);
                 }
             }
         }
     }
-    Some(ObstaclePathRisk { bound: best.0, pieces: each, pooled: best.1 })
+    Some(ObstaclePathRisk { bound: upper_f64(&best.0).min(1.0), pieces: each_f, how: best.1 })
 }
 
 /// The smallest P(U ≥ 0) over the envelopes of `coeffs` ([`envelopes`]), at most 1, and

@@ -1,0 +1,335 @@
+//! Rigorous enclosures of a parameter's probability of lying in an interval — for the
+//! whole-path bound's partition of the parameter space (docs/design.md §5.14). Three
+//! families have a distribution function that can be evaluated with a proof:
+//!
+//! - **uniform** on [L, H]: (min(b, H) − max(a, L))/(H − L), outward-rounded;
+//! - **normal** N(μ, σ²): Φ((x − μ)/σ) with Φ(z) = ½ + ½·erf(z/√2) by the alternating
+//!   Maclaurin series of erf (|z| ≤ [`SERIES_LIMIT`]; the first omitted term bounds the
+//!   remainder once the terms decrease) in outward-rounded interval arithmetic, and beyond
+//!   it the Mills-ratio bound 1 − Φ(z) ≤ φ(z)/z;
+//! - **beta** with integer α, β ≤ [`MAX_BETA_INTEGER`] on [L, H]: the regularised
+//!   incomplete beta function is then the binomial tail
+//!   Σ_{j=α}^{n} C(n, j)·uʲ(1 − u)^(n−j), n = α + β − 1, a polynomial in u.
+//!
+//! Other families (gamma, Laplace, discrete, moment lists, beta with other shapes) have no
+//! [`CdfLaw`]: their obstacles use the moment bounds alone.
+
+use super::Distribution;
+use crate::poly::Interval;
+use num_rational::BigRational;
+use num_traits::{One, Signed, ToPrimitive, Zero};
+
+/// |z| up to which Φ(z) comes from the erf series: erf's argument is then at most 2.9, the
+/// largest term of the series about 5·10², so cancellation costs at most about 10⁻¹¹ of
+/// absolute width.
+pub const SERIES_LIMIT: f64 = 4.1;
+
+/// A normal parameter's partition covers μ ± this many σ; the mass outside,
+/// 2·(1 − Φ(9)) < 2.3·10⁻¹⁹, is added to every bound that uses it.
+pub const NORMAL_SPAN_SIGMAS: f64 = 9.0;
+
+/// Relative widening of the Mills-ratio tail, computed with the platform's `exp` (within
+/// a few ulps) and four roundings: 10⁻¹² covers them with a margin of 10³.
+pub const TAIL_REL_MARGIN: f64 = 1e-12;
+
+/// Largest integer shape of a beta parameter handled by its binomial-tail form (the
+/// polynomial has α + β terms).
+pub const MAX_BETA_INTEGER: u64 = 64;
+
+/// A parameter's law, in the form the partition needs: its range and the probability of
+/// any sub-interval, bounded from above.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CdfLaw {
+    /// The range partitioned (the support, or μ ± [`NORMAL_SPAN_SIGMAS`]·σ).
+    pub lo: f64,
+    /// Upper end of the range.
+    pub hi: f64,
+    /// An upper bound of the probability outside `[lo, hi]`.
+    pub outside: f64,
+    kind: Kind,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+enum Kind {
+    /// Uniform on [a, b] (enclosures of the exact ends; `a.lo`, `b.hi` are `lo`, `hi`).
+    Uniform { a: Interval, b: Interval },
+    /// Normal: μ and 1/σ enclosed.
+    Normal { mu: Interval, inv_sigma: Interval },
+    /// Beta(α, β) with integer shapes on [low, low + width].
+    Beta { alpha: u32, beta: u32, low: Interval, inv_width: Interval },
+    /// A point mass (σ = 0, or a uniform of zero width).
+    Point { at: Interval },
+}
+
+impl CdfLaw {
+    /// The law of a distribution, when it is one of the families above (module docs).
+    pub fn of(d: &Distribution) -> Option<CdfLaw> {
+        let enc = Interval::enclose_rational;
+        let inv = |q: &BigRational| (q.is_positive()).then(|| enc(&(BigRational::one() / q)));
+        match d {
+            Distribution::Uniform { low, high } => {
+                let (a, b) = (enc(low), enc(high));
+                if low == high {
+                    return Some(CdfLaw { lo: a.lo, hi: a.hi, outside: 0.0, kind: Kind::Point { at: a } });
+                }
+                finite(CdfLaw { lo: a.lo, hi: b.hi, outside: 0.0, kind: Kind::Uniform { a, b } })
+            }
+            Distribution::Normal { mean, std } => {
+                let mu = enc(mean);
+                if std.is_zero() {
+                    return finite(CdfLaw { lo: mu.lo, hi: mu.hi, outside: 0.0, kind: Kind::Point { at: mu } });
+                }
+                let span = Interval::point(NORMAL_SPAN_SIGMAS) * enc(std);
+                let (lo, hi) = ((mu - span).lo, (mu + span).hi);
+                // 1 − Φ(9) on each side, bounded by the Mills ratio
+                let outside = 2.0 * mills_upper(NORMAL_SPAN_SIGMAS);
+                finite(CdfLaw { lo, hi, outside, kind: Kind::Normal { mu, inv_sigma: inv(std)? } })
+            }
+            Distribution::Beta { alpha, beta, low, high } => {
+                let int = |q: &BigRational| {
+                    (q.is_integer() && q.is_positive()).then(|| q.to_integer().to_u64()).flatten().filter(|&k| k <= MAX_BETA_INTEGER)
+                };
+                let (a, b) = (int(alpha)? as u32, int(beta)? as u32);
+                let (l, h) = (enc(low), enc(high));
+                finite(CdfLaw {
+                    lo: l.lo,
+                    hi: h.hi,
+                    outside: 0.0,
+                    kind: Kind::Beta { alpha: a, beta: b, low: l, inv_width: inv(&(high - low))? },
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// An upper bound of P(a ≤ ω ≤ b), in [0, 1].
+    pub fn mass_upper(&self, a: f64, b: f64) -> f64 {
+        if a.is_nan() || b.is_nan() {
+            return 1.0;
+        }
+        if a > b {
+            return 0.0;
+        }
+        let v = match &self.kind {
+            Kind::Point { at } => {
+                if a <= at.hi && at.lo <= b {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            Kind::Uniform { a: ua, b: ub } => {
+                // (min(b, H) − max(a, L))/(H − L), each end taken on the wide side
+                let top = if b >= ub.hi { *ub } else { Interval::point(b) };
+                let bot = if a <= ua.lo { *ua } else { Interval::point(a) };
+                let num = top - bot;
+                let den = *ub - *ua;
+                if num.hi <= 0.0 {
+                    0.0
+                } else if den.lo <= 0.0 {
+                    1.0
+                } else {
+                    (num.hi / den.lo).next_up()
+                }
+            }
+            Kind::Normal { mu, inv_sigma } => {
+                let z = |x: f64| (Interval::point(x) - *mu) * *inv_sigma;
+                phi(z(b).hi).hi - phi(z(a).lo).lo
+            }
+            Kind::Beta { alpha, beta, low, inv_width } => {
+                let u = |x: f64| (Interval::point(x) - *low) * *inv_width;
+                beta_cdf(*alpha, *beta, u(b).hi).hi - beta_cdf(*alpha, *beta, u(a).lo).lo
+            }
+        };
+        if v.is_nan() {
+            1.0
+        } else if v <= 0.0 {
+            0.0
+        } else {
+            v.next_up().min(1.0)
+        }
+    }
+}
+
+fn finite(l: CdfLaw) -> Option<CdfLaw> {
+    (l.lo.is_finite() && l.hi.is_finite() && l.lo <= l.hi).then_some(l)
+}
+
+/// An upper bound of 1 − Φ(z) for z > 0: φ(z)/z (Mills' ratio), widened by
+/// [`TAIL_REL_MARGIN`]; 1 for z ≤ 0.
+pub fn mills_upper(z: f64) -> f64 {
+    if z.is_nan() || z <= 0.0 {
+        return 1.0;
+    }
+    let v = (-0.5 * z * z).exp() / (z * (2.0 * std::f64::consts::PI).sqrt());
+    (v * (1.0 + TAIL_REL_MARGIN)).min(1.0)
+}
+
+/// An enclosure of Φ(z), the standard normal distribution function, at the float `z`.
+pub fn phi(z: f64) -> Interval {
+    if z.is_nan() {
+        return Interval::new(0.0, 1.0);
+    }
+    if z > SERIES_LIMIT {
+        return Interval::new((1.0 - mills_upper(z)).next_down().max(0.0), 1.0);
+    }
+    if z < -SERIES_LIMIT {
+        return Interval::new(0.0, mills_upper(-z));
+    }
+    // x = z/√2, enclosed (1/√2 correctly rounded, widened by an ulp)
+    let r2 = Interval::new(std::f64::consts::FRAC_1_SQRT_2.next_down(), std::f64::consts::FRAC_1_SQRT_2.next_up());
+    let x = Interval::point(z) * r2;
+    let e = erf_series(x);
+    let half = Interval::point(0.5);
+    let v = half + half * e;
+    Interval::new(v.lo.max(0.0), v.hi.min(1.0))
+}
+
+/// erf(x) for |x| ≤ 3 enclosed: (2/√π)·Σₙ (−1)ⁿ x^(2n+1)/(n!(2n+1)), summed until the terms
+/// decrease and fall below 2⁻⁶⁰; the alternating remainder is at most the next term.
+fn erf_series(x: Interval) -> Interval {
+    let x2 = x * x;
+    let mut power = x; // x^(2n+1)/n!
+    let mut sum = Interval::point(0.0);
+    let mag = |i: Interval| i.lo.abs().max(i.hi.abs());
+    let mut closed = false;
+    for n in 0..ERF_MAX_TERMS {
+        if n > 0 {
+            power = power * x2 * recip(n as f64);
+        }
+        let term = power * recip((2 * n + 1) as f64);
+        // once n ≥ x², |term| decreases in n: the rest is within ± the next term
+        if f64::from(n) >= x2.hi && mag(term) < f64::EPSILON * f64::EPSILON * 0.25 {
+            let r = mag(term);
+            sum = sum + Interval::new(-r, r);
+            closed = true;
+            break;
+        }
+        sum = if n % 2 == 0 { sum + term } else { sum - term };
+    }
+    if !closed {
+        return Interval::new(-1.0, 1.0);
+    }
+    let two_over_sqrt_pi =
+        Interval::new(std::f64::consts::FRAC_2_SQRT_PI.next_down(), std::f64::consts::FRAC_2_SQRT_PI.next_up());
+    let v = two_over_sqrt_pi * sum;
+    Interval::new(v.lo.max(-1.0), v.hi.min(1.0))
+}
+
+/// Most terms of the erf series: for |x| ≤ 2.9 the terms fall below 2⁻¹⁰⁶ by n ≈ 70.
+const ERF_MAX_TERMS: u32 = 200;
+
+/// 1/k enclosed, for a positive integer k (below 2⁵³).
+fn recip(k: f64) -> Interval {
+    let q = 1.0 / k;
+    Interval::new(q.next_down(), q.next_up())
+}
+
+/// The regularised incomplete beta function I_u(α, β) for integer shapes, enclosed: the
+/// binomial tail Σ_{j=α}^{n} C(n, j)·uʲ(1 − u)^(n−j), n = α + β − 1 (u clamped to [0, 1]).
+fn beta_cdf(alpha: u32, beta: u32, u: f64) -> Interval {
+    if u.is_nan() {
+        return Interval::new(0.0, 1.0);
+    }
+    if u <= 0.0 {
+        return Interval::point(0.0);
+    }
+    if u >= 1.0 {
+        return Interval::point(1.0);
+    }
+    let n = alpha + beta - 1;
+    let (ui, vi) = (Interval::point(u), Interval::point(1.0) - Interval::point(u));
+    let mut sum = Interval::point(0.0);
+    for j in alpha..=n {
+        let c = Interval::enclose_rational(&super::binomial(n, j));
+        sum = sum + c * pow(ui, j) * pow(vi, n - j);
+    }
+    Interval::new(sum.lo.max(0.0), sum.hi.min(1.0))
+}
+
+fn pow(x: Interval, k: u32) -> Interval {
+    (0..k).fold(Interval::point(1.0), |acc, _| acc * x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use statrs::distribution::{Beta, ContinuousCDF, Normal};
+
+    fn q(s: &str) -> BigRational {
+        crate::poly::parse_decimal(s).unwrap()
+    }
+
+    /// Φ's enclosure contains statrs' value (an independent implementation, accurate to
+    /// about 10⁻¹⁵) and is narrow; the Mills tail is above the true tail.
+    #[test]
+    fn phi_encloses_an_independent_cdf() {
+        let n = Normal::new(0.0, 1.0).unwrap();
+        for i in -1200..=1200 {
+            let z = i as f64 / 100.0;
+            let e = phi(z);
+            let v = n.cdf(z);
+            // statrs errs by up to ~10⁻¹⁰ relatively (scipy agrees with the
+            // enclosure): a coarse sweep; the table below, from scipy's ndtr, holds it to 2 ulps
+            let slack = 1e-14 + 1e-9 * v;
+            assert!(e.lo <= v + slack && v - slack <= e.hi, "Φ({z}) = {v} not in {e:?}");
+            if z.abs() <= SERIES_LIMIT {
+                assert!(e.width() < 1e-10, "Φ({z}): width {}", e.width());
+            }
+        }
+        // scipy.special.ndtr (Cephes), correctly rounded or within an ulp
+        let table: [(f64, f64); 17] = [
+            (-4.1, 2.0657506912546717e-05),
+            (-3.5, 0.00023262907903552502),
+            (-2.87, 0.0020523589949397536),
+            (-2.72, 0.003264095815891309),
+            (-2.0, 0.022750131948179195),
+            (-1.3, 0.09680048458561036),
+            (-0.74, 0.22964999716479056),
+            (-0.3, 0.3820885778110474),
+            (0.0, 0.5),
+            (0.2, 0.579259709439103),
+            (0.74, 0.7703500028352095),
+            (1.1, 0.8643339390536173),
+            (1.7, 0.955434537241457),
+            (2.4, 0.9918024640754038),
+            (2.9, 0.998134186699616),
+            (3.6, 0.9998408914098424),
+            (4.1, 0.9999793424930875),
+        ];
+        for (z, v) in table {
+            let e = phi(z);
+            let ulp2 = 2.0 * (v.next_up() - v);
+            assert!(e.lo <= v + ulp2 && v - ulp2 <= e.hi, "Φ({z}) = {v} (scipy) not in {e:?}");
+        }
+        for z in [4.2, 5.0, 8.0, 9.0, 20.0] {
+            assert!(mills_upper(z) >= n.sf(z), "{z}");
+        }
+    }
+
+    /// Masses: uniform exactly, normal and integer beta against statrs; a box's mass is at
+    /// least the true one.
+    #[test]
+    fn masses_are_upper_bounds() {
+        let u = CdfLaw::of(&Distribution::Uniform { low: q("0.3"), high: q("0.4") }).unwrap();
+        assert!((u.mass_upper(0.35, 1.0) - 0.5).abs() < 1e-12 && u.mass_upper(0.35, 1.0) >= 0.5);
+        assert_eq!(u.mass_upper(0.5, 0.6), 0.0);
+        let nl = CdfLaw::of(&Distribution::Normal { mean: q("1"), std: q("0.2") }).unwrap();
+        let n = Normal::new(1.0, 0.2).unwrap();
+        for (a, b) in [(0.8, 1.25), (-1.0, 0.5), (1.9, 3.0), (nl.lo, nl.hi)] {
+            let m = nl.mass_upper(a, b);
+            let t = n.cdf(b) - n.cdf(a);
+            // within 6 % beyond SERIES_LIMIT σ (the Mills ratio), else a few 10⁻¹¹
+            assert!(m >= t - 1e-14 && m <= 1.06 * t + 5e-11, "[{a}, {b}]: {m} vs {t}");
+        }
+        assert!(nl.outside < 1e-18 && (nl.lo - (1.0 - 1.8)).abs() < 1e-12);
+        let bl = CdfLaw::of(&Distribution::Beta { alpha: q("3"), beta: q("3"), low: q("0"), high: q("1") }).unwrap();
+        let b = Beta::new(3.0, 3.0).unwrap();
+        for (a, c) in [(0.1, 0.4), (0.0, 1.0), (0.45, 0.46)] {
+            let m = bl.mass_upper(a, c);
+            let t = b.cdf(c) - b.cdf(a);
+            assert!(m >= t - 1e-15 && m <= t + 1e-12, "[{a}, {c}]: {m} vs {t}");
+        }
+        assert!(CdfLaw::of(&Distribution::Beta { alpha: q("9"), beta: q("0.5"), low: q("0"), high: q("1") }).is_none());
+    }
+}
