@@ -42,6 +42,13 @@ pub trait MotionChecker: Send + Sync {
     fn work(&self) -> Option<u64> {
         None
     }
+    /// A certified upper bound of the probability that the piece meets any obstacle at
+    /// some time of its interval, ω drawn once (docs/design.md §5.14), when the checker
+    /// budgets whole paths (`risk_mode: trajectory`); `None` otherwise. Planners add
+    /// these up along a path (Boole) and keep the sum within Δ.
+    fn path_risk(&self, _piece: &Piece) -> Option<f64> {
+        None
+    }
     /// The obstacle whose contour excludes `x` at time `t`, if the checker knows.
     fn blocking_obstacle(&self, _x: &[f64], _t: f64) -> Option<String> {
         None

@@ -121,6 +121,8 @@ pub struct PreparedPlan {
     pub deltas: Vec<RiskLevel>,
     /// The scene's kernel: what its checkers and the final check cache.
     pub kernel: SceneKernel,
+    /// What Δ bounds (`trajectory`: the final check also proves the whole-path bound).
+    pub risk_mode: RiskMode,
     /// The bounds the checker and the final check may use.
     pub bounds: BoundChoice,
 }
@@ -159,18 +161,56 @@ impl PreparedPlan {
             fc.seconds += check.seconds;
             fc.pieces += check.pieces;
             let why = match check.failure {
-                None => break,
+                None => {
+                    // the whole-path bound of every certified plan (docs/design.md §5.14);
+                    // in trajectory mode it must be within Δ
+                    let t_wp = std::time::Instant::now();
+                    // the plan's effort first; in trajectory mode a bound above Δ is tried
+                    // again with the report's (ten times the boxes)
+                    use crate::certify::path_risk::CellEffort;
+                    let delta = crate::plan::rrt::delta_floor(&self.problem.delta);
+                    let mut wp = crate::verify::plan_whole_path_risk(&self.kernel, &traj.pieces, CellEffort::PLAN, &stop);
+                    if self.risk_mode == RiskMode::Trajectory && wp.as_ref().is_ok_and(|&b| b > delta) {
+                        wp = crate::verify::plan_whole_path_risk(&self.kernel, &traj.pieces, CellEffort::REPORT, &stop);
+                    }
+                    fc.whole_path_seconds = t_wp.elapsed().as_secs_f64();
+                    fc.seconds += fc.whole_path_seconds;
+                    match wp {
+                        Ok(b) => {
+                            out.stats.whole_path_risk = Some(b);
+                            if self.risk_mode == RiskMode::Trajectory && !(b <= delta && b < 1.0) {
+                                let why = format!("the whole-path bound {b:.4e} of the plan exceeds Δ = {delta}");
+                                out = PlanOutcome::no_plan(
+                                    PlanStatus::Exhausted,
+                                    out.stats,
+                                    NoPlanReason::FinalCheckFailed { why },
+                                );
+                            }
+                        }
+                        Err(Interrupted) if self.risk_mode == RiskMode::Trajectory => {
+                            let status = if term.cancelled() { PlanStatus::Cancelled } else { PlanStatus::DeadlineReached };
+                            let reason = NoPlanReason::from_status(status, &out.stats, term);
+                            out = PlanOutcome::no_plan(status, out.stats, reason);
+                        }
+                        // out of time for a report: the plan stands without it
+                        Err(Interrupted) => {}
+                    }
+                    break;
+                }
                 Some(FinalFailure::Invalid(why)) => why,
                 Some(FinalFailure::NotProven(piece)) => {
                     fc.disagreements += 1;
                     if fc.disagreements == 1 {
                         // the fast path accepted what the verify path does not prove:
                         // plan again without it
-                        self.checker = Box::new(
-                            SceneCertifier::with_deltas(&self.kernel, self.deltas.clone(), Method::Exact)
-                                .with_bounds(self.bounds)
-                                .without_fast_path(),
-                        );
+                        let mut checker = SceneCertifier::with_deltas(&self.kernel, self.deltas.clone(), Method::Exact)
+                            .with_bounds(self.bounds)
+                            .without_fast_path();
+                        if self.risk_mode == RiskMode::Trajectory {
+                            let d = crate::plan::rrt::delta_floor(&self.problem.delta);
+                            checker = checker.with_path_risk(d * crate::plan::rrt::PATH_RISK_NEGLIGIBLE_SHARE);
+                        }
+                        self.checker = Box::new(checker);
                         out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
                         continue;
                     }
@@ -282,9 +322,9 @@ impl PlanRequest {
         let deltas = allocate(&kernel, &problem, self.risk_mode, bound)?;
         let setup = Setup { problem: &problem, kernel: &kernel, deltas: &deltas, options: &options };
         let Built { planner, checker } = self.planner_kind()?.build(&setup)?;
-        let allocation = (self.risk_mode != RiskMode::PerObstacle)
+        let allocation = matches!(self.risk_mode, RiskMode::JointUniform | RiskMode::JointWeighted)
             .then(|| problem.scene.obstacles.iter().zip(&deltas).map(|(o, d)| (o.id.clone(), d.to_f64())).collect());
-        Ok(PreparedPlan { problem, planner, checker, allocation, deltas, kernel, bounds: bound })
+        Ok(PreparedPlan { problem, planner, checker, allocation, deltas, kernel, bounds: bound, risk_mode: self.risk_mode })
     }
 
     /// The bounds this request uses on `scene`: its own, else the scene's
@@ -344,7 +384,9 @@ pub fn allocate(
     let n = p.scene.obstacles.len();
     let delta = p.delta.rational().clone();
     let weights: Vec<BigRational> = match mode {
-        RiskMode::PerObstacle => return Ok(vec![p.delta.clone(); n]),
+        // trajectory: each obstacle's per-instant constraint at Δ (implied by the
+        // whole-path budget, which the planners and the final check keep)
+        RiskMode::PerObstacle | RiskMode::Trajectory => return Ok(vec![p.delta.clone(); n]),
         RiskMode::JointUniform => vec![BigRational::from_integer(1.into()); n],
         RiskMode::JointWeighted => {
             // covers at the uniform allocation locate each obstacle

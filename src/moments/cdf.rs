@@ -102,7 +102,52 @@ impl CdfLaw {
         }
     }
 
-    /// An upper bound of P(a ≤ ω ≤ b), in [0, 1].
+    /// An enclosure of the distribution function F(x) = P(ω ≤ x), within [0, 1].
+    pub fn cdf(&self, x: f64) -> Interval {
+        let unit = Interval::new(0.0, 1.0);
+        if x.is_nan() {
+            return unit;
+        }
+        let v = match &self.kind {
+            Kind::Point { at } => {
+                if x < at.lo {
+                    Interval::point(0.0)
+                } else if x > at.hi {
+                    Interval::point(1.0)
+                } else {
+                    unit
+                }
+            }
+            Kind::Uniform { a, b } => {
+                if x <= a.lo {
+                    Interval::point(0.0)
+                } else if x >= b.hi {
+                    Interval::point(1.0)
+                } else {
+                    // (x − a)/(b − a), each end taken on the wide side
+                    let num = Interval::point(x) - *a;
+                    let den = *b - *a;
+                    if den.lo <= 0.0 {
+                        unit
+                    } else {
+                        Interval::new((num.lo / den.hi).next_down(), (num.hi / den.lo).next_up())
+                    }
+                }
+            }
+            Kind::Normal { mu, inv_sigma } => {
+                let z = (Interval::point(x) - *mu) * *inv_sigma;
+                Interval::new(phi(z.lo).lo, phi(z.hi).hi)
+            }
+            Kind::Beta { alpha, beta, low, inv_width } => {
+                let u = (Interval::point(x) - *low) * *inv_width;
+                Interval::new(beta_cdf(*alpha, *beta, u.lo).lo, beta_cdf(*alpha, *beta, u.hi).hi)
+            }
+        };
+        Interval::new(v.lo.max(0.0), v.hi.min(1.0))
+    }
+
+    /// An upper bound of P(a ≤ ω ≤ b), in [0, 1], from the enclosures of F at the ends
+    /// (a point mass at a counts: F(a) is taken just below a by its lower end).
     pub fn mass_upper(&self, a: f64, b: f64) -> f64 {
         if a.is_nan() || b.is_nan() {
             return 1.0;
@@ -110,44 +155,21 @@ impl CdfLaw {
         if a > b {
             return 0.0;
         }
-        let v = match &self.kind {
-            Kind::Point { at } => {
-                if a <= at.hi && at.lo <= b {
-                    1.0
-                } else {
-                    0.0
-                }
-            }
-            Kind::Uniform { a: ua, b: ub } => {
-                // (min(b, H) − max(a, L))/(H − L), each end taken on the wide side
-                let top = if b >= ub.hi { *ub } else { Interval::point(b) };
-                let bot = if a <= ua.lo { *ua } else { Interval::point(a) };
-                let num = top - bot;
-                let den = *ub - *ua;
-                if num.hi <= 0.0 {
-                    0.0
-                } else if den.lo <= 0.0 {
-                    1.0
-                } else {
-                    (num.hi / den.lo).next_up()
-                }
-            }
-            Kind::Normal { mu, inv_sigma } => {
-                let z = |x: f64| (Interval::point(x) - *mu) * *inv_sigma;
-                phi(z(b).hi).hi - phi(z(a).lo).lo
-            }
-            Kind::Beta { alpha, beta, low, inv_width } => {
-                let u = |x: f64| (Interval::point(x) - *low) * *inv_width;
-                beta_cdf(*alpha, *beta, u(b).hi).hi - beta_cdf(*alpha, *beta, u(a).lo).lo
-            }
-        };
-        if v.is_nan() {
-            1.0
-        } else if v <= 0.0 {
-            0.0
-        } else {
-            v.next_up().min(1.0)
-        }
+        mass_between(self.cdf(a), self.cdf(b))
+    }
+}
+
+/// An upper bound of F(b) − F(a⁻) from enclosures of F(a) and F(b): F(b).hi − F(a).lo,
+/// rounded up, in [0, 1]. For a point mass at a itself, [`CdfLaw::cdf`] encloses both
+/// F(a⁻) and F(a) (its interval there is [0, 1]).
+pub fn mass_between(fa: Interval, fb: Interval) -> f64 {
+    let v = fb.hi - fa.lo;
+    if v.is_nan() {
+        1.0
+    } else if v <= 0.0 {
+        0.0
+    } else {
+        v.next_up().min(1.0)
     }
 }
 
@@ -199,7 +221,7 @@ fn erf_series(x: Interval) -> Interval {
         }
         let term = power * recip((2 * n + 1) as f64);
         // once n ≥ x², |term| decreases in n: the rest is within ± the next term
-        if f64::from(n) >= x2.hi && mag(term) < f64::EPSILON * f64::EPSILON * 0.25 {
+        if f64::from(n) >= x2.hi && mag(term) < ERF_NEGLIGIBLE_TERM {
             let r = mag(term);
             sum = sum + Interval::new(-r, r);
             closed = true;
@@ -215,6 +237,10 @@ fn erf_series(x: Interval) -> Interval {
     let v = two_over_sqrt_pi * sum;
     Interval::new(v.lo.max(-1.0), v.hi.min(1.0))
 }
+
+/// The series stops at a term below 2⁻⁶⁰ (its remainder, added as ± that term, is then
+/// far below the sum's rounding width of about 10⁻¹⁶).
+const ERF_NEGLIGIBLE_TERM: f64 = 8.673617379884035e-19;
 
 /// Most terms of the erf series: for |x| ≤ 2.9 the terms fall below 2⁻¹⁰⁶ by n ≈ 70.
 const ERF_MAX_TERMS: u32 = 200;

@@ -236,17 +236,27 @@ pub enum RiskMode {
     /// start–goal line, `L` the workspace's largest side: more for the obstacles that
     /// constrain the path.
     JointWeighted,
+    /// Δ bounds the probability of meeting any obstacle at any time along the whole plan,
+    /// ω drawn once (docs/design.md §5.14): the default planners keep the accumulated
+    /// whole-path bound of each partial path (the sum of its edges' bounds, Boole) and
+    /// accept an edge only within Δ; shortcuts keep the sum within Δ, and blends are kept
+    /// only when the smoothed plan's bound is; every plan's pooled bound is proven ≤ Δ by
+    /// the final check. Each obstacle's per-instant constraint at Δ is still certified
+    /// (it is implied: P(x(t) in Oᵢ) ≤ P(∃ t, i : x(t) in Oᵢ) ≤ Δ).
+    Trajectory,
 }
 
 impl RiskMode {
     /// Every mode.
-    pub const ALL: [RiskMode; 3] = [RiskMode::PerObstacle, RiskMode::JointUniform, RiskMode::JointWeighted];
+    pub const ALL: [RiskMode; 4] =
+        [RiskMode::PerObstacle, RiskMode::JointUniform, RiskMode::JointWeighted, RiskMode::Trajectory];
     /// The name on the command line and on the wire.
     pub fn as_str(self) -> &'static str {
         match self {
             RiskMode::PerObstacle => "per-obstacle",
             RiskMode::JointUniform => "joint",
             RiskMode::JointWeighted => "joint-weighted",
+            RiskMode::Trajectory => "trajectory",
         }
     }
 }

@@ -76,6 +76,11 @@ pub struct PlanStats {
     /// uncertified planner or without a trajectory.
     #[serde(default)]
     pub final_check: Option<FinalCheckStats>,
+    /// The certified bound of the probability that the plan meets any obstacle at any time
+    /// (docs/design.md §5.14), computed by the final check of every certified plan (absent
+    /// when its time ran out first; in `risk_mode: trajectory` the plan needs it ≤ Δ).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub whole_path_risk: Option<f64>,
     /// What a receding-horizon plan achieved (docs/design.md §6.9); `None` otherwise.
     #[serde(default)]
     pub progress: Option<Progress>,
@@ -106,6 +111,10 @@ pub struct FinalCheckStats {
     /// is an internal error (a bug), logged; the plan was made again without the fast
     /// path.
     pub disagreements: u32,
+    /// Wall time of the whole-path bound (`stats.whole_path_risk`), seconds (included in
+    /// `seconds`).
+    #[serde(default)]
+    pub whole_path_seconds: f64,
 }
 
 /// Sizes and solver totals of an optimisation planner's SDPs.

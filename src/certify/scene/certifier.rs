@@ -53,7 +53,15 @@ pub struct SceneCertifier {
     build_covers: bool,
     /// Checking work done ([`MotionChecker::work`]): one per piece, one per obstacle decided.
     work: std::sync::atomic::AtomicU64,
+    /// Whether [`MotionChecker::path_risk`] answers (`risk_mode: trajectory`), and the
+    /// partition's effort for it.
+    path_risk: Option<crate::certify::path_risk::CellEffort>,
 }
+
+/// Boxes of the parameter partition per obstacle and piece when planners ask for a piece's
+/// whole-path bound: a tenth of a report's (`CellEffort::REPORT`); a grazing piece costs
+/// about a millisecond.
+pub const PLAN_PATH_RISK_BOXES: usize = 400;
 
 impl SceneCertifier {
     /// A certifier for a scene (or its [`SceneKernel`], to share what it caches) at risk
@@ -100,7 +108,17 @@ impl SceneCertifier {
             kappas,
             build_covers: true,
             work: Default::default(),
+            path_risk: None,
         }
+    }
+
+    /// The same certifier answering [`MotionChecker::path_risk`] (`risk_mode: trajectory`),
+    /// the partition working until its undecided probability is within 5 % of its bound
+    /// or below `negligible` (planners pass a small fraction of Δ).
+    pub fn with_path_risk(mut self, negligible: f64) -> Self {
+        use crate::certify::path_risk::CellEffort;
+        self.path_risk = Some(CellEffort { max_boxes: PLAN_PATH_RISK_BOXES, rel_tol: 0.05, abs_tol: negligible });
+        self
     }
 
     /// The same certifier with another choice of bounds (`auto` by default).
@@ -425,6 +443,26 @@ impl MotionChecker for SceneCertifier {
         let (motion, decided) = self.check_counting(piece);
         self.work.fetch_add(1 + decided, std::sync::atomic::Ordering::Relaxed);
         motion
+    }
+
+    fn path_risk(&self, piece: &Piece) -> Option<f64> {
+        use crate::certify::path_risk::{cells_path_risk, piece_path_risk};
+        let effort = self.path_risk?;
+        let r = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
+        let mut total = 0.0f64;
+        for o in &self.scene.obstacles {
+            let c = o.contour.get();
+            let b = match cells_path_risk(c, std::slice::from_ref(&r), effort, &|| false) {
+                Some(b) => b.bound,
+                // no rigorous distribution function: the moment envelopes
+                None => piece_path_risk(c, r, &|| false).map_or(1.0, |b| b.bound_f64()),
+            };
+            total = if b == 0.0 { total } else { (total + b).next_up() };
+            if total >= 1.0 {
+                return Some(1.0);
+            }
+        }
+        Some(total)
     }
 
     fn blocking_obstacle(&self, x: &[f64], t: f64) -> Option<String> {

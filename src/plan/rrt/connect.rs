@@ -34,6 +34,9 @@ pub struct ConnectParams {
     pub kinematics: Kinematics,
     /// Candidate paths grown before shortcutting keeps the shortest (smoothing only).
     pub candidates: usize,
+    /// The whole-path budget (`risk_mode: trajectory`, docs/design.md §5.14): every vertex
+    /// keeps the sum of its path's edge bounds ([`MotionChecker::path_risk`]) within it.
+    pub path_budget: Option<f64>,
 }
 
 impl Default for ConnectParams {
@@ -44,6 +47,7 @@ impl Default for ConnectParams {
             max_iterations: 200_000,
             kinematics: Kinematics::SMOOTH,
             candidates: 4,
+            path_budget: None,
         }
     }
 }
@@ -58,14 +62,17 @@ pub struct ConnectRrt {
 struct Tree {
     verts: Vec<Vec<f64>>,
     parent: Vec<usize>,
+    /// The whole-path bound accumulated from the root (0 without a budget).
+    risk: Vec<f64>,
 }
 
 impl Tree {
     fn root(p: Vec<f64>) -> Tree {
-        Tree { verts: vec![p], parent: vec![usize::MAX] }
+        Tree { verts: vec![p], parent: vec![usize::MAX], risk: vec![0.0] }
     }
-    fn add(&mut self, p: Vec<f64>, parent: usize) -> usize {
+    fn add(&mut self, p: Vec<f64>, parent: usize, edge_risk: f64) -> usize {
         self.verts.push(p);
+        self.risk.push(add_up(self.risk[parent], edge_risk));
         self.parent.push(parent);
         self.verts.len() - 1
     }
@@ -76,6 +83,16 @@ impl Tree {
             out.push(self.verts[i].clone());
         }
         out
+    }
+}
+
+/// `a + b` rounded up (sums of upper bounds stay upper bounds).
+pub(crate) fn add_up(a: f64, b: f64) -> f64 {
+    let s = a + b;
+    if s == 0.0 {
+        0.0
+    } else {
+        s.next_up()
     }
 }
 
@@ -107,6 +124,12 @@ pub const MIN_CANDIDATE_TIME: std::time::Duration = std::time::Duration::from_mi
 /// one of them.
 pub const RAW_PATH_RETRIES: usize = 4;
 
+/// The sum over `pieces` of their whole-path bounds ([`MotionChecker::path_risk`], 1 when
+/// the checker gives none), rounded up.
+pub(crate) fn path_risk_sum(checker: &dyn MotionChecker, pieces: &[Piece]) -> f64 {
+    pieces.iter().fold(0.0, |acc, pc| add_up(acc, checker.path_risk(pc).unwrap_or(1.0)))
+}
+
 impl ConnectRrt {
     /// Grows a fresh pair of trees until they connect (the path from start to goal), or
     /// `Err` with the status when `term` or the iteration cap stops it.
@@ -115,7 +138,7 @@ impl ConnectRrt {
         &self,
         p: &Problem,
         step: f64,
-        ok: &dyn Fn(&[f64], &[f64]) -> bool,
+        ok: &dyn Fn(&[f64], &[f64]) -> Option<f64>,
         rng: &mut ChaCha8Rng,
         term: &Termination,
         stats: &mut PlanStats,
@@ -141,23 +164,29 @@ impl ConnectRrt {
             };
             let v = nearest(&trees[a].verts, &q);
             let new = steer(&trees[a].verts[v], &q, step);
-            if dist(&new, &trees[a].verts[v]) == 0.0 || !ok(&trees[a].verts[v], &new) {
+            let within = |t: &Tree, from: usize, r: f64| self.params.path_budget.is_none_or(|d| add_up(t.risk[from], r) <= d);
+            let edge = if dist(&new, &trees[a].verts[v]) == 0.0 { None } else { ok(&trees[a].verts[v], &new) };
+            let Some(r) = edge.filter(|&r| within(&trees[a], v, r)) else {
                 a = b;
                 continue;
-            }
+            };
             tree_edges.push((trees[a].verts[v].clone(), new.clone()));
-            let k = trees[a].add(new.clone(), v);
+            let k = trees[a].add(new.clone(), v, r);
             // connect: pull tree b towards `new`
             let mut cur = nearest(&trees[b].verts, &new);
             let mut path = None;
             loop {
                 let s = steer(&trees[b].verts[cur], &new, step);
-                if !ok(&trees[b].verts[cur], &s) {
+                let Some(r) = ok(&trees[b].verts[cur], &s).filter(|&r| within(&trees[b], cur, r)) else {
                     break;
-                }
+                };
                 tree_edges.push((trees[b].verts[cur].clone(), s.clone()));
                 let reached = s == new;
-                cur = trees[b].add(s, cur);
+                cur = trees[b].add(s, cur, r);
+                // the joined path's bound: both trees' sums (`new` is the meeting vertex)
+                if reached && !within(&trees[a], k, trees[b].risk[cur]) {
+                    break;
+                }
                 if reached {
                     let mut from_a = trees[a].path_to_root(k);
                     from_a.reverse();
@@ -202,12 +231,21 @@ impl Planner for ConnectRrt {
         let counter = CheckCounter::default();
         let work_start = counter.work(checker);
         let seg = |a: &[f64], b: &[f64]| Piece::segment(a, b, p.horizon.0, p.horizon.1);
-        let ok = |a: &[f64], b: &[f64]| counter.check(checker, &seg(a, b)) == Motion::Accepted;
+        let budget = self.params.path_budget;
+        // an edge's whole-path bound when accepted (0 without a budget; 1 when the checker
+        // gives none: the budget then refuses it)
+        let ok = |a: &[f64], b: &[f64]| {
+            let piece = seg(a, b);
+            (counter.check(checker, &piece) == Motion::Accepted)
+                .then(|| if budget.is_some() { checker.path_risk(&piece).unwrap_or(1.0) } else { 0.0 })
+                .filter(|&r| budget.is_none_or(|d| r <= d))
+        };
+        let within_budget = |pieces: &[Piece]| budget.is_none_or(|d| path_risk_sum(checker, pieces) <= d);
         let ws = &p.scene.workspace;
         let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
         let mut tree_edges = Vec::new();
         let mut status = PlanStatus::Exhausted;
-        let direct = ok(&p.start, &p.goal);
+        let direct = ok(&p.start, &p.goal).is_some();
         let mut found: Option<Vec<Vec<f64>>> = direct.then(|| vec![p.start.clone(), p.goal.clone()]);
         if found.is_none() {
             match self.grow(p, step, &ok, &mut rng, term, &mut stats, &mut tree_edges, &|| false) {
@@ -220,7 +258,7 @@ impl Planner for ConnectRrt {
         let first = t_start.elapsed();
         let work_now = counter.work(checker);
         let search_work = work_now.saturating_sub(work_start);
-        let budget =
+        let work_budget =
             WorkBudget::until(work_now.saturating_add(search_work.saturating_mul(SMOOTH_WORK_FACTOR).max(SMOOTH_MIN_WORK)));
         let mut trajectory = None;
         let mut reason = None;
@@ -231,19 +269,30 @@ impl Planner for ConnectRrt {
             // a re-check of the very pieces returned (a sampling checker's re-check would
             // only redraw scenarios: skipped)
             let accept = |pieces: Vec<Piece>| {
-                (!checker.sound() || pieces.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted))
-                    .then_some(pieces)
+                ((!checker.sound() || pieces.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted))
+                    && within_budget(&pieces))
+                .then_some(pieces)
             };
             let length = |w: &[super::smooth::Waypoint]| w.windows(2).map(|x| dist(&x[0].1, &x[1].1)).sum::<f64>();
             let pieces = if self.params.kinematics.smooth {
                 let t_imp = Instant::now();
                 let mut sm = SmoothStats { waypoints_before: timed.len(), ..Default::default() };
-                let mut short =
-                    shortcut(timed.clone(), p.horizon, false, None, checker, &counter, &mut rng, term, budget);
+                let mut short = shortcut(
+                    timed.clone(),
+                    p.horizon,
+                    false,
+                    None,
+                    checker,
+                    &counter,
+                    &mut rng,
+                    term,
+                    work_budget,
+                    self.params.path_budget,
+                );
                 // more candidate paths (fresh trees) while the budget lasts, each within a few
                 // times the first's time: the shortest after shortcutting is kept (a tree may
                 // find a long way round)
-                let over = || !budget.left(&counter, checker);
+                let over = || !work_budget.left(&counter, checker);
                 for _ in 1..self.params.candidates {
                     if direct || over() || term.should_stop() {
                         break;
@@ -253,7 +302,18 @@ impl Planner for ConnectRrt {
                         break;
                     };
                     let t = time_at_constant_speed(&other, p.horizon);
-                    let s = shortcut(t, p.horizon, false, None, checker, &counter, &mut rng, term, budget);
+                    let s = shortcut(
+                        t,
+                        p.horizon,
+                        false,
+                        None,
+                        checker,
+                        &counter,
+                        &mut rng,
+                        term,
+                        work_budget,
+                        self.params.path_budget,
+                    );
                     if length(&s) < length(&short) {
                         short = s;
                     }
@@ -262,7 +322,9 @@ impl Planner for ConnectRrt {
                 let short_len = length(&short);
                 // the blended path; else the shortcut polyline; else the tree's path
                 let limits = Limits::of(&self.params.kinematics);
-                let blended = blend(&short, (&ws.lower, &ws.upper), limits, false, checker, &counter, &mut sm, term);
+                // a blended plan beyond the whole-path budget gives way to its polyline
+                let blended = blend(&short, (&ws.lower, &ws.upper), limits, false, checker, &counter, &mut sm, term)
+                    .filter(|b| within_budget(b));
                 let out = match blended {
                     Some(b) => {
                         stats.path_length = Some(short_len);

@@ -64,6 +64,11 @@ pub struct LayeredParams {
     /// Speed limit, acceleration limit for smoothing, and whether to shortcut and
     /// blend the result.
     pub kinematics: Kinematics,
+    /// The whole-path budget (`risk_mode: trajectory`, docs/design.md §5.14): each vertex
+    /// keeps the sum of its path's piece bounds ([`MotionChecker::path_risk`]) within it.
+    /// Set by the request, never by a scene file.
+    #[serde(skip)]
+    pub path_budget: Option<f64>,
 }
 
 impl Default for LayeredParams {
@@ -81,6 +86,7 @@ impl Default for LayeredParams {
             max_attempts: 100,
             local: false,
             kinematics: Kinematics::default(),
+            path_budget: None,
         }
     }
 }
@@ -184,6 +190,8 @@ struct Layer {
     verts: Vec<Vec<f64>>,
     parent: Vec<usize>,
     pieces: Vec<Option<Piece>>,
+    /// The whole-path bound accumulated from the start (0 without a budget).
+    risk: Vec<f64>,
 }
 
 enum Attempt {
@@ -207,11 +215,17 @@ impl LayeredRrt {
         stats: &mut PlanStats,
         tree: &mut Vec<(Vec<f64>, Vec<f64>)>,
     ) -> Attempt {
-        let mut layers = vec![Layer { verts: vec![p.start.clone()], parent: vec![usize::MAX], pieces: vec![None] }];
+        let mut layers =
+            vec![Layer { verts: vec![p.start.clone()], parent: vec![usize::MAX], pieces: vec![None], risk: vec![0.0] }];
+        let budget = self.params.path_budget;
+        // a piece's whole-path bound (0 without a budget)
+        let risk_of = |pc: &Piece| if budget.is_some() { checker.path_risk(pc).unwrap_or(1.0) } else { 0.0 };
+        let within = |r: f64| budget.is_none_or(|d| r <= d);
         if s == 1 {
             let piece = Piece::segment(&p.start, &p.goal, times[0], times[1]);
             return if self.speed_ok(&p.start, &p.goal, times[1] - times[0])
                 && counter.check(checker, &piece) == Motion::Accepted
+                && within(risk_of(&piece))
             {
                 Attempt::Found(vec![piece])
             } else {
@@ -220,7 +234,7 @@ impl LayeredRrt {
         }
         for i in 1..s {
             let last = i == s - 1;
-            let mut layer = Layer { verts: vec![], parent: vec![], pieces: vec![] };
+            let mut layer = Layer { verts: vec![], parent: vec![], pieces: vec![], risk: vec![] };
             let mut goal_piece = None;
             for iter in 0..self.params.max_iterations_per_layer {
                 if term.should_stop() {
@@ -261,17 +275,23 @@ impl LayeredRrt {
                 if !self.piece_speed_ok(&piece) || counter.check(checker, &piece) != Motion::Accepted {
                     continue;
                 }
+                let acc = super::connect::add_up(prev.risk[a], risk_of(&piece));
+                if !within(acc) {
+                    continue;
+                }
                 tree.push((prev.verts[a].clone(), q.clone()));
                 if last {
                     let to_goal = Piece::segment(&q, &p.goal, times[i], times[i + 1]);
                     if self.speed_ok(&q, &p.goal, times[i + 1] - times[i])
                         && self.piece_speed_ok(&to_goal)
                         && counter.check(checker, &to_goal) == Motion::Accepted
+                        && within(super::connect::add_up(acc, risk_of(&to_goal)))
                     {
                         tree.push((q.clone(), p.goal.clone()));
                         layer.verts.push(q);
                         layer.parent.push(a);
                         layer.pieces.push(Some(piece));
+                        layer.risk.push(acc);
                         goal_piece = Some(to_goal);
                         break;
                     }
@@ -279,6 +299,7 @@ impl LayeredRrt {
                     layer.verts.push(q);
                     layer.parent.push(a);
                     layer.pieces.push(Some(piece));
+                    layer.risk.push(acc);
                     if layer.verts.len() >= self.params.max_vertices_per_layer {
                         break;
                     }
@@ -408,17 +429,25 @@ impl Planner for LayeredRrt {
                         &mut rng,
                         term,
                         WorkBudget::UNLIMITED,
+                        self.params.path_budget,
                     );
                 sm.waypoints_after = short.len();
                 let bounds = (ws.lower.as_slice(), ws.upper.as_slice());
                 let limits = Limits::of(&self.params.kinematics);
-                let smoothed = blend(&short, bounds, limits, true, checker, &counter, &mut sm, term).or_else(|| {
-                    sm.corners_sharp = short.len().saturating_sub(2);
-                    let s = super::smooth::straight(&short, &ws.lower, &ws.upper);
-                    (s.iter().all(|pc| self.piece_speed_ok(pc))
-                        && (!checker.sound() || s.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted)))
-                    .then_some(s)
-                });
+                // a smoothed plan beyond the whole-path budget gives way to the next (the
+                // layered pieces themselves are within it)
+                let within_budget = |pcs: &[Piece]| {
+                    self.params.path_budget.is_none_or(|d| super::connect::path_risk_sum(checker, pcs) <= d)
+                };
+                let smoothed =
+                    blend(&short, bounds, limits, true, checker, &counter, &mut sm, term).filter(|b| within_budget(b)).or_else(|| {
+                        sm.corners_sharp = short.len().saturating_sub(2);
+                        let s = super::smooth::straight(&short, &ws.lower, &ws.upper);
+                        (s.iter().all(|pc| self.piece_speed_ok(pc))
+                            && (!checker.sound() || s.iter().all(|pc| counter.check(checker, pc) == Motion::Accepted))
+                            && within_budget(&s))
+                        .then_some(s)
+                    });
                 stats.improve_time_s = t_imp.elapsed().as_secs_f64();
                 if smoothed.is_some() {
                     stats.path_length = Some(short.windows(2).map(|x| dist(&x[0].1, &x[1].1)).sum());

@@ -18,7 +18,7 @@ pub use paper_static::{RrtParams, StaticRrt};
 pub use sampling::StripeSampler;
 
 use crate::certify::scene::SceneCertifier;
-use crate::plan::{Built, Kinematics, PaperRun, PlanError, PlanOptions, Planner, PlannerSpec, Problem, Setup};
+use crate::plan::{Built, Kinematics, PaperRun, PlanError, PlanOptions, Planner, PlannerSpec, Problem, RiskMode, Setup};
 use crate::scene::Scene;
 
 /// `rrt-sos`, the default: every edge certified by the scene certifier with its
@@ -46,10 +46,33 @@ pub static PAPER: PlannerSpec = PlannerSpec {
 };
 
 fn build(s: &Setup<'_>, paper: bool) -> Result<Built, PlanError> {
-    Ok(Built {
-        planner: rrt_planner(s.problem, paper, s.options)?,
-        checker: Box::new(SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier).with_bounds(s.options.bounds)),
-    })
+    let mut checker =
+        SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), s.options.certifier).with_bounds(s.options.bounds);
+    if let Some(budget) = path_budget(s.problem, s.options) {
+        checker = checker.with_path_risk(budget * PATH_RISK_NEGLIGIBLE_SHARE);
+    }
+    Ok(Built { planner: rrt_planner(s.problem, paper, s.options)?, checker: Box::new(checker) })
+}
+
+/// A piece's whole-path bound below this share of Δ is not refined further while planning
+/// (its partition stops): 10⁻⁴ of the budget per obstacle and piece leaves the budget
+/// to the pieces that pass near obstacles.
+pub const PATH_RISK_NEGLIGIBLE_SHARE: f64 = 1e-4;
+
+/// The whole-path budget of a `risk_mode: trajectory` request: Δ rounded down to a float
+/// (the planners compare sums of upper bounds with it); `None` in the other modes.
+pub fn path_budget(p: &Problem, o: &PlanOptions) -> Option<f64> {
+    (o.risk_mode == RiskMode::Trajectory).then(|| delta_floor(&p.delta))
+}
+
+/// Δ as the largest float at or below it.
+pub fn delta_floor(delta: &crate::contour::RiskLevel) -> f64 {
+    let d = delta.to_f64();
+    if num_rational::BigRational::from_float(d).is_some_and(|e| &e > delta.rational()) {
+        d.next_down()
+    } else {
+        d
+    }
 }
 
 /// The planner a problem calls for. `paper`: the paper's RRT-SOS (static tree, or the
@@ -63,6 +86,13 @@ pub fn rrt_planner(p: &Problem, paper: bool, o: &PlanOptions) -> Result<Box<dyn 
     let kinematics = o.kinematics.or_block(block)?;
     let scale = scale::Scale::of(p);
     let layered = o.pieces.is_some() || p.is_dynamic();
+    let budget = path_budget(p, o);
+    if budget.is_some() && paper {
+        return Err(PlanError::InvalidOption {
+            option: "risk_mode".into(),
+            message: "trajectory is planned by the default rrt-sos (the paper's planner bounds each instant only)".into(),
+        });
+    }
     if o.improve && (layered || !paper) {
         return Err(PlanError::InvalidOption {
             option: "improve".into(),
@@ -75,6 +105,7 @@ pub fn rrt_planner(p: &Problem, paper: bool, o: &PlanOptions) -> Result<Box<dyn 
             params.pieces = o.pieces;
         }
         params.kinematics = Kinematics { smooth: kinematics.smooth && !paper, ..kinematics };
+        params.path_budget = budget;
         Ok(Box::new(LayeredRrt::new(params)))
     } else if paper {
         let mut params = RrtParams::paper(rrt_block, &scale);
@@ -82,6 +113,6 @@ pub fn rrt_planner(p: &Problem, paper: bool, o: &PlanOptions) -> Result<Box<dyn 
         params.kinematics = Kinematics { max_accel: None, smooth: false, ..kinematics };
         Ok(Box::new(StaticRrt::new(params)))
     } else {
-        Ok(Box::new(ConnectRrt { params: ConnectParams { kinematics, ..Default::default() } }))
+        Ok(Box::new(ConnectRrt { params: ConnectParams { kinematics, path_budget: budget, ..Default::default() } }))
     }
 }

@@ -172,20 +172,34 @@ pub fn shortcut(
     rng: &mut ChaCha8Rng,
     term: &Termination,
     budget: WorkBudget,
+    path_budget: Option<f64>,
 ) -> Vec<Waypoint> {
     let mut w = path;
-    let judge = |a: &Waypoint, b: &Waypoint| {
+    // Some(the piece's whole-path bound, 0 without a budget) when the piece is accepted
+    let judge = |a: &Waypoint, b: &Waypoint| -> Option<f64> {
         let piece = if timed {
             let piece = Piece::segment(&a.1, &b.1, a.0, b.0);
             if max_speed.is_some_and(|v| !within_speed(&piece, v)) {
-                return false;
+                return None;
             }
             piece
         } else {
             Piece::segment(&a.1, &b.1, horizon.0, horizon.1)
         };
-        counter.check(checker, &piece) == Motion::Accepted
+        if counter.check(checker, &piece) != Motion::Accepted {
+            return None;
+        }
+        Some(if path_budget.is_some() { checker.path_risk(&piece).unwrap_or(1.0) } else { 0.0 })
     };
+    // each piece's whole-path bound, and their sum (docs/design.md §5.14): a shortcut is
+    // kept only when the path's new sum stays within the budget
+    let mut risks: Vec<f64> = if path_budget.is_some() {
+        w.windows(2).map(|p| judge(&p[0], &p[1]).unwrap_or(1.0)).collect()
+    } else {
+        vec![0.0; w.len().saturating_sub(1)]
+    };
+    let total = |r: &[f64]| r.iter().fold(0.0, |acc, &x| super::connect::add_up(acc, x));
+    let within = |r: &[f64]| path_budget.is_none_or(|d| total(r) <= d);
     let left = || !term.expired() && budget.left(counter, checker);
     let attempts = (w.len() * SHORTCUT_ATTEMPTS_PER_WAYPOINT).max(MIN_SHORTCUT_ATTEMPTS);
     for _ in 0..attempts {
@@ -211,18 +225,30 @@ pub fn shortcut(
         // the new pieces w[i] → a → b → w[j+1] must themselves be certified; the shortcut
         // a → b first, as it is the one most likely refused (the other two lie along
         // pieces already certified, up to the rounding of a and b)
-        let ok = judge(&a, &b) && judge(&w[i], &a) && judge(&b, &w[j + 1]);
-        if !ok {
-            continue;
-        }
+        let Some(rab) = judge(&a, &b) else { continue };
+        let Some(ria) = judge(&w[i], &a) else { continue };
+        let Some(rbj) = judge(&b, &w[j + 1]) else { continue };
         let mut next: Vec<Waypoint> = w[..=i].to_vec();
-        for p in [a, b] {
+        let mut next_r: Vec<f64> = risks[..i].to_vec();
+        let mut pending = ria;
+        for (p, r) in [(a, rab), (b, rbj)] {
             if dist(&p.1, &next[next.len() - 1].1) > 0.0 {
                 next.push(p);
+                next_r.push(pending);
+                pending = r;
+            } else {
+                // a waypoint merged with its predecessor: its piece is the next one
+                pending = r;
             }
         }
+        next_r.push(pending);
         next.extend_from_slice(&w[j + 1..]);
+        next_r.extend_from_slice(&risks[j + 1..]);
+        if next_r.len() + 1 != next.len() || !within(&next_r) {
+            continue;
+        }
         w = next;
+        risks = next_r;
     }
     // reduce vertices: drop each interior waypoint whose neighbours can be joined, after
     // the random attempts (on the search's many short steps they find the corners a greedy
@@ -231,8 +257,14 @@ pub fn shortcut(
     // cost more in blends than the reduction)
     let mut k = 1;
     while k + 1 < w.len() && !term.expired() {
-        if judge(&w[k - 1], &w[k + 1]) {
+        let joined = judge(&w[k - 1], &w[k + 1]).filter(|&r| {
+            let mut next_r = risks.clone();
+            next_r.splice(k - 1..=k, [r]);
+            within(&next_r)
+        });
+        if let Some(r) = joined {
             w.remove(k);
+            risks.splice(k - 1..=k, [r]);
         } else {
             k += 1;
         }
@@ -1013,7 +1045,8 @@ mod tests {
             let counter = CheckCounter::default();
             let b = budget(&counter, &checker);
             let mut rng = ChaCha8Rng::seed_from_u64(3);
-            let out = shortcut(path.clone(), (0.0, 1.0), true, None, &checker, &counter, &mut rng, &Termination::never(), b);
+            let out =
+                shortcut(path.clone(), (0.0, 1.0), true, None, &checker, &counter, &mut rng, &Termination::never(), b, None);
             (out, counter.totals().0)
         };
         let (_, none) = run(&|c, k| WorkBudget::until(c.work(k)));
