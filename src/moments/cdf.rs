@@ -32,6 +32,11 @@ pub const NORMAL_SPAN_SIGMAS: f64 = 9.0;
 /// a few ulps) and four roundings: 10⁻¹² covers them with a margin of 10³.
 pub const TAIL_REL_MARGIN: f64 = 1e-12;
 
+/// The least tail [`mills_upper`] returns: 10⁻³⁰⁰ is above every normal tail beyond
+/// z = 37.1 (where the quotient nears the subnormal range), and negligible beside any
+/// probability a plan uses.
+pub const MILLS_FLOOR: f64 = 1e-300;
+
 /// Largest integer shape of a beta parameter handled by its binomial-tail form (the
 /// polynomial has α + β terms).
 pub const MAX_BETA_INTEGER: u64 = 64;
@@ -184,7 +189,9 @@ pub fn mills_upper(z: f64) -> f64 {
         return 1.0;
     }
     let v = (-0.5 * z * z).exp() / (z * (2.0 * std::f64::consts::PI).sqrt());
-    (v * (1.0 + TAIL_REL_MARGIN)).min(1.0)
+    // beyond z ≈ 37.5 the quotient is subnormal (its relative error no longer covered by
+    // the margin) and then 0: the true tail is positive, so never below MILLS_FLOOR
+    (v * (1.0 + TAIL_REL_MARGIN)).clamp(MILLS_FLOOR, 1.0)
 }
 
 /// An enclosure of Φ(z), the standard normal distribution function, at the float `z`.

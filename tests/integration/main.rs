@@ -30,5 +30,6 @@ mod service_metrics;
 mod service_shutdown;
 mod smooth_limits;
 mod tight_bounds;
+mod trajectory_mode;
 mod verify_fast;
 mod whole_path;

@@ -277,6 +277,11 @@ pub fn cells_path_risk(
     stop: &dyn Fn() -> bool,
 ) -> Option<CellsBound> {
     let layout = contour.layout();
+    // every piece restrictable before any box is judged (a box hit early must not hide a
+    // piece that cannot be judged at all: the caller then falls back, as for one alone)
+    if pieces.iter().any(|p| !p.is_finite() || p.coeffs.len() != layout.dim) {
+        return None;
+    }
     let params: Vec<Var> = contour.poly().vars().into_iter().filter(|&v| layout.is_param(v)).collect();
     let laws: Vec<&CdfLaw> = params.iter().map(|&v| contour.law(v)).collect::<Option<_>>()?;
     let mut nets = Nets {
@@ -289,13 +294,14 @@ pub fn cells_path_risk(
     let outside = laws.iter().fold(0.0, |acc, l| add_up(acc, l.outside));
     let top: Vec<u32> = params.iter().map(|&v| contour.poly().degree_in(v)).collect();
     // Πₖ P(ωₖ in the box's side k), each factor an upper bound, the product rounded up
+    // (0 only when a factor is exactly 0: a product that underflows counts as the least
+    // positive float, never as an empty box)
     let mass = |ends: &[(Interval, Interval)]| -> f64 {
-        let m = ends.iter().fold(1.0f64, |acc, (fa, fb)| acc * mass_between(*fa, *fb));
-        if m == 0.0 {
-            0.0
-        } else {
-            m.next_up().min(1.0)
+        let factors: Vec<f64> = ends.iter().map(|(fa, fb)| mass_between(*fa, *fb)).collect();
+        if factors.contains(&0.0) {
+            return 0.0;
         }
+        factors.iter().fold(1.0f64, |acc, f| acc * f).next_up().min(1.0)
     };
     let root: Vec<Interval> = laws.iter().map(|l| Interval::new(l.lo, l.hi)).collect();
     let root_ends: Vec<(Interval, Interval)> = laws.iter().map(|l| (l.cdf(l.lo), l.cdf(l.hi))).collect();

@@ -391,7 +391,12 @@ pub fn trajectory_path_risk(
     if let Some(all) = cells_path_risk(contour, pieces, CellEffort::REPORT, stop) {
         let mut each = Vec::with_capacity(pieces.len());
         for p in pieces {
-            each.push(cells_path_risk(contour, std::slice::from_ref(p), CellEffort::REPORT, stop)?.bound);
+            // each piece's own bound at the plan's effort (the breakdown; the bound is the joint one)
+            let b = cells_path_risk(contour, std::slice::from_ref(p), CellEffort::PLAN, stop);
+            if b.is_none() && stop() {
+                return None;
+            }
+            each.push(b.map_or(1.0, |b| b.bound));
         }
         let sum = each.iter().fold(0.0f64, |a, b| (a + b).next_up()).min(1.0);
         return Some(ObstaclePathRisk { bound: all.bound.min(sum), pieces: each, how: PathRiskHow::Partition });
