@@ -88,7 +88,8 @@ enum ClientCommand {
         /// Return the raw tree path (no shortcut, no blends).
         #[arg(long)]
         no_smooth: bool,
-        /// per-obstacle (default), joint or joint-weighted.
+        /// per-obstacle (default), joint, joint-weighted or trajectory (any obstacle at any
+        /// time along the plan).
         #[arg(long)]
         risk_mode: Option<String>,
         /// Write the trajectory here instead of stdout.

@@ -49,7 +49,11 @@ use std::time::Duration;
 ///
 /// --risk-mode joint bounds the probability of colliding with any obstacle at each
 /// instant by Δ (obstacle i gets Δᵢ, ΣΔᵢ = Δ; the stats list them); the default
-/// per-obstacle mode is the paper's.
+/// per-obstacle mode is the paper's. --risk-mode trajectory bounds the probability of
+/// meeting any obstacle at any time along the plan, the parameters drawn once
+/// (docs/design.md §5.14): rrt-sos keeps each partial path's whole-path bound within Δ
+/// and the final check proves the plan's; slower (example-d1: 1.3 s instead of 0.1 s).
+/// Every certified plan reports its whole-path bound (stats.whole_path_risk).
 ///
 /// Writes the trajectory (format v1 plus "planner", "certified", "stats") to --out or
 /// stdout and a one-line summary to stderr. Exit status: 0 plan found, 1 none found
@@ -80,7 +84,7 @@ pub struct PlanArgs {
     /// Return the raw tree path (straight pieces, velocity jumps at the corners).
     #[arg(long)]
     no_smooth: bool,
-    /// What Δ bounds: per-obstacle (the paper's), joint (any obstacle; Δ split evenly) or joint-weighted (more of Δ to obstacles near the start–goal line).
+    /// What Δ bounds: per-obstacle (the paper's), joint (any obstacle; Δ split evenly), joint-weighted (more of Δ to obstacles near the start–goal line) or trajectory (any obstacle at any time along the plan).
     #[arg(long, default_value = "per-obstacle")]
     risk_mode: crate::app::RiskMode,
     /// Which risk bounds may prove safety: auto (the tightest sound one: Cantelli, zero risk from bounded support, shifted moment bounds of orders 4–8, on sub-intervals) or cantelli (the paper's). Default: the scene's planner.bound, else auto.

@@ -155,7 +155,8 @@ pub struct PlanRequest {
     /// Shortcut and blend the plan (default true).
     #[serde(default)]
     pub smooth: Option<bool>,
-    /// `per-obstacle` (default), `joint` or `joint-weighted`.
+    /// `per-obstacle` (default), `joint`, `joint-weighted` or `trajectory` (the probability
+    /// of meeting any obstacle at any time along the plan, docs/design.md §5.14).
     #[serde(default)]
     pub risk_mode: Option<String>,
     /// Which risk bounds may prove safety: `auto` (the tightest sound one) or `cantelli`

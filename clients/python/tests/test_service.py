@@ -172,6 +172,29 @@ def test_plan_options_of_issue_10(client, scene3, unique):
     assert joint.stats["risk_allocation"][0][1] == pytest.approx(joint.risk)
 
 
+def test_plan_in_trajectory_mode_reports_its_whole_path_bound(client, scene3, unique):
+    """risk_mode "trajectory" (issue 22): Δ bounds the probability of meeting the obstacle at
+    any time along the plan; every certified plan reports its whole-path bound, and on
+    illustrative-3's disk (radius uniform on [0.3, 0.4]) that bound covers the closed form
+    (0.4 − d_min)/0.1 of the plan's smallest distance from the centre, sampled densely."""
+    name = unique()
+    applied(client, name, scene3)
+    for mode in ("per-obstacle", "trajectory"):
+        plan = client.plan(name, time_limit=PLAN_LIMIT, risk_mode=mode, delta=0.05)
+        validate("plan_reply", plan.raw)
+        bound = plan.stats["whole_path_risk"]
+        assert plan.certified and 0.0 <= bound <= 1.0
+        if mode == "trajectory":
+            assert bound <= 0.05
+        d_min = min(
+            math.hypot(*[sum(c * t ** k for k, c in enumerate(row)) for row in p["coeffs"]])
+            for p in plan.raw["pieces"]
+            for t in [p["t0"] + (p["t1"] - p["t0"]) * i / 2000 for i in range(2001)]
+        )
+        truth = min(max((0.4 - d_min) / 0.1, 0.0), 1.0)
+        assert bound >= truth - 1e-9, (mode, bound, truth)
+
+
 def test_verify_the_plan_is_safe(client, scene3, unique):
     name = unique()
     rev = applied(client, name, scene3)

@@ -491,7 +491,9 @@ class Client:
         ``plan.stats["average_risk"]``). ``options``: ``pieces``, ``improve``,
         ``delta``, ``certifier``, ``max_speed``, ``max_accel``, ``smooth`` (bool),
         ``risk_mode`` (``per-obstacle``, ``joint`` or ``joint-weighted``; the Δᵢ used are
-        in ``plan.stats["risk_allocation"]``). Any other key is sent as is, and the server
+        in ``plan.stats["risk_allocation"]``; or ``trajectory``: Δ bounds the probability
+        of meeting any obstacle at any time along the plan). Every certified plan's
+        ``plan.stats["whole_path_risk"]`` is its certified whole-path bound. Any other key is sent as is, and the server
         rejects it as ``malformed_payload``. ``None`` leaves a field out (the server's
         default). Raises :class:`NoPlanError` when no plan is found in time, with the
         typed reason in its message."""
