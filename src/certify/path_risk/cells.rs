@@ -30,7 +30,7 @@ use super::super::compose::{substitutions, PieceRef};
 use crate::contour::bounds::power_range;
 use crate::contour::RiskContour;
 use crate::moments::cdf::{mass_between, CdfLaw};
-use crate::poly::{Interval, Monomial, Poly, UPoly, Var};
+use crate::poly::{Interval, Poly, UPoly, Var};
 use std::collections::BinaryHeap;
 
 /// Deepest halving of a part's time: 2⁻⁶ of a piece. A coefficient of a restriction of
@@ -123,15 +123,39 @@ type Level = Vec<Option<Option<Vec<Coef>>>>;
 
 /// The control nets of a trajectory's pieces in interval arithmetic, computed on demand.
 struct Nets<'a> {
-    poly: Poly<Interval>,
+    /// P = Σ_β c_β(x, t)·ω^β: each parameter monomial β (as indices into the partition's
+    /// parameters and exponents) with its coefficient polynomial in (x, t), split once.
+    split: Vec<(Vec<(usize, u32)>, Poly<Interval>)>,
     dim: usize,
-    params: Vec<Var>,
     pieces: &'a [PieceRef<'a>],
     /// `cells[piece][depth]`.
     cells: Vec<Vec<Level>>,
+    /// The Bernstein conversion's ratios C(j, k)/C(D, k), enclosed, per degree D.
+    ratios: std::collections::BTreeMap<usize, Vec<Vec<Interval>>>,
 }
 
 impl<'a> Nets<'a> {
+    fn new(contour: &RiskContour, params: &[Var], pieces: &'a [PieceRef<'a>]) -> Option<Nets<'a>> {
+        let layout = contour.layout();
+        let mut by_beta: std::collections::BTreeMap<Vec<(usize, u32)>, Poly<Interval>> = Default::default();
+        for (m, c) in contour.poly().terms() {
+            let (omega, xt) = m.split(|v| layout.is_param(v));
+            let beta: Vec<(usize, u32)> = omega
+                .pairs()
+                .iter()
+                .map(|&(v, e)| Some((params.iter().position(|&p| p == v)?, e)))
+                .collect::<Option<_>>()?;
+            by_beta.entry(beta).or_insert_with(Poly::zero).add_term(xt, Interval::enclose_rational(c));
+        }
+        Some(Nets {
+            split: by_beta.into_iter().collect(),
+            dim: layout.dim,
+            pieces,
+            cells: (0..pieces.len()).map(|_| Vec::new()).collect(),
+            ratios: Default::default(),
+        })
+    }
+
     fn coeffs(&mut self, piece: usize, d: u32, i: u64) -> Option<&[Coef]> {
         let levels = &mut self.cells[piece];
         while levels.len() <= d as usize {
@@ -139,15 +163,15 @@ impl<'a> Nets<'a> {
             levels.push((0..n).map(|_| None).collect());
         }
         if levels[d as usize][i as usize].is_none() {
-            let c = restrict(&self.poly, self.dim, &self.params, self.pieces[piece], d, i);
+            let c = restrict(&self.split, self.dim, self.pieces[piece], d, i, &mut self.ratios);
             self.cells[piece][d as usize][i as usize] = Some(c);
         }
         self.cells[piece][d as usize][i as usize].as_ref().and_then(|c| c.as_deref())
     }
 
-    /// The state of a box, from the parts still open for it (`parts`: piece, depth,
-    /// index); the parts left undecided at the deepest level are returned for its halves.
-    #[allow(clippy::type_complexity)]
+    /// The state of a box from its power table, from the parts still open for it
+    /// (`parts`: piece, depth, index); the parts left undecided at the deepest level are
+    /// returned for its halves, and their coefficients' spread per side added to `score`.
     fn state(
         &mut self,
         pw: &[Vec<Interval>],
@@ -181,51 +205,54 @@ impl<'a> Nets<'a> {
 }
 
 /// The Bernstein coefficients in s ∈ [0, 1] of q(s, ω) = P(x(t(s)), ω, t(s)) on part `i` of
-/// level `d` of the piece's time, in interval arithmetic: the part's ends t0 + h·i/2^d are
-/// enclosed (so the coefficients enclose those of the exact part, and the exact parts
-/// cover the piece). `None` for a piece that is not finite or of another dimension.
-fn restrict(poly: &Poly<Interval>, dim: usize, params: &[Var], piece: PieceRef<'_>, d: u32, i: u64) -> Option<Vec<Coef>> {
+/// level `d` of the piece's time, in interval arithmetic: each c_β(x, t) composed with the
+/// piece (the part's ends t0 + h·i/2^d enclosed, so the coefficients enclose those of the
+/// exact part, and the exact parts cover the piece), then converted to the Bernstein basis
+/// of the common degree D, bⱼ = Σ_{k≤j} C(j, k)/C(D, k)·a_k. `None` for a piece that is not
+/// finite or of another dimension.
+fn restrict(
+    split: &[(Vec<(usize, u32)>, Poly<Interval>)],
+    dim: usize,
+    piece: PieceRef<'_>,
+    d: u32,
+    i: u64,
+    ratios: &mut std::collections::BTreeMap<usize, Vec<Vec<Interval>>>,
+) -> Option<Vec<Coef>> {
     if !piece.is_finite() || piece.coeffs.len() != dim {
         return None;
     }
     let scale = (-(d as i32) as f64).exp2();
     let h = Interval::point(piece.t1) - Interval::point(piece.t0);
-    let ta = if i == 0 { Interval::point(piece.t0) } else { Interval::point(piece.t0) + h * Interval::point(i as f64 * scale) };
-    let hs = h * Interval::point(scale);
-    let s_var = dim as Var; // t's variable, reused for s once t is substituted away
-    let as_poly = |u: &UPoly<Interval>| {
-        let mut p = Poly::zero();
-        for (k, c) in u.coeffs().iter().enumerate() {
-            p.add_term(Monomial::var_pow(s_var, k as u32), *c);
-        }
-        p
+    let ta = if i == 0 {
+        Interval::point(piece.t0)
+    } else {
+        Interval::point(piece.t0) + h * Interval::point(i as f64 * scale)
     };
-    let subs: Vec<Poly<Interval>> = substitutions(piece, dim, ta, hs, Interval::point).iter().map(as_poly).collect();
-    let restricted = poly.subst(&|v| subs.get(v as usize).cloned());
-    let degree = restricted.degree_in(s_var) as usize;
-    let mut a: Vec<Poly<Interval>> = vec![Poly::zero(); degree + 1];
-    for (m, c) in restricted.terms() {
-        let (s_part, rest) = m.split(|v| v == s_var);
-        a[s_part.exp(s_var) as usize].add_term(rest, *c);
-    }
-    let binom = |n: usize, k: usize| crate::moments::binomial(n as u32, k as u32);
-    let mut out = Vec::with_capacity(degree + 1);
-    for j in 0..=degree {
-        let mut b: Poly<Interval> = Poly::zero();
-        for (k, ak) in a.iter().enumerate().take(j + 1) {
-            if !ak.is_zero() {
-                b = b.add(&ak.scale(&Interval::enclose_rational(&(binom(j, k) / binom(degree, k)))));
+    let hs = h * Interval::point(scale);
+    let subs: Vec<UPoly<Interval>> = substitutions(piece, dim, ta, hs, Interval::point);
+    let restricted: Vec<UPoly<Interval>> = split.iter().map(|(_, c)| c.compose_univariate(&subs)).collect();
+    let degree = restricted.iter().map(|u| if u.is_zero() { 0 } else { u.degree() }).max().unwrap_or(0);
+    let ratio = ratios.entry(degree).or_insert_with(|| {
+        let binom = |n: usize, k: usize| crate::moments::binomial(n as u32, k as u32);
+        (0..=degree)
+            .map(|j| (0..=j).map(|k| Interval::enclose_rational(&(binom(j, k) / binom(degree, k)))).collect())
+            .collect()
+    });
+    let mut out: Vec<Coef> = (0..=degree).map(|_| Coef { terms: Vec::new() }).collect();
+    for ((beta, _), u) in split.iter().zip(&restricted) {
+        if u.is_zero() {
+            continue;
+        }
+        let a = u.coeffs();
+        for (j, coef) in out.iter_mut().enumerate() {
+            let mut b = Interval::point(0.0);
+            for (k, ak) in a.iter().enumerate().take(j + 1) {
+                b = b + ratio[j][k] * *ak;
+            }
+            if !(b.lo == 0.0 && b.hi == 0.0) {
+                coef.terms.push((beta.clone(), b));
             }
         }
-        let mut terms = Vec::new();
-        for (m, c) in b.terms() {
-            let mut idx = Vec::new();
-            for &(v, e) in m.pairs() {
-                idx.push((params.iter().position(|&p| p == v)?, e));
-            }
-            terms.push((idx, *c));
-        }
-        out.push(Coef { terms });
     }
     Some(out)
 }
@@ -284,13 +311,7 @@ pub fn cells_path_risk(
     }
     let params: Vec<Var> = contour.poly().vars().into_iter().filter(|&v| layout.is_param(v)).collect();
     let laws: Vec<&CdfLaw> = params.iter().map(|&v| contour.law(v)).collect::<Option<_>>()?;
-    let mut nets = Nets {
-        poly: contour.poly().map_coeffs(Interval::enclose_rational),
-        dim: layout.dim,
-        params: params.clone(),
-        pieces,
-        cells: (0..pieces.len()).map(|_| Vec::new()).collect(),
-    };
+    let mut nets = Nets::new(contour, &params, pieces)?;
     let outside = laws.iter().fold(0.0, |acc, l| add_up(acc, l.outside));
     let top: Vec<u32> = params.iter().map(|&v| contour.poly().degree_in(v)).collect();
     // Πₖ P(ωₖ in the box's side k), each factor an upper bound, the product rounded up
@@ -393,7 +414,8 @@ mod tests {
     }
 
     fn bound(c: &RiskContour, pieces: &[crate::scene::Piece]) -> f64 {
-        let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
+        let refs: Vec<PieceRef<'_>> =
+            pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
         cells_path_risk(c, &refs, CellEffort::REPORT, &|| false).unwrap().bound
     }
 
@@ -441,7 +463,8 @@ mod tests {
         let normal = rand_distr::Normal::new(0.0, 1.0 / 32.0).unwrap();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(23);
         let centres: Vec<[f64; 2]> = (0..n).map(|_| [normal.sample(&mut rng), normal.sample(&mut rng)]).collect();
-        let seg_distance = |a: [f64; 2], b: [f64; 2], p: [f64; 2]| d_min([a[0] - p[0], a[1] - p[1]], [b[0] - p[0], b[1] - p[1]]);
+        let seg_distance =
+            |a: [f64; 2], b: [f64; 2], p: [f64; 2]| d_min([a[0] - p[0], a[1] - p[1]], [b[0] - p[0], b[1] - p[1]]);
         for (a, b) in [
             ([-1.0, 0.33], [1.0, 0.33]),
             ([-1.0, 0.36], [1.0, 0.35]),
@@ -468,7 +491,8 @@ mod tests {
     /// a Monte Carlo audit (one speed per scenario, closest approach in closed form).
     #[test]
     fn the_partition_bounds_the_crossing_of_a_pedestrian_of_uncertain_speed() {
-        let c = contour("9/100 - (x1 + 5 - v*t)^2 - x2^2", &[("v", Distribution::Normal { mean: q("1"), std: q("0.2") })]);
+        let c =
+            contour("9/100 - (x1 + 5 - v*t)^2 - x2^2", &[("v", Distribution::Normal { mean: q("1"), std: q("0.2") })]);
         let v = bound(&c, &[crate::scene::Piece::segment(&[0.0, -3.0], &[0.0, 3.0], 0.0, 10.0)]);
         let normal = rand_distr::Normal::new(1.0, 0.2).unwrap();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(44);
@@ -494,8 +518,11 @@ mod tests {
     fn pieces_along_one_obstacle_share_their_event() {
         let c = contour("w^2 - x1^2 - x2^2", &[("w", Distribution::Uniform { low: q("0.3"), high: q("0.4") })]);
         let pts = [[-1.0, 0.35], [-0.3, 0.35], [0.0, 0.35], [0.3, 0.35], [1.0, 0.35]];
-        let pieces: Vec<crate::scene::Piece> =
-            pts.windows(2).enumerate().map(|(i, w)| crate::scene::Piece::segment(&w[0], &w[1], i as f64, i as f64 + 1.0)).collect();
+        let pieces: Vec<crate::scene::Piece> = pts
+            .windows(2)
+            .enumerate()
+            .map(|(i, w)| crate::scene::Piece::segment(&w[0], &w[1], i as f64, i as f64 + 1.0))
+            .collect();
         let v = bound(&c, &pieces);
         assert!((0.5..0.52).contains(&v), "{v}");
     }
