@@ -163,7 +163,11 @@ impl PreparedPlan {
             let why = match check.failure {
                 None => {
                     // the whole-path bound of every certified plan (docs/design.md §5.14);
-                    // in trajectory mode it must be within Δ
+                    // in trajectory mode it must be within Δ. Receding plans (remade every
+                    // cycle, within a cycle's latency) carry it only in trajectory mode
+                    if self.problem.receding && self.risk_mode != RiskMode::Trajectory {
+                        break;
+                    }
                     let t_wp = std::time::Instant::now();
                     // the plan's effort first; in trajectory mode a bound above Δ is tried
                     // again with the report's (ten times the boxes)
