@@ -173,14 +173,25 @@ impl PreparedPlan {
                     // again with the report's (ten times the boxes)
                     use crate::certify::path_risk::CellEffort;
                     let delta = crate::plan::rrt::delta_floor(&self.problem.delta);
-                    let mut wp = crate::verify::plan_whole_path_risk(&self.kernel, &traj.pieces, CellEffort::PLAN, &stop);
-                    if self.risk_mode == RiskMode::Trajectory && wp.as_ref().is_ok_and(|&b| b > delta) {
-                        wp = crate::verify::plan_whole_path_risk(&self.kernel, &traj.pieces, CellEffort::REPORT, &stop);
+                    // (outside trajectory mode, only when every obstacle admits the partition:
+                    // the moment envelopes' exact arithmetic can take seconds)
+                    let budgeted = self.risk_mode == RiskMode::Trajectory;
+                    let whole = |effort| crate::verify::plan_whole_path_risk(&self.kernel, &traj.pieces, effort, budgeted, &stop);
+                    let mut wp = whole(CellEffort::PLAN);
+                    if budgeted && wp.as_ref().is_ok_and(|b| b.is_some_and(|b| b > delta)) {
+                        wp = whole(CellEffort::REPORT);
+                    }
+                    // in trajectory mode the planner's own sum over the pieces (what it kept
+                    // within Δ) is a bound too: the smaller one decides
+                    if budgeted {
+                        let sum = crate::plan::rrt::path_risk_sum(self.checker.as_ref(), &traj.pieces);
+                        wp = wp.map(|b| Some(b.map_or(sum, |b| b.min(sum))));
                     }
                     fc.whole_path_seconds = t_wp.elapsed().as_secs_f64();
                     fc.seconds += fc.whole_path_seconds;
                     match wp {
-                        Ok(b) => {
+                        Ok(None) => {}
+                        Ok(Some(b)) => {
                             out.stats.whole_path_risk = Some(b);
                             if self.risk_mode == RiskMode::Trajectory && !(b <= delta && b < 1.0) {
                                 let why = format!("the whole-path bound {b:.4e} of the plan exceeds Δ = {delta}");

@@ -200,8 +200,9 @@ pub fn whole_path_risk(
 
 /// The whole-path bound of a plan (docs/design.md §5.14), as the final check reports it:
 /// per obstacle one partition over all pieces at once ([`cells_path_risk`] with `effort`;
-/// no per-piece breakdown), or the moment envelopes for an obstacle with a
-/// parameter of no rigorous distribution function; summed over the obstacles (Boole),
+/// no per-piece breakdown), or — when `envelopes` allows it — the moment envelopes for an
+/// obstacle with a parameter of no rigorous distribution function (exact arithmetic:
+/// seconds on long plans; `Ok(None)` without it); summed over the obstacles (Boole),
 /// rounded up, at most 1.
 ///
 /// [`cells_path_risk`]: crate::certify::path_risk::cells_path_risk
@@ -209,8 +210,9 @@ pub fn plan_whole_path_risk(
     kernel: &SceneKernel,
     pieces: &[crate::scene::Piece],
     effort: crate::certify::path_risk::CellEffort,
+    envelopes: bool,
     stop: &dyn Fn() -> bool,
-) -> Result<f64, Interrupted> {
+) -> Result<Option<f64>, Interrupted> {
     use crate::certify::path_risk::{cells_path_risk, trajectory_path_risk};
     let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
     let mut total = 0.0f64;
@@ -219,14 +221,15 @@ pub fn plan_whole_path_risk(
         let b = match cells_path_risk(c, &refs, effort, stop) {
             Some(b) => b.bound,
             None if stop() => return Err(Interrupted),
+            None if !envelopes => return Ok(None),
             None => trajectory_path_risk(c, &refs, stop).ok_or(Interrupted)?.bound,
         };
         total = if b == 0.0 { total } else { (total + b).next_up() };
         if total >= 1.0 {
-            return Ok(1.0);
+            return Ok(Some(1.0));
         }
     }
-    Ok(total)
+    Ok(Some(total))
 }
 
 fn method_report(v: &Verdict, piece: PieceRef<'_>) -> MethodReport {
