@@ -78,8 +78,9 @@ pub struct PlanStats {
     pub final_check: Option<FinalCheckStats>,
     /// The certified bound of the probability that the plan meets any obstacle at any time
     /// (docs/design.md §5.14), computed by the final check of every certified plan (absent
-    /// when its time ran out first, and for receding-horizon plans, remade every cycle,
-    /// outside trajectory mode; in `risk_mode: trajectory` the plan needs it ≤ Δ).
+    /// when its time ran out first and, outside trajectory mode, for receding-horizon plans
+    /// (remade every cycle) and where an obstacle has a parameter without a rigorous
+    /// distribution function; in `risk_mode: trajectory` the plan needs it ≤ Δ).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub whole_path_risk: Option<f64>,
     /// What a receding-horizon plan achieved (docs/design.md §6.9); `None` otherwise.
