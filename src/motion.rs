@@ -45,8 +45,9 @@ pub trait MotionChecker: Send + Sync {
     /// A certified upper bound of the probability that the piece meets any obstacle at
     /// some time of its interval, ω drawn once (docs/design.md §5.14), when the checker
     /// budgets whole paths (`risk_mode: trajectory`); `None` otherwise. Planners add
-    /// these up along a path (Boole) and keep the sum within Δ.
-    fn path_risk(&self, _piece: &Piece) -> Option<f64> {
+    /// these up along a path (Boole) and keep the sum within Δ. `stop` is asked between
+    /// steps (`None` when it said yes: the caller counts the piece as 1).
+    fn path_risk(&self, _piece: &Piece, _stop: &dyn Fn() -> bool) -> Option<f64> {
         None
     }
     /// The obstacle whose contour excludes `x` at time `t`, if the checker knows.

@@ -184,7 +184,7 @@ impl PreparedPlan {
                     // in trajectory mode the planner's own sum over the pieces (what it kept
                     // within Δ) is a bound too: the smaller one decides
                     if budgeted {
-                        let sum = crate::plan::rrt::path_risk_sum(self.checker.as_ref(), &traj.pieces);
+                        let sum = crate::plan::rrt::path_risk_sum(self.checker.as_ref(), &traj.pieces, &stop);
                         wp = wp.map(|b| Some(b.map_or(sum, |b| b.min(sum))));
                     }
                     fc.whole_path_seconds = t_wp.elapsed().as_secs_f64();

@@ -11,8 +11,13 @@
 //!   incomplete beta function is then the binomial tail
 //!   Σ_{j=α}^{n} C(n, j)·uʲ(1 − u)^(n−j), n = α + β − 1, a polynomial in u.
 //!
-//! Other families (gamma, Laplace, discrete, moment lists, beta with other shapes) have no
-//! [`CdfLaw`]: their obstacles use the moment bounds alone.
+//! - **discrete**: the atoms (an atom that may equal x counts in the upper end only);
+//! - **exponential** and **Laplace**: 1 − e^(−λx) and ½e^z / 1 − ½e^(−z), the platform's
+//!   `exp` widened by [`TAIL_REL_MARGIN`], over [`EXP_SPAN_RATES`] scales;
+//! - **gamma with an integer shape** k ≤ 64 (Erlang): 1 − e^(−y)·Σ_{j<k} yʲ/j!.
+//!
+//! Other families (moment lists, beta or gamma with other shapes) have no [`CdfLaw`]: their
+//! obstacles use the moment bounds alone.
 
 use super::Distribution;
 use crate::poly::Interval;
@@ -64,6 +69,14 @@ enum Kind {
     Beta { alpha: u32, beta: u32, low: Interval, inv_width: Interval },
     /// A point mass (σ = 0, or a uniform of zero width).
     Point { at: Interval },
+    /// Finitely many atoms (value and weight enclosed), sorted by value.
+    Discrete { atoms: Vec<(Interval, Interval)> },
+    /// Exponential with rate λ (λ enclosed).
+    Exponential { rate: Interval },
+    /// Laplace: μ and 1/b enclosed.
+    Laplace { mu: Interval, inv_scale: Interval },
+    /// Gamma with an integer shape k (Erlang) and 1/θ enclosed.
+    Erlang { shape: u32, inv_scale: Interval },
 }
 
 impl CdfLaw {
@@ -102,6 +115,39 @@ impl CdfLaw {
                     outside: 0.0,
                     kind: Kind::Beta { alpha: a, beta: b, low: l, inv_width: inv(&(high - low))? },
                 })
+            }
+            Distribution::Discrete { values, weights } => {
+                let mut atoms: Vec<(Interval, Interval)> = values.iter().zip(weights).map(|(v, w)| (enc(v), enc(w))).collect();
+                atoms.sort_by(|a, b| a.0.lo.total_cmp(&b.0.lo));
+                let lo = atoms.iter().map(|a| a.0.lo).fold(f64::INFINITY, f64::min);
+                let hi = atoms.iter().map(|a| a.0.hi).fold(f64::NEG_INFINITY, f64::max);
+                finite(CdfLaw { lo, hi, outside: 0.0, kind: Kind::Discrete { atoms } })
+            }
+            Distribution::Exponential { rate } => {
+                // [0, EXP_SPAN_RATES/λ]: the mass beyond is e^(−45) < 2.9·10⁻²⁰
+                let inv = inv(rate)?;
+                let hi = (Interval::point(EXP_SPAN_RATES) * inv).hi;
+                let outside = exp_upper(-EXP_SPAN_RATES);
+                finite(CdfLaw { lo: 0.0, hi, outside, kind: Kind::Exponential { rate: enc(rate) } })
+            }
+            Distribution::Laplace { mean, scale } => {
+                let mu = enc(mean);
+                let span = Interval::point(EXP_SPAN_RATES) * enc(scale);
+                let (lo, hi) = ((mu - span).lo, (mu + span).hi);
+                let outside = exp_upper(-EXP_SPAN_RATES);
+                finite(CdfLaw { lo, hi, outside, kind: Kind::Laplace { mu, inv_scale: inv(scale)? } })
+            }
+            Distribution::Gamma { shape, scale } => {
+                let k = (shape.is_integer() && shape.is_positive())
+                    .then(|| shape.to_integer().to_u64())
+                    .flatten()
+                    .filter(|&k| k <= MAX_BETA_INTEGER)? as u32;
+                // [0, y·θ] with y = k + 10√k + 50: the tail e^(−y)·Σ_{j<k} y^j/j! is below
+                // 10⁻²⁰ for every k ≤ 64 (bounded here from its enclosure)
+                let y = f64::from(k) + 10.0 * f64::from(k).sqrt() + 50.0;
+                let hi = (Interval::point(y) * enc(scale)).hi;
+                let outside = erlang_tail_upper(k, y);
+                finite(CdfLaw { lo: 0.0, hi, outside, kind: Kind::Erlang { shape: k, inv_scale: inv(scale)? } })
             }
             _ => None,
         }
@@ -146,6 +192,43 @@ impl CdfLaw {
             Kind::Beta { alpha, beta, low, inv_width } => {
                 let u = (Interval::point(x) - *low) * *inv_width;
                 Interval::new(beta_cdf(*alpha, *beta, u.lo).lo, beta_cdf(*alpha, *beta, u.hi).hi)
+            }
+            Kind::Discrete { atoms } => {
+                // an atom surely at or below x counts in both ends, one that may be (x
+                // inside its enclosure) in the upper end only: F(x⁻) ≥ the lower end
+                let (mut lo, mut hi) = (Interval::point(0.0), Interval::point(0.0));
+                for (v, w) in atoms {
+                    if v.hi < x {
+                        lo = lo + *w;
+                    }
+                    if v.lo <= x {
+                        hi = hi + *w;
+                    }
+                }
+                Interval::new(lo.lo, hi.hi)
+            }
+            Kind::Exponential { rate } => {
+                if x <= 0.0 {
+                    Interval::point(0.0)
+                } else {
+                    // 1 − e^(−λx), monotone in λx
+                    let y = Interval::point(x) * *rate;
+                    Interval::new(1.0 - exp_upper(-y.lo), 1.0 - exp_lower(-y.hi))
+                }
+            }
+            Kind::Laplace { mu, inv_scale } => {
+                let z = (Interval::point(x) - *mu) * *inv_scale;
+                // F = ½e^z below μ, 1 − ½e^(−z) above: monotone, each end from its side
+                let f_lo = |z: f64| if z < 0.0 { 0.5 * exp_lower(z) } else { 1.0 - 0.5 * exp_upper(-z) };
+                let f_hi = |z: f64| if z < 0.0 { 0.5 * exp_upper(z) } else { 1.0 - 0.5 * exp_lower(-z) };
+                Interval::new(f_lo(z.lo).next_down(), f_hi(z.hi).next_up())
+            }
+            Kind::Erlang { shape, inv_scale } => {
+                if x <= 0.0 {
+                    Interval::point(0.0)
+                } else {
+                    erlang_cdf(*shape, Interval::point(x) * *inv_scale)
+                }
             }
         };
         Interval::new(v.lo.max(0.0), v.hi.min(1.0))
@@ -251,6 +334,54 @@ const ERF_NEGLIGIBLE_TERM: f64 = 8.673617379884035e-19;
 
 /// Most terms of the erf series: for |x| ≤ 2.9 the terms fall below 2⁻¹⁰⁶ by n ≈ 70.
 const ERF_MAX_TERMS: u32 = 200;
+
+/// The exponential and Laplace ranges cover EXP_SPAN_RATES scales (the mass outside is
+/// e^(−45) < 2.9·10⁻²⁰ per side).
+pub const EXP_SPAN_RATES: f64 = 45.0;
+
+/// An upper bound of e^y: the platform's `exp` (within a few ulps) widened by
+/// [`TAIL_REL_MARGIN`], never below the least positive float (e^y > 0).
+fn exp_upper(y: f64) -> f64 {
+    if y.is_nan() {
+        return f64::INFINITY;
+    }
+    (y.exp() * (1.0 + TAIL_REL_MARGIN)).max(f64::MIN_POSITIVE)
+}
+
+/// A lower bound of e^y (≥ 0).
+fn exp_lower(y: f64) -> f64 {
+    if y.is_nan() {
+        return 0.0;
+    }
+    (y.exp() * (1.0 - TAIL_REL_MARGIN)).max(0.0)
+}
+
+/// The Erlang distribution function 1 − e^(−y)·Σ_{j<k} yʲ/j! at y ≥ 0 (in scale units),
+/// enclosed: the sum in intervals, e^(−y) from [`exp_lower`]/[`exp_upper`] at the ends of y.
+fn erlang_cdf(k: u32, y: Interval) -> Interval {
+    let y = Interval::new(y.lo.max(0.0), y.hi.max(0.0));
+    let mut term = Interval::point(1.0);
+    let mut sum = Interval::point(1.0);
+    for j in 1..k {
+        term = term * y * recip(f64::from(j));
+        sum = sum + term;
+    }
+    let e = Interval::new(exp_lower(-y.hi), exp_upper(-y.lo));
+    let v = Interval::point(1.0) - e * sum;
+    Interval::new(v.lo.max(0.0), v.hi.min(1.0))
+}
+
+/// An upper bound of the Erlang tail e^(−y)·Σ_{j<k} yʲ/j! at the float y ≥ 0 (formed
+/// directly: 1 − F would cancel to an ulp of 1).
+fn erlang_tail_upper(k: u32, y: f64) -> f64 {
+    let yi = Interval::point(y.max(0.0));
+    let (mut term, mut sum) = (Interval::point(1.0), Interval::point(1.0));
+    for j in 1..k {
+        term = term * yi * recip(f64::from(j));
+        sum = sum + term;
+    }
+    (Interval::point(exp_upper(-y)) * sum).hi.min(1.0)
+}
 
 /// 1/k enclosed, for a positive integer k (below 2⁵³).
 fn recip(k: f64) -> Interval {
@@ -364,5 +495,32 @@ mod tests {
             assert!(m >= t - 1e-15 && m <= t + 1e-12, "[{a}, {c}]: {m} vs {t}");
         }
         assert!(CdfLaw::of(&Distribution::Beta { alpha: q("9"), beta: q("0.5"), low: q("0"), high: q("1") }).is_none());
+        // exponential, Laplace, Erlang against statrs (accurate to ~10⁻¹⁰ here)
+        use statrs::distribution::{Exp, Gamma, Laplace};
+        let check = |law: &CdfLaw, f: &dyn Fn(f64) -> f64, pts: &[(f64, f64)]| {
+            for &(a, c) in pts {
+                let m = law.mass_upper(a, c);
+                let t = f(c) - f(a);
+                assert!(m >= t - 1e-12 && m <= t + 1e-9, "[{a}, {c}]: {m} vs {t}");
+            }
+        };
+        let e = CdfLaw::of(&Distribution::Exponential { rate: q("2") }).unwrap();
+        let ed = Exp::new(2.0).unwrap();
+        check(&e, &|x| ed.cdf(x), &[(0.0, 0.5), (0.3, 1.7), (2.0, 5.0)]);
+        assert!(e.outside < 3e-20 && (e.hi - 22.5).abs() < 1e-9);
+        let l = CdfLaw::of(&Distribution::Laplace { mean: q("1"), scale: q("0.5") }).unwrap();
+        let ld = Laplace::new(1.0, 0.5).unwrap();
+        check(&l, &|x| ld.cdf(x), &[(-1.0, 0.5), (0.8, 1.3), (1.2, 4.0)]);
+        let g = CdfLaw::of(&Distribution::Gamma { shape: q("3"), scale: q("0.5") }).unwrap();
+        let gd = Gamma::new(3.0, 2.0).unwrap(); // statrs: shape and rate
+        check(&g, &|x| gd.cdf(x), &[(0.0, 0.5), (0.7, 2.0), (3.0, 9.0)]);
+        assert!(g.outside < 1e-19, "{}", g.outside);
+        assert!(CdfLaw::of(&Distribution::Gamma { shape: q("2.5"), scale: q("1") }).is_none());
+        // discrete: an atom at a box's end counts
+        let d = CdfLaw::of(&Distribution::Discrete { values: vec![q("0.5"), q("1"), q("2")], weights: vec![q("0.25"), q("0.5"), q("0.25")] }).unwrap();
+        assert!(d.mass_upper(1.0, 1.0) >= 0.5 && d.mass_upper(1.0, 1.0) < 0.5 + 1e-12);
+        assert!(d.mass_upper(0.5, 2.0) >= 1.0);
+        assert!(d.mass_upper(1.1, 1.9) < 1e-15); // between atoms: the rounding of the two ends only
+        assert!(d.mass_upper(0.0, 0.9) >= 0.25 && d.mass_upper(0.0, 0.9) < 0.25 + 1e-12);
     }
 }

@@ -7,12 +7,14 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha12Rng;
-use riskplan::app::{no_plan_reason, PlanRequest};
+use riskplan::app::{no_plan_reason, PlanRequest, RiskMode};
 use riskplan::contour::{BoundChoice, RiskLevel, RiskLevelError};
-use riskplan::mc::clopper_pearson;
+use riskplan::mc::{clopper_pearson, McEstimate};
 use riskplan::plan::{PlanError, PlanStatus};
 use riskplan::scene::{Scene, Trajectory};
-use riskplan::verify::{audit_trajectory, verify_until, AuditOptions, Method, SceneKernel, Status, VerifyReport};
+use riskplan::verify::{
+    audit_trajectory, audit_whole_path, verify_until, AuditOptions, Method, SceneKernel, Status, VerifyReport,
+};
 use riskplan_oracle::generate::{GeneratedScene, Intent, ObstacleSpec, Shape};
 use riskplan_oracle::oracle::{judge, InfeasibleReason, Judgement, ObstacleMoments, OracleOptions, OracleReport};
 use serde::Serialize;
@@ -51,11 +53,22 @@ pub struct RunOptions {
     /// Which risk bounds the planner may use (`PlanRequest::bound`); `None`: riskplan's
     /// default.
     pub bound: Option<BoundChoice>,
+    /// What Δ bounds (`PlanRequest::risk_mode`; default per-obstacle).
+    pub risk_mode: RiskMode,
+    /// Scenarios of the whole-path audit ([`WholePathRecord`]); 0: no whole-path audit.
+    pub whole_path_samples: u64,
+    /// Audit the whole path of plans made in every risk mode, not only in trajectory mode.
+    pub whole_path_all_modes: bool,
 }
+
+/// Least audited times per piece of the whole-path audit (it uses
+/// `max(audit_times, WHOLE_PATH_MIN_TIMES)`).
+pub const WHOLE_PATH_MIN_TIMES: usize = 100;
 
 impl Default for RunOptions {
     /// The bench's defaults: 10 s, 4000 scenarios × 20 times per piece, audit seed 7,
-    /// the generated Δ, riskplan's default bound.
+    /// the generated Δ, riskplan's default bound, per-obstacle risk, 100000 whole-path
+    /// scenarios (audited in trajectory mode only).
     fn default() -> Self {
         RunOptions {
             time_limit: Duration::from_secs(10),
@@ -65,6 +78,9 @@ impl Default for RunOptions {
             oracle: OracleOptions::default(),
             delta: None,
             bound: None,
+            risk_mode: RiskMode::PerObstacle,
+            whole_path_samples: 100_000,
+            whole_path_all_modes: false,
         }
     }
 }
@@ -105,6 +121,8 @@ pub struct PlanRecord {
     pub path_length: Option<f64>,
     /// Pieces of the trajectory.
     pub pieces: usize,
+    /// The certified whole-path bound of the plan (`outcome.stats.whole_path_risk`).
+    pub whole_path_risk: Option<f64>,
 }
 
 impl PlanRecord {
@@ -144,6 +162,47 @@ impl AuditRecord {
     pub fn disagree(&self) -> bool {
         self.method == "crate" && self.error.is_none() && self.over_delta != self.own_over_delta
     }
+}
+
+/// The Monte Carlo audit of the whole-path event of a plan: one draw of every parameter
+/// per scenario, shared by all audited times and obstacles; a hit is a scenario in
+/// which some obstacle's P ≥ 0 at some audited time. Clopper–Pearson at
+/// [`AUDIT_CONFIDENCE`] (each end a one-sided 99 % bound). Dense times estimate
+/// P(∃ t, i : collision) from below (a contact between audited times is missed).
+#[derive(Clone, Debug, Serialize)]
+pub struct WholePathRecord {
+    /// `crate` (`verify::audit_whole_path`) or `own` (the generator's true
+    /// distributions and structured P, for scenes with a `moments` parameter:
+    /// [`own_whole_path_audit`]).
+    pub method: &'static str,
+    /// The certified bound (`stats.whole_path_risk`); `None` if the plan has none.
+    pub bound: Option<f64>,
+    /// Δ of the scene.
+    pub delta: f64,
+    /// Hits / samples.
+    pub estimate: f64,
+    /// Clopper–Pearson lower end (one-sided 99 %).
+    pub lower: f64,
+    /// Clopper–Pearson upper end (one-sided 99 %).
+    pub upper: f64,
+    /// Scenarios.
+    pub samples: u64,
+    /// Scenarios with a contact.
+    pub hits: u64,
+    /// Audited times per piece.
+    pub times_per_piece: usize,
+    /// Per obstacle: scenarios in which it meets the plan at some audited time.
+    pub per_obstacle_hits: Vec<(String, u64)>,
+    /// The audit's upper end exceeds Δ (the target: upper ≤ Δ).
+    pub over_delta: bool,
+    /// The certified bound is below the audit's lower end (a soundness bug).
+    pub bound_below_audit: bool,
+    /// bound / estimate (when both are known and the estimate is > 0).
+    pub conservatism: Option<f64>,
+    /// Why no audit was made (then the numbers are NaN / 0).
+    pub error: Option<String>,
+    /// Wall time of the audit, seconds.
+    pub time_s: f64,
 }
 
 /// Exact versus SOS certification of a plan's pieces.
@@ -207,6 +266,10 @@ pub struct SceneRecord {
     pub plan: Option<PlanRecord>,
     /// The audit of the plan.
     pub audit: Option<AuditRecord>,
+    /// The risk mode of the plan request.
+    pub risk_mode: &'static str,
+    /// The whole-path audit of the plan (trajectory mode, or every mode when asked).
+    pub whole_path: Option<WholePathRecord>,
     /// Exact versus SOS.
     pub certify: Option<CertifyRecord>,
     /// The planned trajectory (to reproduce the audit and the certification).
@@ -239,16 +302,17 @@ pub fn width_band(w: f64) -> &'static str {
 pub const SPEED_LIMIT_PASSED: bool = true;
 
 /// The plan request of a generated scene: default options, the time limit, the bound
-/// of `bound` (`None`: riskplan's default) and the scene's Δ.
+/// of `bound` (`None`: riskplan's default), the risk mode and the scene's Δ.
 pub fn plan_request(
     g: &GeneratedScene,
     time_limit: Duration,
     bound: Option<BoundChoice>,
+    risk_mode: RiskMode,
 ) -> Result<PlanRequest, RiskLevelError> {
     // the scene's planner block carries the same limit and its `risk` the same Δ;
     // passing them explicitly makes the request self-describing
     let delta = Some(RiskLevel::from_f64(g.delta)?);
-    Ok(PlanRequest { time_limit, max_speed: g.max_speed, delta, bound, ..Default::default() })
+    Ok(PlanRequest { time_limit, max_speed: g.max_speed, delta, bound, risk_mode, ..Default::default() })
 }
 
 /// `g` at level `delta` (the generated scene when `None`).
@@ -301,6 +365,8 @@ pub fn run_scene(generated: &GeneratedScene, o: &RunOptions) -> SceneRecord {
         oracle_error: None,
         plan: None,
         audit: None,
+        risk_mode: o.risk_mode.as_str(),
+        whole_path: None,
         certify: None,
         trajectory: None,
         scene: g.json_value(),
@@ -319,7 +385,7 @@ pub fn run_scene(generated: &GeneratedScene, o: &RunOptions) -> SceneRecord {
             return rec;
         }
     };
-    let request = match plan_request(g, o.time_limit, o.bound) {
+    let request = match plan_request(g, o.time_limit, o.bound, o.risk_mode) {
         Ok(r) => r,
         Err(e) => {
             rec.load_error = Some(e.to_string());
@@ -339,6 +405,7 @@ pub fn run_scene(generated: &GeneratedScene, o: &RunOptions) -> SceneRecord {
         Ok((_, out)) => {
             plan.status = Some(out.status);
             plan.certified = out.certified && out.trajectory.is_some();
+            plan.whole_path_risk = out.stats.whole_path_risk;
             match out.trajectory {
                 Some(tr) => {
                     plan.planned = true;
@@ -353,9 +420,13 @@ pub fn run_scene(generated: &GeneratedScene, o: &RunOptions) -> SceneRecord {
             }
         }
     };
+    let bound = plan.whole_path_risk;
     rec.plan = Some(plan);
     if let Some(tr) = traj {
         rec.audit = Some(audit(g, &scene, &tr, o));
+        if o.whole_path_samples > 0 && (o.risk_mode == RiskMode::Trajectory || o.whole_path_all_modes) {
+            rec.whole_path = Some(whole_path_audit(g, &scene, &tr, bound, o));
+        }
         rec.certify = certify_counts(g, &scene, &tr);
         rec.trajectory = Some(tr);
     }
@@ -447,6 +518,96 @@ pub fn own_audit(obstacles: &[ObstacleSpec], delta: f64, points: &[(Vec<f64>, f6
         }
     }
     (worst, over)
+}
+
+/// The whole-path audit of `tr` ([`WholePathRecord`]): the crate's, or the own one for
+/// scenes with a `moments` parameter; `max(audit_times, 100)` times per piece.
+fn whole_path_audit(
+    g: &GeneratedScene,
+    scene: &Scene,
+    tr: &Trajectory,
+    bound: Option<f64>,
+    o: &RunOptions,
+) -> WholePathRecord {
+    let t = Instant::now();
+    let times = o.audit_times.max(WHOLE_PATH_MIN_TIMES);
+    let (method, result) = if g.has_moments_param() {
+        let (per, any) =
+            own_whole_path_audit(&g.obstacles, &audit_points(tr, times), o.whole_path_samples, o.audit_seed);
+        let per = g.obstacles.iter().zip(per).map(|(ob, k)| (ob.id.clone(), k)).collect::<Vec<_>>();
+        ("own", Ok((per, McEstimate::new(any, o.whole_path_samples, AUDIT_CONFIDENCE))))
+    } else {
+        let opts = AuditOptions {
+            times_per_piece: times,
+            samples: o.whole_path_samples,
+            seed: o.audit_seed,
+            confidence: AUDIT_CONFIDENCE,
+        };
+        let r = audit_whole_path(scene, tr, &opts)
+            .map(|(per, any)| (per.into_iter().map(|(id, e)| (id, e.hits)).collect::<Vec<_>>(), any))
+            .map_err(|e| e.to_string());
+        ("crate", r)
+    };
+    let mut rec = WholePathRecord {
+        method,
+        bound,
+        delta: g.delta,
+        estimate: f64::NAN,
+        lower: f64::NAN,
+        upper: f64::NAN,
+        samples: o.whole_path_samples,
+        hits: 0,
+        times_per_piece: times,
+        per_obstacle_hits: vec![],
+        over_delta: false,
+        bound_below_audit: false,
+        conservatism: None,
+        error: None,
+        time_s: 0.0,
+    };
+    match result {
+        Ok((per, e)) => {
+            rec.estimate = e.estimate;
+            rec.lower = e.lower;
+            rec.upper = e.upper;
+            rec.hits = e.hits;
+            rec.per_obstacle_hits = per;
+            rec.over_delta = e.upper > g.delta;
+            rec.bound_below_audit = bound.is_some_and(|b| b < e.lower);
+            rec.conservatism = bound.filter(|_| e.estimate > 0.0).map(|b| b / e.estimate);
+        }
+        Err(e) => rec.error = Some(e),
+    }
+    rec.time_s = t.elapsed().as_secs_f64();
+    rec
+}
+
+/// The whole-path variant of [`own_audit`]: per scenario one draw of every obstacle's
+/// parameters from the generator's true distributions, shared by all `points` and
+/// obstacles; returns per obstacle the scenarios in which its P ≥ 0 at some point, and
+/// the scenarios in which some obstacle's does.
+pub fn own_whole_path_audit(
+    obstacles: &[ObstacleSpec],
+    points: &[(Vec<f64>, f64)],
+    samples: u64,
+    seed: u64,
+) -> (Vec<u64>, u64) {
+    let mut rng = ChaCha12Rng::seed_from_u64(seed);
+    let mut per = vec![0u64; obstacles.len()];
+    let mut any = 0u64;
+    for _ in 0..samples {
+        let w: Vec<Vec<f64>> =
+            obstacles.iter().map(|ob| ob.params.iter().map(|p| p.dist.sample(&mut rng)).collect()).collect();
+        let mut hit = false;
+        for (k, ob) in obstacles.iter().enumerate() {
+            if points.iter().any(|(x, t)| ob.eval(x, *t, &w[k]) >= 0.0) {
+                per[k] += 1;
+                hit = true;
+            }
+        }
+        any += u64::from(hit);
+    }
+    (per, any)
 }
 
 /// The scene's verification of `tr` at its Δ with Cantelli's bound only, whatever
@@ -637,6 +798,63 @@ pub fn summary_table(records: &[SceneRecord]) -> String {
             .into(),
     );
     out.join("\n")
+}
+
+/// The header of [`whole_path_row`].
+pub const WHOLE_PATH_HEADER: &str = "| risk mode | Δ | scenes | feasible (Cantelli oracle) | plans among feasible | plans (all) | whole-path bound ≤ Δ / plans | audited (crate; own; errors) | audits over Δ (upper end, target 0) | bounds below audit (lower end, target 0) | conservatism bound/estimate: median | worst (max) | least (min) | plans with estimate 0 | median plan time (s) | whole-path audit time (s, total) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
+
+/// One row of the whole-path table: the records of one run; `None` when no plan has a
+/// whole-path audit. Conservatism is the certified bound over the audit's estimate, over
+/// the plans with an estimate > 0.
+pub fn whole_path_row(records: &[SceneRecord]) -> Option<String> {
+    let audits: Vec<&WholePathRecord> = records.iter().filter_map(|r| r.whole_path.as_ref()).collect();
+    if audits.is_empty() {
+        return None;
+    }
+    let planned = |r: &&SceneRecord| r.plan.as_ref().is_some_and(|p| p.planned);
+    let feasible = records.iter().filter(|r| r.label() == "feasible").count();
+    let on_feasible = records.iter().filter(|r| r.label() == "feasible").filter(planned).count();
+    let plans: Vec<&SceneRecord> = records.iter().filter(planned).collect();
+    let within =
+        plans.iter().filter(|r| r.plan.as_ref().and_then(|p| p.whole_path_risk).is_some_and(|b| b <= r.delta)).count();
+    let ok: Vec<&&WholePathRecord> = audits.iter().filter(|a| a.error.is_none()).collect();
+    let crate_n = ok.iter().filter(|a| a.method == "crate").count();
+    let own_n = ok.iter().filter(|a| a.method == "own").count();
+    let errors = audits.len() - ok.len();
+    let over = ok.iter().filter(|a| a.over_delta).count();
+    let below = ok.iter().filter(|a| a.bound_below_audit).count();
+    let cons: Vec<f64> = ok.iter().filter_map(|a| a.conservatism).collect();
+    let zero = ok.iter().filter(|a| a.hits == 0).count();
+    let fmt = |v: Option<f64>| v.map(|x| format!("{x:.3}")).unwrap_or_else(|| "–".into());
+    let worst = cons.iter().cloned().reduce(f64::max);
+    let least = cons.iter().cloned().reduce(f64::min);
+    let times: Vec<f64> = plans.iter().filter_map(|r| r.plan.as_ref().map(|p| p.time_s)).collect();
+    let audit_s: f64 = audits.iter().map(|a| a.time_s).sum();
+    let mut modes: Vec<&str> = records.iter().map(|r| r.risk_mode).collect();
+    modes.sort();
+    modes.dedup();
+    let pct = |a: usize, b: usize| {
+        if b > 0 {
+            format!("{a}/{b} ({:.0} %)", 100.0 * a as f64 / b as f64)
+        } else {
+            format!("{a}/{b}")
+        }
+    };
+    Some(format!(
+        "| {} | {} | {} | {feasible} | {} | {} | {within}/{} | {crate_n}; {own_n}; {errors} | {over}/{} | {below}/{} | {} | {} | {} | {zero} | {} | {audit_s:.1} |",
+        modes.join("/"),
+        deltas(records),
+        records.len(),
+        pct(on_feasible, feasible),
+        plans.len(),
+        plans.len(),
+        ok.len(),
+        ok.len(),
+        fmt(median(cons)),
+        fmt(worst),
+        fmt(least),
+        median(times).map(|x| format!("{x:.2}")).unwrap_or_else(|| "–".into()),
+    ))
 }
 
 /// The distinct Δ of the records (`0.01`, or `0.01–0.2 (generated)` when they vary).

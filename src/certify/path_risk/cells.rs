@@ -527,11 +527,11 @@ mod tests {
         assert!((0.5..0.52).contains(&v), "{v}");
     }
 
-    /// An obstacle with a parameter of no rigorous distribution function (gamma) is left to
+    /// An obstacle with a parameter of no rigorous distribution function (gamma of shape 2.5) is left to
     /// the moment bounds.
     #[test]
     fn no_partition_without_laws() {
-        let c = contour("w - x1^2 - x2^2", &[("w", Distribution::Gamma { shape: q("2"), scale: q("0.1") })]);
+        let c = contour("w - x1^2 - x2^2", &[("w", Distribution::Gamma { shape: q("2.5"), scale: q("0.1") })]);
         let p = crate::scene::Piece::segment(&[-1.0, 0.5], &[1.0, 0.5], 0.0, 1.0);
         let r = PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs };
         assert!(cells_path_risk(&c, &[r], CellEffort::REPORT, &|| false).is_none());

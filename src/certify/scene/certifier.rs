@@ -445,17 +445,18 @@ impl MotionChecker for SceneCertifier {
         motion
     }
 
-    fn path_risk(&self, piece: &Piece) -> Option<f64> {
+    fn path_risk(&self, piece: &Piece, stop: &dyn Fn() -> bool) -> Option<f64> {
         use crate::certify::path_risk::{cells_path_risk, piece_path_risk};
         let effort = self.path_risk?;
         let r = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
         let mut total = 0.0f64;
         for o in &self.scene.obstacles {
             let c = o.contour.get();
-            let b = match cells_path_risk(c, std::slice::from_ref(&r), effort, &|| false) {
+            let b = match cells_path_risk(c, std::slice::from_ref(&r), effort, stop) {
                 Some(b) => b.bound,
+                None if stop() => return None,
                 // no rigorous distribution function: the moment envelopes
-                None => piece_path_risk(c, r, &|| false).map_or(1.0, |b| b.bound_f64()),
+                None => piece_path_risk(c, r, stop)?.bound_f64(),
             };
             total = if b == 0.0 { total } else { (total + b).next_up() };
             if total >= 1.0 {

@@ -126,8 +126,8 @@ pub const RAW_PATH_RETRIES: usize = 4;
 
 /// The sum over `pieces` of their whole-path bounds ([`MotionChecker::path_risk`], 1 when
 /// the checker gives none), rounded up.
-pub(crate) fn path_risk_sum(checker: &dyn MotionChecker, pieces: &[Piece]) -> f64 {
-    pieces.iter().fold(0.0, |acc, pc| add_up(acc, checker.path_risk(pc).unwrap_or(1.0)))
+pub(crate) fn path_risk_sum(checker: &dyn MotionChecker, pieces: &[Piece], stop: &dyn Fn() -> bool) -> f64 {
+    pieces.iter().fold(0.0, |acc, pc| add_up(acc, checker.path_risk(pc, stop).unwrap_or(1.0)))
 }
 
 impl ConnectRrt {
@@ -232,15 +232,16 @@ impl Planner for ConnectRrt {
         let work_start = counter.work(checker);
         let seg = |a: &[f64], b: &[f64]| Piece::segment(a, b, p.horizon.0, p.horizon.1);
         let budget = self.params.path_budget;
+        let stop = || term.should_stop();
         // an edge's whole-path bound when accepted (0 without a budget; 1 when the checker
         // gives none: the budget then refuses it)
         let ok = |a: &[f64], b: &[f64]| {
             let piece = seg(a, b);
             (counter.check(checker, &piece) == Motion::Accepted)
-                .then(|| if budget.is_some() { checker.path_risk(&piece).unwrap_or(1.0) } else { 0.0 })
+                .then(|| if budget.is_some() { checker.path_risk(&piece, &stop).unwrap_or(1.0) } else { 0.0 })
                 .filter(|&r| budget.is_none_or(|d| r <= d))
         };
-        let within_budget = |pieces: &[Piece]| budget.is_none_or(|d| path_risk_sum(checker, pieces) <= d);
+        let within_budget = |pieces: &[Piece]| budget.is_none_or(|d| path_risk_sum(checker, pieces, &stop) <= d);
         let ws = &p.scene.workspace;
         let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
         let mut tree_edges = Vec::new();

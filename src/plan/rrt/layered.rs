@@ -219,7 +219,8 @@ impl LayeredRrt {
             vec![Layer { verts: vec![p.start.clone()], parent: vec![usize::MAX], pieces: vec![None], risk: vec![0.0] }];
         let budget = self.params.path_budget;
         // a piece's whole-path bound (0 without a budget)
-        let risk_of = |pc: &Piece| if budget.is_some() { checker.path_risk(pc).unwrap_or(1.0) } else { 0.0 };
+        let stop = || term.should_stop();
+        let risk_of = |pc: &Piece| if budget.is_some() { checker.path_risk(pc, &stop).unwrap_or(1.0) } else { 0.0 };
         let within = |r: f64| budget.is_none_or(|d| r <= d);
         if s == 1 {
             let piece = Piece::segment(&p.start, &p.goal, times[0], times[1]);
@@ -437,7 +438,7 @@ impl Planner for LayeredRrt {
                 // a smoothed plan beyond the whole-path budget gives way to the next (the
                 // layered pieces themselves are within it)
                 let within_budget = |pcs: &[Piece]| {
-                    self.params.path_budget.is_none_or(|d| super::connect::path_risk_sum(checker, pcs) <= d)
+                    self.params.path_budget.is_none_or(|d| super::connect::path_risk_sum(checker, pcs, &|| term.should_stop()) <= d)
                 };
                 let smoothed =
                     blend(&short, bounds, limits, true, checker, &counter, &mut sm, term).filter(|b| within_budget(b)).or_else(|| {

@@ -189,7 +189,7 @@ pub fn shortcut(
         if counter.check(checker, &piece) != Motion::Accepted {
             return None;
         }
-        Some(if path_budget.is_some() { checker.path_risk(&piece).unwrap_or(1.0) } else { 0.0 })
+        Some(if path_budget.is_some() { checker.path_risk(&piece, &|| term.should_stop()).unwrap_or(1.0) } else { 0.0 })
     };
     // each piece's whole-path bound, and their sum (docs/design.md §5.14): a shortcut is
     // kept only when the path's new sum stays within the budget

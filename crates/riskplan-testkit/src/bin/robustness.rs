@@ -6,15 +6,22 @@
 //! # issue 19: every scene at one Δ, with one bound
 //! OPENBLAS_NUM_THREADS=1 cargo run --release -p riskplan-testkit --bin robustness -- \
 //!     --count 120 --suite-seed 1 --delta 0.01 --bound cantelli --out /tmp/rob-0.01-cantelli.jsonl
+//! # issue 22: Δ bounds the whole path; each plan's whole-path bound audited
+//! OPENBLAS_NUM_THREADS=1 cargo run --release -p riskplan-testkit --bin robustness -- \
+//!     --count 120 --suite-seed 1 --delta 0.1 --risk-mode trajectory --out /tmp/rob-traj-0.1.jsonl
 //! ```
 //!
 //! Exit status: 0 success, 2 bad usage or an I/O error (one line on stderr).
 
 use clap::Parser;
+use riskplan::app::RiskMode;
 use riskplan::contour::{BoundChoice, RiskLevel};
 use riskplan_oracle::generate;
 use riskplan_oracle::oracle::OracleOptions;
-use riskplan_testkit::runner::{delta_bound_row, run_scene, summary_table, RunOptions, DELTA_BOUND_HEADER};
+use riskplan_testkit::runner::{
+    delta_bound_row, run_scene, summary_table, whole_path_row, RunOptions, DELTA_BOUND_HEADER, WHOLE_PATH_HEADER,
+    WHOLE_PATH_MIN_TIMES,
+};
 use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
@@ -38,6 +45,13 @@ use thiserror::Error;
 /// the Δ × bound table; one JSON line per scene (with the scene, its Δ and bound) goes to
 /// --out. The oracle's time over the suite is in the header and, with its slowest scene,
 /// on stderr at the end.
+///
+/// With --risk-mode trajectory (or --whole-path-all-modes), each plan's certified
+/// whole-path bound (stats.whole_path_risk) is audited by Monte Carlo with one draw of
+/// every parameter per scenario (--whole-path-samples scenarios, max(--audit-times, 100)
+/// times per piece; the crate's audit_whole_path, or the runner's own for scenes with a
+/// `moments` parameter), and a second table gives plans, bounds within Δ, audits over Δ
+/// (99 % upper end), bounds below the audit (99 % lower end) and the conservatism.
 #[derive(Parser, Debug)]
 #[command(name = "robustness", about, long_about, max_term_width = 100)]
 struct Args {
@@ -63,6 +77,16 @@ struct Args {
     /// default]. The oracle judges with Cantelli's bound either way.
     #[arg(long)]
     bound: Option<BoundChoice>,
+    /// What Δ bounds: per-obstacle, joint, joint-weighted or trajectory (the whole
+    /// path; its plans get a whole-path audit).
+    #[arg(long, default_value = "per-obstacle", value_parser = parse_risk_mode)]
+    risk_mode: RiskMode,
+    /// Monte Carlo scenarios of the whole-path audit (0: none).
+    #[arg(long, default_value_t = 100_000)]
+    whole_path_samples: u64,
+    /// Audit the whole path of the plans in every risk mode, not only in trajectory mode.
+    #[arg(long)]
+    whole_path_all_modes: bool,
     /// JSON lines of every scene.
     #[arg(long, default_value = "bench-robustness.jsonl")]
     out: PathBuf,
@@ -103,6 +127,10 @@ fn main() {
         eprintln!("error: {e}");
         std::process::exit(2);
     }
+}
+
+fn parse_risk_mode(s: &str) -> Result<RiskMode, String> {
+    s.parse::<RiskMode>().map_err(|e| e.to_string())
 }
 
 fn time_limit(seconds: f64) -> Result<Duration, BenchError> {
@@ -155,7 +183,11 @@ fn run(a: Args) -> Result<(), BenchError> {
         oracle: OracleOptions::default(),
         delta: a.delta,
         bound: a.bound,
+        risk_mode: a.risk_mode,
+        whole_path_samples: a.whole_path_samples,
+        whole_path_all_modes: a.whole_path_all_modes,
     };
+    let t_run = std::time::Instant::now();
     let out = a.out;
     let mut log = std::fs::File::create(&out).map_err(|source| BenchError::Create { path: out.clone(), source })?;
     let (host, rev) = (host(), git_rev());
@@ -167,7 +199,7 @@ fn run(a: Args) -> Result<(), BenchError> {
         let rec = run_scene(g, &opts);
         let plan = rec.plan.as_ref();
         eprintln!(
-            "[{}/{}] {} {}-D {} {}{}: oracle {} ({:.2} s); plan {} ({:.2} s){}",
+            "[{}/{}] {} {}-D {} {}{}: oracle {} ({:.2} s); plan {} ({:.2} s){}{}",
             g.index + 1,
             a.count,
             g.name,
@@ -180,6 +212,23 @@ fn run(a: Args) -> Result<(), BenchError> {
             if plan.is_some_and(|p| p.planned) { "found" } else { "none" },
             plan.map(|p| p.time_s).unwrap_or(0.0),
             rec.audit.as_ref().filter(|a| a.over_delta).map(|_| " OVER Δ").unwrap_or(""),
+            rec.whole_path
+                .as_ref()
+                .map(|w| match &w.error {
+                    Some(e) => format!("; whole path: no audit ({e})"),
+                    None => format!(
+                        "; whole path: bound {} audit {:.2e} [{:.2e}, {:.2e}] ({}, {:.1} s){}{}",
+                        w.bound.map_or("none".to_string(), |b| format!("{b:.3e}")),
+                        w.estimate,
+                        w.lower,
+                        w.upper,
+                        w.method,
+                        w.time_s,
+                        if w.over_delta { " AUDIT OVER Δ" } else { "" },
+                        if w.bound_below_audit { " BOUND BELOW AUDIT" } else { "" },
+                    ),
+                })
+                .unwrap_or_default(),
         );
         let mut v = serde_json::to_value(&rec)?;
         v["host"] = json!(host);
@@ -190,16 +239,25 @@ fn run(a: Args) -> Result<(), BenchError> {
     }
     let oracle_s: f64 = records.iter().filter_map(|r| r.oracle.as_ref()).map(|o| o.time_s).sum();
     let header = format!(
-        "Host: {host}; git {rev}; robustness suite seed {}, {} scenes; Δ {}; bound {}; time limit {seconds} s; audit {} scenarios × {} times per piece; generation {gen_s:.2} s, oracle {oracle_s:.2} s in total.\n",
+        "Host: {host}; git {rev}; robustness suite seed {}, {} scenes; Δ {}; bound {}; risk mode {}; time limit {seconds} s; audit {} scenarios × {} times per piece; generation {gen_s:.2} s, oracle {oracle_s:.2} s in total; run {:.1} s.\n",
         a.suite_seed,
         a.count,
         a.delta.map_or_else(|| "generated".to_string(), |d| d.to_string()),
         a.bound.map_or("riskplan's default", |b| b.as_str()),
+        a.risk_mode.as_str(),
         opts.audit_samples,
-        opts.audit_times
+        opts.audit_times,
+        t_run.elapsed().as_secs_f64(),
     );
     print_out(&(header + &summary_table(&records)))?;
     print_out(&format!("\n{DELTA_BOUND_HEADER}\n{}", delta_bound_row(&records)))?;
+    if let Some(row) = whole_path_row(&records) {
+        print_out(&format!(
+            "\nWhole-path audit: {} scenarios per plan, one draw of every parameter per scenario, {} times per piece; Clopper–Pearson ends one-sided 99 %; over Δ: upper end > Δ; below audit: certified bound < lower end.\n{WHOLE_PATH_HEADER}\n{row}",
+            opts.whole_path_samples,
+            opts.audit_times.max(WHOLE_PATH_MIN_TIMES),
+        ))?;
+    }
     // the oracle's time over the suite (what the oracle's unit test once bounded by a
     // wall-clock assertion), with its slowest scene
     let slowest = records
