@@ -118,6 +118,12 @@ enum State {
     Unknown,
 }
 
+/// A parameter monomial: (index into the partition's parameters, exponent) pairs.
+type Beta = Vec<(usize, u32)>;
+
+/// A part of a trajectory's control net: (piece, depth, index).
+type Part = (usize, u32, u64);
+
 /// One level of a piece's control net: per part, `None` not computed yet, `Some(None)` not
 /// restrictable, else its coefficients.
 type Level = Vec<Option<Option<Vec<Coef>>>>;
@@ -126,7 +132,7 @@ type Level = Vec<Option<Option<Vec<Coef>>>>;
 struct Nets<'a> {
     /// P = Σ_β c_β(x, t)·ω^β: each parameter monomial β (as indices into the partition's
     /// parameters and exponents) with its coefficient polynomial in (x, t), split once.
-    split: Vec<(Vec<(usize, u32)>, Poly<Interval>)>,
+    split: Vec<(Beta, Poly<Interval>)>,
     dim: usize,
     pieces: &'a [PieceRef<'a>],
     /// `cells[piece][depth]`.
@@ -138,10 +144,10 @@ struct Nets<'a> {
 impl<'a> Nets<'a> {
     fn new(contour: &RiskContour, params: &[Var], pieces: &'a [PieceRef<'a>]) -> Option<Nets<'a>> {
         let layout = contour.layout();
-        let mut by_beta: std::collections::BTreeMap<Vec<(usize, u32)>, Poly<Interval>> = Default::default();
+        let mut by_beta: std::collections::BTreeMap<Beta, Poly<Interval>> = Default::default();
         for (m, c) in contour.poly().terms() {
             let (omega, xt) = m.split(|v| layout.is_param(v));
-            let beta: Vec<(usize, u32)> = omega
+            let beta: Beta = omega
                 .pairs()
                 .iter()
                 .map(|&(v, e)| Some((params.iter().position(|&p| p == v)?, e)))
@@ -176,11 +182,11 @@ impl<'a> Nets<'a> {
     fn state(
         &mut self,
         pw: &[Vec<Interval>],
-        parts: &[(usize, u32, u64)],
+        parts: &[Part],
         score: &mut [f64],
-    ) -> Option<(State, Vec<(usize, u32, u64)>)> {
+    ) -> Option<(State, Vec<Part>)> {
         let mut open = Vec::new();
-        let mut stack: Vec<(usize, u32, u64)> = parts.to_vec();
+        let mut stack: Vec<Part> = parts.to_vec();
         while let Some((p, d, i)) = stack.pop() {
             let coeffs = self.coeffs(p, d, i)?;
             let ranges: Vec<Interval> = coeffs.iter().map(|c| c.range(pw)).collect();
@@ -212,7 +218,7 @@ impl<'a> Nets<'a> {
 /// of the common degree D, bⱼ = Σ_{k≤j} C(j, k)/C(D, k)·a_k. `None` for a piece that is not
 /// finite or of another dimension.
 fn restrict(
-    split: &[(Vec<(usize, u32)>, Poly<Interval>)],
+    split: &[(Beta, Poly<Interval>)],
     dim: usize,
     piece: PieceRef<'_>,
     d: u32,
@@ -264,7 +270,7 @@ struct Cell {
     bx: Vec<Interval>,
     /// Enclosures of each parameter's distribution function at the box's ends.
     ends: Vec<(Interval, Interval)>,
-    parts: Vec<(usize, u32, u64)>,
+    parts: Vec<Part>,
 }
 
 impl PartialEq for Cell {
@@ -328,7 +334,7 @@ pub fn cells_path_risk(
     let root: Vec<Interval> = laws.iter().map(|l| Interval::new(l.lo, l.hi)).collect();
     let root_ends: Vec<(Interval, Interval)> = laws.iter().map(|l| (l.cdf(l.lo), l.cdf(l.hi))).collect();
     let widths: Vec<f64> = laws.iter().map(|l| l.hi - l.lo).collect();
-    let all_parts: Vec<(usize, u32, u64)> = (0..pieces.len()).map(|p| (p, 0, 0)).collect();
+    let all_parts: Vec<Part> = (0..pieces.len()).map(|p| (p, 0, 0)).collect();
     let mut heap = BinaryHeap::new();
     heap.push(Cell { mass: mass(&root_ends), bx: root, ends: root_ends, parts: all_parts });
     let mut pending = heap.peek().map_or(0.0, |c| c.mass);

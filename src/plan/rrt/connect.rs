@@ -86,6 +86,9 @@ impl Tree {
     }
 }
 
+/// An edge check: `Some(the edge's whole-path bound)` (0 without a budget) when accepted.
+type EdgeCheck<'a> = dyn Fn(&[f64], &[f64]) -> Option<f64> + 'a;
+
 /// `a + b` rounded up (sums of upper bounds stay upper bounds).
 pub(crate) fn add_up(a: f64, b: f64) -> f64 {
     let s = a + b;
@@ -138,7 +141,7 @@ impl ConnectRrt {
         &self,
         p: &Problem,
         step: f64,
-        ok: &dyn Fn(&[f64], &[f64]) -> Option<f64>,
+        ok: &EdgeCheck<'_>,
         rng: &mut ChaCha8Rng,
         term: &Termination,
         stats: &mut PlanStats,
