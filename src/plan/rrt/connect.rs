@@ -10,7 +10,9 @@
 //! the problem's [`Scale`]: the step is about the spacing of the obstacles.
 
 use super::scale::Scale;
-use super::smooth::{blend, shortcut, straight, time_at_constant_speed, Limits, SmoothStats, WorkBudget};
+use super::smooth::{
+    add_up, blend, path_risk_sum, shortcut, straight, time_at_constant_speed, Limits, SmoothStats, WorkBudget,
+};
 use crate::plan::{
     dist, nearest, within_speed, CheckCounter, Kinematics, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome,
     PlanStats, PlanStatus, Planner, Problem, Termination,
@@ -89,16 +91,6 @@ impl Tree {
 /// An edge check: `Some(the edge's whole-path bound)` (0 without a budget) when accepted.
 type EdgeCheck<'a> = dyn Fn(&[f64], &[f64]) -> Option<f64> + 'a;
 
-/// `a + b` rounded up (sums of upper bounds stay upper bounds).
-pub(crate) fn add_up(a: f64, b: f64) -> f64 {
-    let s = a + b;
-    if s == 0.0 {
-        0.0
-    } else {
-        s.next_up()
-    }
-}
-
 fn steer(from: &[f64], to: &[f64], step: f64) -> Vec<f64> {
     let d = dist(from, to);
     if d <= step {
@@ -126,12 +118,6 @@ pub const MIN_CANDIDATE_TIME: std::time::Duration = std::time::Duration::from_mi
 /// Fresh searches tried when the re-check of an unsmoothed path's timed pieces refuses
 /// one of them.
 pub const RAW_PATH_RETRIES: usize = 4;
-
-/// The sum over `pieces` of their whole-path bounds ([`MotionChecker::path_risk`], 1 when
-/// the checker gives none), rounded up.
-pub(crate) fn path_risk_sum(checker: &dyn MotionChecker, pieces: &[Piece], stop: &dyn Fn() -> bool) -> f64 {
-    pieces.iter().fold(0.0, |acc, pc| add_up(acc, checker.path_risk(pc, stop).unwrap_or(1.0)))
-}
 
 impl ConnectRrt {
     /// Grows a fresh pair of trees until they connect (the path from start to goal), or

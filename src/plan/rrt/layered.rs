@@ -276,7 +276,7 @@ impl LayeredRrt {
                 if !self.piece_speed_ok(&piece) || counter.check(checker, &piece) != Motion::Accepted {
                     continue;
                 }
-                let acc = super::connect::add_up(prev.risk[a], risk_of(&piece));
+                let acc = super::smooth::add_up(prev.risk[a], risk_of(&piece));
                 if !within(acc) {
                     continue;
                 }
@@ -286,7 +286,7 @@ impl LayeredRrt {
                     if self.speed_ok(&q, &p.goal, times[i + 1] - times[i])
                         && self.piece_speed_ok(&to_goal)
                         && counter.check(checker, &to_goal) == Motion::Accepted
-                        && within(super::connect::add_up(acc, risk_of(&to_goal)))
+                        && within(super::smooth::add_up(acc, risk_of(&to_goal)))
                     {
                         tree.push((q.clone(), p.goal.clone()));
                         layer.verts.push(q);
@@ -438,7 +438,7 @@ impl Planner for LayeredRrt {
                 // a smoothed plan beyond the whole-path budget gives way to the next (the
                 // layered pieces themselves are within it)
                 let within_budget = |pcs: &[Piece]| {
-                    self.params.path_budget.is_none_or(|d| super::connect::path_risk_sum(checker, pcs, &|| term.should_stop()) <= d)
+                    self.params.path_budget.is_none_or(|d| super::smooth::path_risk_sum(checker, pcs, &|| term.should_stop()) <= d)
                 };
                 let smoothed =
                     blend(&short, bounds, limits, true, checker, &counter, &mut sm, term).filter(|b| within_budget(b)).or_else(|| {

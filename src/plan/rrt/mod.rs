@@ -13,7 +13,7 @@ pub mod scale;
 pub mod smooth;
 
 pub use connect::{ConnectParams, ConnectRrt};
-pub(crate) use connect::path_risk_sum;
+pub(crate) use smooth::path_risk_sum;
 pub use layered::{LayeredParams, LayeredRrt};
 pub use paper_static::{RrtParams, StaticRrt};
 pub use sampling::StripeSampler;

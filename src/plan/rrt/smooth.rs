@@ -157,6 +157,22 @@ pub fn inside(mut piece: Piece, lower: &[f64], upper: &[f64]) -> Piece {
     piece
 }
 
+/// `a + b` rounded up (sums of upper bounds stay upper bounds).
+pub(crate) fn add_up(a: f64, b: f64) -> f64 {
+    let s = a + b;
+    if s == 0.0 {
+        0.0
+    } else {
+        s.next_up()
+    }
+}
+
+/// The sum over `pieces` of their whole-path bounds ([`MotionChecker::path_risk`], 1 when
+/// the checker gives none), rounded up.
+pub(crate) fn path_risk_sum(checker: &dyn MotionChecker, pieces: &[Piece], stop: &dyn Fn() -> bool) -> f64 {
+    pieces.iter().fold(0.0, |acc, pc| add_up(acc, checker.path_risk(pc, stop).unwrap_or(1.0)))
+}
+
 /// Shortcuts a path. `timed = false` (static obstacles): the path is geometric, pieces
 /// are judged over the whole horizon and the result is re-timed at constant speed.
 /// `timed = true` (moving obstacles): a shortcut between the points at times `ta < tb`
@@ -198,7 +214,7 @@ pub fn shortcut(
     } else {
         vec![0.0; w.len().saturating_sub(1)]
     };
-    let total = |r: &[f64]| r.iter().fold(0.0, |acc, &x| super::connect::add_up(acc, x));
+    let total = |r: &[f64]| r.iter().fold(0.0, |acc, &x| add_up(acc, x));
     let within = |r: &[f64]| path_budget.is_none_or(|d| total(r) <= d);
     let left = || !term.expired() && budget.left(counter, checker);
     let attempts = (w.len() * SHORTCUT_ATTEMPTS_PER_WAYPOINT).max(MIN_SHORTCUT_ATTEMPTS);
