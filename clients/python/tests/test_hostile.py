@@ -182,7 +182,7 @@ def test_verify_whole_path(client, unique):
     """``whole_path=True``: the reply bounds the probability that the trajectory meets the
     obstacle at some time; on illustrative-3 (radius w ~ U[0.3, 0.4]) a segment passing
     0.35 from the centre is met when w ≥ 0.35, with probability 0.5 (closed form): the
-    bound is at least that and at most 1; it is absent unless asked for; a batch of
+    bound (the partition of w's range) is at least that and within 0.02 of it; it is absent unless asked for; a batch of
     segments and a trajectory beyond 2 000 pieces are typed errors."""
     name = unique()
     client.apply(name, scene=load_scene("illustrative-3"))
@@ -192,8 +192,9 @@ def test_verify_whole_path(client, unique):
     reply = client.verify(name, segment=seg, summary=True, whole_path=True)
     validate("verify_reply", reply)
     w = reply["whole_path_risk"]
-    assert 0.5 <= w["bound"] <= 1.0 and [o["id"] for o in w["obstacles"]] == ["disk"]
-    assert len(w["obstacles"][0]["pieces"]) == 1 and w["obstacles"][0]["how"] in ("pooled", "sum")
+    # the radius is uniform: the parameter space is partitioned, within 0.02 of the truth
+    assert 0.5 <= w["bound"] <= 0.52 and [o["id"] for o in w["obstacles"]] == ["disk"]
+    assert len(w["obstacles"][0]["pieces"]) == 1 and w["obstacles"][0]["how"] == "partition"
     with pytest.raises(riskplan.InvalidRequestError):
         client.verify(name, segments=[seg, seg], whole_path=True)
     n = 2_001
