@@ -114,8 +114,8 @@ pub struct FinalCheckStats {
     /// path.
     pub disagreements: u32,
     /// Wall time of the whole-path bound (`stats.whole_path_risk`), seconds (included in
-    /// `seconds`).
-    #[serde(default)]
+    /// `seconds`); absent (0) when none was computed.
+    #[serde(default, skip_serializing_if = "is_zero")]
     pub whole_path_seconds: f64,
 }
 
@@ -344,4 +344,9 @@ pub enum PlanError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// Whether a duration is exactly 0 (a field left out of the payload).
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
