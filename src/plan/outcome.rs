@@ -81,7 +81,7 @@ pub struct PlanStats {
     /// when its time ran out first and, outside trajectory mode, for receding-horizon plans
     /// (remade every cycle) and where an obstacle has a parameter without a rigorous
     /// distribution function; in `risk_mode: trajectory` the plan needs it ≤ Δ).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub whole_path_risk: Option<f64>,
     /// What a receding-horizon plan achieved (docs/design.md §6.9); `None` otherwise.
     #[serde(default)]
@@ -114,8 +114,8 @@ pub struct FinalCheckStats {
     /// path.
     pub disagreements: u32,
     /// Wall time of the whole-path bound (`stats.whole_path_risk`), seconds (included in
-    /// `seconds`); absent (0) when none was computed.
-    #[serde(default, skip_serializing_if = "is_zero")]
+    /// `seconds`); 0 when none was computed.
+    #[serde(default)]
     pub whole_path_seconds: f64,
 }
 
@@ -344,9 +344,4 @@ pub enum PlanError {
         /// What is wrong.
         message: String,
     },
-}
-
-/// Whether a duration is exactly 0 (a field left out of the payload).
-fn is_zero(v: &f64) -> bool {
-    *v == 0.0
 }
