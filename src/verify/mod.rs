@@ -187,7 +187,7 @@ pub fn whole_path_risk(
     for o in &scene.obstacles {
         let r = trajectory_path_risk(o.contour.get(), &refs, stop).ok_or(Interrupted)?;
         // the sum rounded up: a float at or above the exact sum of the obstacles' bounds
-        total = if r.bound == 0.0 { total } else { (total + r.bound).next_up() };
+        total = crate::certify::path_risk::add_up(total, r.bound);
         obstacles.push(ObstacleWholePath {
             id: o.id.clone(),
             bound: r.bound,
@@ -224,7 +224,7 @@ pub fn plan_whole_path_risk(
             None if !envelopes => return Ok(None),
             None => trajectory_path_risk(c, &refs, stop).ok_or(Interrupted)?.bound,
         };
-        total = if b == 0.0 { total } else { (total + b).next_up() };
+        total = crate::certify::path_risk::add_up(total, b);
         if total >= 1.0 {
             return Ok(Some(1.0));
         }

@@ -28,6 +28,7 @@
 //! trajectory is bounded at once (no sum over pieces).
 
 use super::super::compose::{substitutions, PieceRef};
+use super::add_up;
 use crate::contour::bounds::power_range;
 use crate::contour::RiskContour;
 use crate::moments::cdf::{mass_between, CdfLaw};
@@ -287,16 +288,6 @@ impl PartialOrd for Cell {
 impl Ord for Cell {
     fn cmp(&self, o: &Self) -> std::cmp::Ordering {
         self.mass.total_cmp(&o.mass)
-    }
-}
-
-/// `a + b` rounded up (both ≥ 0).
-fn add_up(a: f64, b: f64) -> f64 {
-    let s = a + b;
-    if s == 0.0 {
-        0.0
-    } else {
-        s.next_up()
     }
 }
 

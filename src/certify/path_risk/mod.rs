@@ -73,6 +73,18 @@ impl PiecePathRisk {
     }
 }
 
+/// `a + b` rounded up (both ≥ 0): sums of upper bounds of probabilities stay upper bounds
+/// (exact when either is 0).
+pub fn add_up(a: f64, b: f64) -> f64 {
+    if a == 0.0 {
+        b
+    } else if b == 0.0 {
+        a
+    } else {
+        (a + b).next_up()
+    }
+}
+
 /// A float ≥ `q`: the upper end of its outward-rounded enclosure.
 pub fn upper_f64(q: &BigRational) -> f64 {
     crate::poly::Interval::enclose_rational(q).hi
@@ -398,7 +410,7 @@ pub fn trajectory_path_risk(
             }
             each.push(b.map_or(1.0, |b| b.bound));
         }
-        let sum = each.iter().fold(0.0f64, |a, b| (a + b).next_up()).min(1.0);
+        let sum = each.iter().fold(0.0, |a, &b| add_up(a, b)).min(1.0);
         return Some(ObstaclePathRisk { bound: all.bound.min(sum), pieces: each, how: PathRiskHow::Partition });
     }
     if stop() {

@@ -458,7 +458,7 @@ impl MotionChecker for SceneCertifier {
                 // no rigorous distribution function: the moment envelopes
                 None => piece_path_risk(c, r, stop)?.bound_f64(),
             };
-            total = if b == 0.0 { total } else { (total + b).next_up() };
+            total = crate::certify::path_risk::add_up(total, b);
             if total >= 1.0 {
                 return Some(1.0);
             }

@@ -267,18 +267,11 @@ impl Planner for ConnectRrt {
             let pieces = if self.params.kinematics.smooth {
                 let t_imp = Instant::now();
                 let mut sm = SmoothStats { waypoints_before: timed.len(), ..Default::default() };
-                let mut short = shortcut(
-                    timed.clone(),
-                    p.horizon,
-                    false,
-                    None,
-                    checker,
-                    &counter,
-                    &mut rng,
-                    term,
-                    work_budget,
-                    self.params.path_budget,
-                );
+                let shorten = |path, rng: &mut ChaCha8Rng| {
+                    let budget = self.params.path_budget;
+                    shortcut(path, p.horizon, false, None, checker, &counter, rng, term, work_budget, budget)
+                };
+                let mut short = shorten(timed.clone(), &mut rng);
                 // more candidate paths (fresh trees) while the budget lasts, each within a few
                 // times the first's time: the shortest after shortcutting is kept (a tree may
                 // find a long way round)
@@ -292,18 +285,7 @@ impl Planner for ConnectRrt {
                         break;
                     };
                     let t = time_at_constant_speed(&other, p.horizon);
-                    let s = shortcut(
-                        t,
-                        p.horizon,
-                        false,
-                        None,
-                        checker,
-                        &counter,
-                        &mut rng,
-                        term,
-                        work_budget,
-                        self.params.path_budget,
-                    );
+                    let s = shorten(t, &mut rng);
                     if length(&s) < length(&short) {
                         short = s;
                     }

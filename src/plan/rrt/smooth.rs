@@ -30,6 +30,7 @@
 //! Every returned piece is accepted by the same motion checker as the plan's edges.
 
 use crate::plan::{dist, taylor_shift, within_speed, CheckCounter, Kinematics, Motion, MotionChecker, Termination};
+pub(crate) use crate::certify::path_risk::add_up;
 use crate::scene::{Piece, CONTINUITY_TOLERANCE};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -155,16 +156,6 @@ pub fn inside(mut piece: Piece, lower: &[f64], upper: &[f64]) -> Piece {
         }
     }
     piece
-}
-
-/// `a + b` rounded up (sums of upper bounds stay upper bounds).
-pub(crate) fn add_up(a: f64, b: f64) -> f64 {
-    let s = a + b;
-    if s == 0.0 {
-        0.0
-    } else {
-        s.next_up()
-    }
 }
 
 /// The sum over `pieces` of their whole-path bounds ([`MotionChecker::path_risk`], 1 when
