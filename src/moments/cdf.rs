@@ -19,6 +19,7 @@
 //! Other families (moment lists, beta or gamma with other shapes) have no [`CdfLaw`]: their
 //! obstacles use the moment bounds alone.
 
+use super::incomplete::{self, MAX_SHAPE, MIN_SHAPE};
 use super::Distribution;
 use crate::poly::Interval;
 use num_rational::BigRational;
@@ -77,6 +78,10 @@ enum Kind {
     Laplace { mu: Interval, inv_scale: Interval },
     /// Gamma with an integer shape k (Erlang) and 1/θ enclosed.
     Erlang { shape: u32, inv_scale: Interval },
+    /// Gamma with another shape a (enclosed), 1/θ and Γ(a) enclosed.
+    Gamma { shape: Interval, inv_scale: Interval, gamma: Interval },
+    /// Beta(α, β) with other shapes on [low, low + width]; B(α, β) enclosed.
+    BetaReal { alpha: Interval, beta: Interval, b: Interval, low: Interval, inv_width: Interval },
 }
 
 impl CdfLaw {
@@ -107,8 +112,18 @@ impl CdfLaw {
                 let int = |q: &BigRational| {
                     (q.is_integer() && q.is_positive()).then(|| q.to_integer().to_u64()).flatten().filter(|&k| k <= MAX_BETA_INTEGER)
                 };
-                let (a, b) = (int(alpha)? as u32, int(beta)? as u32);
                 let (l, h) = (enc(low), enc(high));
+                let (Some(a), Some(b)) = (int(alpha), int(beta)) else {
+                    let (a, b) = (enc(alpha), enc(beta));
+                    let bf = incomplete::beta_fn(a, b)?;
+                    return finite(CdfLaw {
+                        lo: l.lo,
+                        hi: h.hi,
+                        outside: 0.0,
+                        kind: Kind::BetaReal { alpha: a, beta: b, b: bf, low: l, inv_width: inv(&(high - low))? },
+                    });
+                };
+                let (a, b) = (a as u32, b as u32);
                 finite(CdfLaw {
                     lo: l.lo,
                     hi: h.hi,
@@ -138,10 +153,25 @@ impl CdfLaw {
                 finite(CdfLaw { lo, hi, outside, kind: Kind::Laplace { mu, inv_scale: inv(scale)? } })
             }
             Distribution::Gamma { shape, scale } => {
-                let k = (shape.is_integer() && shape.is_positive())
+                let Some(k) = (shape.is_integer() && shape.is_positive())
                     .then(|| shape.to_integer().to_u64())
                     .flatten()
-                    .filter(|&k| k <= MAX_BETA_INTEGER)? as u32;
+                    .filter(|&k| k <= MAX_BETA_INTEGER)
+                else {
+                    // [0, Y·θ] with Y = incomplete::gamma_split(a): the tail beyond is
+                    // Γ(a, Y)/Γ(a), bounded from its enclosures
+                    let a = enc(shape);
+                    if !(a.lo >= MIN_SHAPE && a.hi <= MAX_SHAPE) {
+                        return None;
+                    }
+                    let gamma = incomplete::gamma_fn(a)?;
+                    let y = incomplete::gamma_split(a.hi);
+                    let hi = (Interval::point(y) * enc(scale)).hi;
+                    let tail = incomplete::upper_gamma_tail(a, y)?;
+                    let outside = incomplete::div_pos(Interval::point(tail), gamma).hi.min(1.0);
+                    return finite(CdfLaw { lo: 0.0, hi, outside, kind: Kind::Gamma { shape: a, inv_scale: inv(scale)?, gamma } });
+                };
+                let k = k as u32;
                 // [0, y·θ] with y = k + 10√k + 50: the tail e^(−y)·Σ_{j<k} y^j/j! is below
                 // 10⁻²⁰ for every k ≤ 64 (bounded here from its enclosure)
                 let y = f64::from(k) + 10.0 * f64::from(k).sqrt() + 50.0;
@@ -229,6 +259,26 @@ impl CdfLaw {
                 } else {
                     erlang_cdf(*shape, Interval::point(x) * *inv_scale)
                 }
+            }
+            Kind::Gamma { shape, inv_scale, gamma } => {
+                if x <= 0.0 {
+                    Interval::point(0.0)
+                } else {
+                    // P(a, ·) is increasing: each end from its end of y
+                    let y = Interval::point(x) * *inv_scale;
+                    let (l, h) = (
+                        incomplete::gamma_p(*shape, *gamma, Interval::point(y.lo)),
+                        incomplete::gamma_p(*shape, *gamma, Interval::point(y.hi)),
+                    );
+                    Interval::new(l.lo, h.hi)
+                }
+            }
+            Kind::BetaReal { alpha, beta, b, low, inv_width } => {
+                let u = (Interval::point(x) - *low) * *inv_width;
+                Interval::new(
+                    incomplete::beta_i(*alpha, *beta, *b, u.lo).lo,
+                    incomplete::beta_i(*alpha, *beta, *b, u.hi).hi,
+                )
             }
         };
         Interval::new(v.lo.max(0.0), v.hi.min(1.0))
@@ -494,7 +544,8 @@ mod tests {
             let t = b.cdf(c) - b.cdf(a);
             assert!(m >= t - 1e-15 && m <= t + 1e-12, "[{a}, {c}]: {m} vs {t}");
         }
-        assert!(CdfLaw::of(&Distribution::Beta { alpha: q("9"), beta: q("0.5"), low: q("0"), high: q("1") }).is_none());
+        assert!(CdfLaw::of(&Distribution::Beta { alpha: q("9"), beta: q("0.5"), low: q("0"), high: q("1") }).is_some());
+        assert!(CdfLaw::of(&Distribution::Beta { alpha: q("90.5"), beta: q("0.5"), low: q("0"), high: q("1") }).is_none());
         // exponential, Laplace, Erlang against statrs (accurate to ~10⁻¹⁰ here)
         use statrs::distribution::{Exp, Gamma, Laplace};
         let check = |law: &CdfLaw, f: &dyn Fn(f64) -> f64, pts: &[(f64, f64)]| {
@@ -515,7 +566,15 @@ mod tests {
         let gd = Gamma::new(3.0, 2.0).unwrap(); // statrs: shape and rate
         check(&g, &|x| gd.cdf(x), &[(0.0, 0.5), (0.7, 2.0), (3.0, 9.0)]);
         assert!(g.outside < 1e-19, "{}", g.outside);
-        assert!(CdfLaw::of(&Distribution::Gamma { shape: q("2.5"), scale: q("1") }).is_none());
+        assert!(CdfLaw::of(&Distribution::Gamma { shape: q("64.5"), scale: q("1") }).is_none());
+        // other shapes by the series (incomplete.rs holds them to mpmath's values)
+        let g = CdfLaw::of(&Distribution::Gamma { shape: q("2.5"), scale: q("0.5") }).unwrap();
+        let gd = Gamma::new(2.5, 2.0).unwrap();
+        check(&g, &|x| gd.cdf(x), &[(0.0, 0.5), (0.7, 2.0), (3.0, 9.0)]);
+        assert!(g.outside < 1e-19, "{}", g.outside);
+        let bl = CdfLaw::of(&Distribution::Beta { alpha: q("3.39"), beta: q("4.93"), low: q("-1"), high: q("1") }).unwrap();
+        let bd = Beta::new(3.39, 4.93).unwrap();
+        check(&bl, &|x| bd.cdf((x + 1.0) / 2.0), &[(-1.0, -0.5), (-0.2, 0.3), (0.5, 1.0)]);
         // discrete: an atom at a box's end counts
         let d = CdfLaw::of(&Distribution::Discrete { values: vec![q("0.5"), q("1"), q("2")], weights: vec![q("0.25"), q("0.5"), q("0.25")] }).unwrap();
         assert!(d.mass_upper(1.0, 1.0) >= 0.5 && d.mass_upper(1.0, 1.0) < 0.5 + 1e-12);

@@ -7,6 +7,7 @@
 //! [`Sampler`] draws the same distributions with `rand_distr` for Monte Carlo.
 
 pub mod cdf;
+pub mod incomplete;
 mod sample;
 
 pub use sample::Sampler;
