@@ -1,7 +1,7 @@
 //! The partition bound of the whole-path event (docs/design.md §5.14): when every
 //! parameter of an obstacle has a distribution function that can be bounded rigorously
-//! ([`CdfLaw`]: uniform, normal, discrete, exponential, Laplace, beta and gamma with integer
-//! shapes), the parameter space itself is
+//! ([`CdfLaw`]: uniform, normal, discrete, exponential, Laplace, beta and gamma with shapes
+//! in [10⁻³, 64]), the parameter space itself is
 //! partitioned, instead of bounding the event by moments.
 //!
 //! The event of a trajectory is E = {ω : ∃ t, P(x(t), ω, t) ≥ 0}. Cover the parameters'
