@@ -19,7 +19,7 @@
 //! Other families (moment lists, beta or gamma with other shapes) have no [`CdfLaw`]: their
 //! obstacles use the moment bounds alone.
 
-use super::incomplete::{self, MAX_SHAPE, MIN_SHAPE};
+use super::incomplete;
 use super::Distribution;
 use crate::poly::Interval;
 use num_rational::BigRational;
@@ -88,7 +88,8 @@ impl CdfLaw {
     /// The law of a distribution, when it is one of the families above (module docs).
     pub fn of(d: &Distribution) -> Option<CdfLaw> {
         let enc = Interval::enclose_rational;
-        let inv = |q: &BigRational| (q.is_positive()).then(|| enc(&(BigRational::one() / q)));
+        // (an inverse that overflows would leave the law useless: none then)
+        let inv = |q: &BigRational| (q.is_positive()).then(|| enc(&(BigRational::one() / q))).filter(|i| i.hi.is_finite());
         match d {
             Distribution::Uniform { low, high } => {
                 let (a, b) = (enc(low), enc(high));
@@ -161,7 +162,7 @@ impl CdfLaw {
                     // [0, Y·θ] with Y = incomplete::gamma_split(a): the tail beyond is
                     // Γ(a, Y)/Γ(a), bounded from its enclosures
                     let a = enc(shape);
-                    if !(a.lo >= MIN_SHAPE && a.hi <= MAX_SHAPE) {
+                    if !incomplete::shape_in_range(a) {
                         return None;
                     }
                     let gamma = incomplete::gamma_fn(a)?;

@@ -62,6 +62,12 @@ pub fn exp(v: Interval) -> Interval {
     Interval::new(lo, hi)
 }
 
+/// A product of non-negative factors, its lower end kept at 0 when the outward rounding of
+/// an underflow took it below (the product itself is ≥ 0).
+fn nonneg(v: Interval) -> Interval {
+    Interval::new(v.lo.max(0.0), v.hi)
+}
+
 /// a/b for a ≥ 0 and b > 0 (b.lo > 0), outward-rounded; [0, ∞] otherwise.
 pub fn div_pos(a: Interval, b: Interval) -> Interval {
     if !(a.lo >= 0.0) || !(b.lo > 0.0) || a.hi.is_nan() || b.hi.is_nan() {
@@ -82,10 +88,10 @@ fn positive_series(t0: Interval, ratio: &dyn Fn(u32) -> Interval, tail_ratio: &d
         let rho = tail_ratio(k);
         if rho < 1.0 && term.hi <= sum.lo * NEGLIGIBLE_TERM_REL {
             // the rest: Σ_{j>k} tⱼ ≤ tₖ·(ρ + ρ² + …) = tₖ·ρ/(1 − ρ)
-            let rest = div_pos(term * Interval::point(rho), Interval::point(1.0) - Interval::point(rho));
+            let rest = div_pos(nonneg(term * Interval::point(rho)), Interval::point(1.0) - Interval::point(rho));
             return Some(sum + Interval::new(0.0, rest.hi));
         }
-        term = term * ratio(k);
+        term = nonneg(term * ratio(k));
         sum = sum + term;
         if !sum.hi.is_finite() {
             return None;
@@ -119,12 +125,12 @@ fn lower_gamma(a: Interval, y: Interval) -> Option<Interval> {
         let top = exp(a * ln(Interval::point(y.hi))).hi;
         return Some(Interval::new(0.0, (top * s.hi).next_up()));
     }
-    Some(exp(a * ln(y) - y) * s)
+    Some(nonneg(exp(a * ln(y) - y) * s))
 }
 
 /// Γ(a) for a in [`MIN_SHAPE`, `MAX_SHAPE`], enclosed, and the Y it was split at.
 pub fn gamma_fn(a: Interval) -> Option<Interval> {
-    if !(a.lo >= MIN_SHAPE) || !(a.hi <= MAX_SHAPE) {
+    if !shape_in_range(a) {
         return None;
     }
     let y = gamma_split(a.hi);
@@ -132,6 +138,12 @@ pub fn gamma_fn(a: Interval) -> Option<Interval> {
     let tail = upper_gamma_tail(a, y)?;
     let v = Interval::new(low.lo, (low.hi + tail).next_up());
     (v.lo > 0.0 && v.hi.is_finite()).then_some(v)
+}
+
+/// Whether a shape's enclosure lies in [[`MIN_SHAPE`], [`MAX_SHAPE`]] (an ulp of slack
+/// below: the enclosure of the decimal 0.001 starts at the float under it).
+pub fn shape_in_range(a: Interval) -> bool {
+    a.lo >= MIN_SHAPE.next_down() && a.hi <= MAX_SHAPE
 }
 
 /// The point Y = a + 10√a + 50 where Γ(a) is split: the upper tail beyond it is below
@@ -196,13 +208,12 @@ fn incomplete_beta_low(alpha: Interval, beta: Interval, u: Interval) -> Option<I
     } else {
         exp(alpha * ln(u) + beta * ln(one - u))
     };
-    Some(div_pos(lead * s, alpha))
+    Some(div_pos(nonneg(lead * s), alpha))
 }
 
 /// B(α, β) = B_½(α, β) + B_½(β, α), enclosed, for shapes in [`MIN_SHAPE`, `MAX_SHAPE`].
 pub fn beta_fn(alpha: Interval, beta: Interval) -> Option<Interval> {
-    let ok = |s: Interval| s.lo >= MIN_SHAPE && s.hi <= MAX_SHAPE;
-    if !ok(alpha) || !ok(beta) {
+    if !shape_in_range(alpha) || !shape_in_range(beta) {
         return None;
     }
     let half = Interval::point(0.5);
@@ -308,5 +319,11 @@ mod tests {
         let t = upper_gamma_tail(pt(2.0), 10.0).unwrap();
         assert!(t >= 11.0 * (-10f64).exp());
         assert!(gamma_p(pt(2.0), gamma_fn(pt(2.0)).unwrap(), pt(0.0)).hi < 1e-300);
+        // underflowing products keep a usable enclosure (the review's cases; true values
+        // 3.0·10⁻³⁷⁶ and 1 − 10⁻³⁸⁰ or so)
+        assert!(gamma_p(pt(2.5), gamma_fn(pt(2.5)).unwrap(), pt(1e-150)).hi < 1e-300);
+        let b = beta_fn(pt(2.5), pt(63.5)).unwrap();
+        assert!(beta_i(pt(2.5), pt(63.5), b, 0.999999).lo > 1.0 - 1e-12);
+        assert!(gamma_fn(Interval::new(1e-3f64.next_down(), 1e-3)).is_some());
     }
 }

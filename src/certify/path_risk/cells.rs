@@ -525,13 +525,48 @@ mod tests {
         assert!((0.5..0.52).contains(&v), "{v}");
     }
 
-    /// An obstacle with a parameter of no rigorous distribution function (gamma of shape 2.5) is left to
-    /// the moment bounds.
+    /// An obstacle with a parameter of no rigorous distribution function (a moment list) is
+    /// left to the moment bounds.
     #[test]
     fn no_partition_without_laws() {
-        let c = contour("w - x1^2 - x2^2", &[("w", Distribution::Gamma { shape: q("2.5"), scale: q("0.1") })]);
+        let raw = Distribution::Uniform { low: q("0"), high: q("0.2") }.raw_moments(32).unwrap();
+        let c = contour("w - x1^2 - x2^2", &[("w", Distribution::Moments { raw: raw[1..].to_vec() })]);
         let p = crate::scene::Piece::segment(&[-1.0, 0.5], &[1.0, 0.5], 0.0, 1.0);
         let r = PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs };
         assert!(cells_path_risk(&c, &[r], CellEffort::REPORT, &|| false).is_none());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(32))]
+        /// Gamma and beta parameters of non-integer shapes (moments/incomplete.rs) against the
+        /// closed form of a disk of uncertain size about the origin, the truth from statrs'
+        /// distribution functions (independent code, accurate to about 10⁻¹⁰): a disk of
+        /// squared radius w ~ Γ(2.5, 0.1) (hit iff w ≥ d²) and one of radius
+        /// r ~ 0.3 + 0.1·Beta(3.39, 4.93) (hit iff r ≥ d); at least the truth, within 0.02.
+        #[test]
+        fn the_partition_covers_the_closed_form_with_gamma_and_beta_sizes(
+            dg in 0.0f64..0.9, db in 0.28f64..0.42, theta in 0.0f64..6.3, half in 0.05f64..1.0,
+        ) {
+            use statrs::distribution::{Beta, ContinuousCDF, Gamma};
+            // a segment at distance d from the origin (its closest point at the middle)
+            let segment = |d: f64| {
+                let (c, n) = ([d * theta.cos(), d * theta.sin()], [-theta.sin(), theta.cos()]);
+                let (a, b) = ([c[0] - half * n[0], c[1] - half * n[1]], [c[0] + half * n[0], c[1] + half * n[1]]);
+                ([crate::scene::Piece::segment(&a, &b, 0.0, 1.0)], d_min(a, b))
+            };
+            let (pieces, d) = segment(dg);
+            let g = contour("w - x1^2 - x2^2", &[("w", Distribution::Gamma { shape: q("2.5"), scale: q("0.1") })]);
+            let truth = Gamma::new(2.5, 10.0).unwrap().sf(d * d);
+            let v = bound(&g, &pieces);
+            prop_assert!(v >= truth - 1e-9, "gamma: bound {v} < truth {truth} at distance {d}");
+            prop_assert!(v <= truth + 0.02, "gamma: bound {v} loose against truth {truth} at distance {d}");
+            let (pieces, d) = segment(db);
+            let beta = Distribution::Beta { alpha: q("3.39"), beta: q("4.93"), low: q("0.3"), high: q("0.4") };
+            let bt = contour("w^2 - x1^2 - x2^2", &[("w", beta)]);
+            let truth = if d <= 0.3 { 1.0 } else if d >= 0.4 { 0.0 } else { Beta::new(3.39, 4.93).unwrap().sf((d - 0.3) / 0.1) };
+            let v = bound(&bt, &pieces);
+            prop_assert!(v >= truth - 1e-9, "beta: bound {v} < truth {truth} at distance {d}");
+            prop_assert!(v <= truth + 0.02, "beta: bound {v} loose against truth {truth} at distance {d}");
+        }
     }
 }
