@@ -82,7 +82,27 @@ enum Kind {
     Gamma { shape: Interval, inv_scale: Interval, gamma: Interval },
     /// Beta(α, β) with other shapes on [low, low + width]; B(α, β) enclosed.
     BetaReal { alpha: Interval, beta: Interval, b: Interval, low: Interval, inv_width: Interval },
+    /// Known by its moments only: the mean, the variance and the even central moments of
+    /// order ≥ 4 (enclosed), and the support when one is known (enclosures of its ends).
+    Moments {
+        mean: Interval,
+        var: Interval,
+        central: Vec<(u32, Interval)>,
+        support: (Option<Interval>, Option<Interval>),
+        /// Distances ρₖ from the mean where the moment bound falls to 2⁻ᵏ, k = 1, 2, …:
+        /// the partition's split points (see [`CdfLaw::split`]).
+        grid: Vec<f64>,
+    },
 }
+
+/// The probability a parameter known by its moments only is given outside its range: the
+/// range is μ ± r with r the least radius whose moment bound τ(r) is at most this
+/// (negligible beside any risk level; added to every bound that uses the parameter).
+pub const MOMENT_LAW_TAIL: f64 = 1e-12;
+
+/// Raw moments used for a gamma or beta parameter known by its moments only (orders up to
+/// 8: the Markov bound of order 8 decays as d⁻⁸).
+pub const MOMENT_LAW_ORDER: u32 = 8;
 
 impl CdfLaw {
     /// The law of a distribution, when it is one of the families above (module docs).
@@ -116,7 +136,10 @@ impl CdfLaw {
                 let (l, h) = (enc(low), enc(high));
                 let (Some(a), Some(b)) = (int(alpha), int(beta)) else {
                     let (a, b) = (enc(alpha), enc(beta));
-                    let bf = incomplete::beta_fn(a, b)?;
+                    let Some(bf) = incomplete::beta_fn(a, b) else {
+                        let raw = d.raw_moments(MOMENT_LAW_ORDER).ok()?;
+                        return CdfLaw::from_moments(&raw[1..], Some(l.lo), Some(h.hi));
+                    };
                     return finite(CdfLaw {
                         lo: l.lo,
                         hi: h.hi,
@@ -162,10 +185,9 @@ impl CdfLaw {
                     // [0, Y·θ] with Y = incomplete::gamma_split(a): the tail beyond is
                     // Γ(a, Y)/Γ(a), bounded from its enclosures
                     let a = enc(shape);
-                    if !incomplete::shape_in_range(a) {
-                        return None;
-                    }
-                    let gamma = incomplete::gamma_fn(a)?;
+                    let Some(gamma) = incomplete::gamma_fn(a) else {
+                        return CdfLaw::from_moments(&d.raw_moments(MOMENT_LAW_ORDER).ok()?[1..], Some(0.0), None);
+                    };
                     let y = incomplete::gamma_split(a.hi);
                     let hi = (Interval::point(y) * enc(scale)).hi;
                     let tail = incomplete::upper_gamma_tail(a, y)?;
@@ -180,8 +202,116 @@ impl CdfLaw {
                 let outside = erlang_tail_upper(k, y);
                 finite(CdfLaw { lo: 0.0, hi, outside, kind: Kind::Erlang { shape: k, inv_scale: inv(scale)? } })
             }
-            _ => None,
+            Distribution::Moments { raw } => CdfLaw::from_moments(raw, None, None),
         }
+    }
+
+    /// The law of a parameter known by its raw moments `raw[k − 1]` = E[ω^k] (at least the
+    /// mean and the second moment), with a support [low, high] when one is known (module
+    /// docs). `None` when the variance is not positive and finite.
+    pub fn from_moments(raw: &[BigRational], low: Option<f64>, high: Option<f64>) -> Option<CdfLaw> {
+        if raw.len() < 2 {
+            return None;
+        }
+        let mean = &raw[0];
+        // central moments c_j = Σᵢ C(j, i)·mᵢ·(−μ)^(j−i), exactly
+        let central = |j: usize| -> BigRational {
+            let mut c = BigRational::zero();
+            let minus_mu = -mean.clone();
+            for i in 0..=j {
+                let m_i = if i == 0 { BigRational::one() } else { raw[i - 1].clone() };
+                c += super::binomial(j as u32, i as u32) * m_i * num_traits::pow(minus_mu.clone(), j - i);
+            }
+            c
+        };
+        let enc = Interval::enclose_rational;
+        let var = enc(&central(2));
+        if !(var.lo > 0.0) || !var.hi.is_finite() {
+            return None;
+        }
+        let higher: Vec<(u32, Interval)> = (4..=raw.len())
+            .step_by(2)
+            .map(|j| (j as u32, enc(&central(j))))
+            .filter(|(_, c)| c.lo >= 0.0 && c.hi.is_finite())
+            .collect();
+        let mu = enc(mean);
+        // the least radius where one of the bounds is at most p (a float estimate: split
+        // points and the range's radius may be any numbers, the masses are computed after)
+        let radius = |p: f64| {
+            let mut r = (var.hi * (1.0 / p - 1.0)).sqrt();
+            for (j, c) in &higher {
+                r = r.min((c.hi / p).powf(1.0 / f64::from(*j)));
+            }
+            r
+        };
+        let grid: Vec<f64> = (1..)
+            .map(|k| (-(k as f64)).exp2())
+            .take_while(|&p| p >= MOMENT_LAW_TAIL)
+            .map(radius)
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .collect();
+        let r = radius(MOMENT_LAW_TAIL) * (1.0 + 1e-9);
+        let kind =
+            Kind::Moments { mean: mu, var, central: higher, support: (low.map(Interval::point), high.map(Interval::point)), grid };
+        let (mut lo, mut hi) = ((mu - Interval::point(r)).lo, (mu + Interval::point(r)).hi);
+        let (mut out_lo, mut out_hi) = (true, true);
+        if let Some(l) = low.filter(|&l| l >= lo) {
+            lo = l;
+            out_lo = false;
+        }
+        if let Some(h) = high.filter(|&h| h <= hi) {
+            hi = h;
+            out_hi = false;
+        }
+        let law = CdfLaw { lo, hi, outside: 0.0, kind };
+        // P(ω < lo) + P(ω > hi), each side by the moment bound at its distance from μ
+        let left = if out_lo { law.moment_tail((mu - Interval::point(lo)).lo) } else { 0.0 };
+        let right = if out_hi { law.moment_tail((Interval::point(hi) - mu).lo) } else { 0.0 };
+        let outside = (left + right).next_up().min(1.0);
+        finite(CdfLaw { outside, ..law })
+    }
+
+    /// τ(d) ≥ P(ω − μ ≥ d) and ≥ P(ω − μ ≤ −d), for a law known by its moments (1 for
+    /// other laws, or d ≤ 0).
+    fn moment_tail(&self, d: f64) -> f64 {
+        let Kind::Moments { var, central, .. } = &self.kind else { return 1.0 };
+        if !(d > 0.0) {
+            return 1.0;
+        }
+        let di = Interval::point(d);
+        // Cantelli: σ²/(σ² + d²), increasing in σ²
+        let v = Interval::point(var.hi);
+        let mut best = incomplete::div_pos(v, v + di * di).hi;
+        // Markov on (ω − μ)^j: c_j/d^j
+        for (j, c) in central {
+            let dj = (0..*j).fold(Interval::point(1.0), |acc, _| acc * di);
+            if dj.lo > 0.0 {
+                best = best.min(incomplete::div_pos(Interval::point(c.hi), dj).hi);
+            }
+        }
+        best.clamp(0.0, 1.0)
+    }
+
+    /// Where the partition halves a side [a, b] of a box: the middle, or for a law known by
+    /// its moments the point of its grid μ ± ρₖ inside (a, b) in the middle of those inside —
+    /// along a chain of boxes in a tail the bounds τ(ρₖ) = 2⁻ᵏ then add up to at most twice
+    /// the first (a dyadic split would add nearly equal tails, one per halving). `None`
+    /// when no point lies strictly inside (the side is not split).
+    pub fn split(&self, a: f64, b: f64) -> Option<f64> {
+        if let Kind::Moments { mean, grid, .. } = &self.kind {
+            let m = mean.mid();
+            let inside: Vec<f64> = grid
+                .iter()
+                .rev()
+                .map(|r| m - r)
+                .chain(std::iter::once(m))
+                .chain(grid.iter().map(|r| m + r))
+                .filter(|&x| x > a && x < b)
+                .collect();
+            return inside.get(inside.len() / 2).copied();
+        }
+        let mid = 0.5 * a + 0.5 * b;
+        (mid > a && mid < b).then_some(mid)
     }
 
     /// An enclosure of the distribution function F(x) = P(ω ≤ x), within [0, 1].
@@ -272,6 +402,21 @@ impl CdfLaw {
                         incomplete::gamma_p(*shape, *gamma, Interval::point(y.hi)),
                     );
                     Interval::new(l.lo, h.hi)
+                }
+            }
+            Kind::Moments { mean, support, .. } => {
+                if support.0.is_some_and(|l| x < l.lo) {
+                    Interval::point(0.0)
+                } else if support.1.is_some_and(|h| x >= h.hi) {
+                    Interval::point(1.0)
+                } else if (*mean - Interval::point(x)).lo > 0.0 {
+                    // x < μ: F(x) ≤ P(ω − μ ≤ −(μ − x))
+                    Interval::new(0.0, self.moment_tail((*mean - Interval::point(x)).lo))
+                } else if (Interval::point(x) - *mean).lo > 0.0 {
+                    // x > μ: 1 − F(x) = P(ω > x) ≤ P(ω − μ ≥ x − μ)
+                    Interval::new((1.0 - self.moment_tail((Interval::point(x) - *mean).lo)).next_down(), 1.0)
+                } else {
+                    unit
                 }
             }
             Kind::BetaReal { alpha, beta, b, low, inv_width } => {
@@ -546,7 +691,7 @@ mod tests {
             assert!(m >= t - 1e-15 && m <= t + 1e-12, "[{a}, {c}]: {m} vs {t}");
         }
         assert!(CdfLaw::of(&Distribution::Beta { alpha: q("9"), beta: q("0.5"), low: q("0"), high: q("1") }).is_some());
-        assert!(CdfLaw::of(&Distribution::Beta { alpha: q("90.5"), beta: q("0.5"), low: q("0"), high: q("1") }).is_none());
+        assert!(matches!(CdfLaw::of(&Distribution::Beta { alpha: q("90.5"), beta: q("0.5"), low: q("0"), high: q("1") }), Some(CdfLaw { kind: Kind::Moments { .. }, .. })));
         // exponential, Laplace, Erlang against statrs (accurate to ~10⁻¹⁰ here)
         use statrs::distribution::{Exp, Gamma, Laplace};
         let check = |law: &CdfLaw, f: &dyn Fn(f64) -> f64, pts: &[(f64, f64)]| {
@@ -567,7 +712,7 @@ mod tests {
         let gd = Gamma::new(3.0, 2.0).unwrap(); // statrs: shape and rate
         check(&g, &|x| gd.cdf(x), &[(0.0, 0.5), (0.7, 2.0), (3.0, 9.0)]);
         assert!(g.outside < 1e-19, "{}", g.outside);
-        assert!(CdfLaw::of(&Distribution::Gamma { shape: q("64.5"), scale: q("1") }).is_none());
+        assert!(matches!(CdfLaw::of(&Distribution::Gamma { shape: q("64.5"), scale: q("1") }), Some(CdfLaw { kind: Kind::Moments { .. }, .. })));
         // other shapes by the series (incomplete.rs holds them to mpmath's values)
         let g = CdfLaw::of(&Distribution::Gamma { shape: q("2.5"), scale: q("0.5") }).unwrap();
         let gd = Gamma::new(2.5, 2.0).unwrap();
@@ -582,5 +727,39 @@ mod tests {
         assert!(d.mass_upper(0.5, 2.0) >= 1.0);
         assert!(d.mass_upper(1.1, 1.9) < 1e-15); // between atoms: the rounding of the two ends only
         assert!(d.mass_upper(0.0, 0.9) >= 0.25 && d.mass_upper(0.0, 0.9) < 0.25 + 1e-12);
+    }
+
+    /// Laws known by moments only enclose the true distribution function (statrs, an
+    /// independent implementation): a moment list of N(0, 1) (orders 2, 4, 6, 8), a gamma
+    /// of shape 80 and a beta of shapes (90.5, 3) from their moments; the mass outside the
+    /// range is above the true tail and at most MOMENT_LAW_TAIL; a box's mass is at least its
+    /// probability.
+    #[test]
+    fn moment_laws_enclose_the_distribution_function() {
+        use statrs::distribution::Gamma;
+        let normal_raw: Vec<BigRational> = ["0", "1", "0", "3", "0", "15", "0", "105"].iter().map(|s| q(s)).collect();
+        let nl = CdfLaw::of(&Distribution::Moments { raw: normal_raw }).unwrap();
+        let n = Normal::new(0.0, 1.0).unwrap();
+        assert!(nl.outside <= 2.0 * MOMENT_LAW_TAIL * 1.0001 && nl.outside >= 2.0 * n.cdf(nl.lo), "{nl:?}");
+        let gl = CdfLaw::of(&Distribution::Gamma { shape: q("80"), scale: q("0.5") }).unwrap();
+        let g = Gamma::new(80.0, 2.0).unwrap();
+        assert!(gl.lo >= 0.0 && gl.outside >= g.cdf(gl.lo) + g.sf(gl.hi), "{gl:?}");
+        let bl = CdfLaw::of(&Distribution::Beta { alpha: q("90.5"), beta: q("3"), low: q("2"), high: q("4") }).unwrap();
+        let b = Beta::new(90.5, 3.0).unwrap();
+        let bcdf = |x: f64| b.cdf(((x - 2.0) / 2.0).clamp(0.0, 1.0));
+        assert!(bl.hi <= 4.0 && bl.lo >= 2.0 && bl.outside >= bcdf(bl.lo), "{bl:?}");
+        for (law, f) in [(&nl, &(|x: f64| n.cdf(x)) as &dyn Fn(f64) -> f64), (&gl, &|x: f64| g.cdf(x)), (&bl, &bcdf)] {
+            let (lo, hi) = (law.lo.max(-50.0), law.hi.min(200.0));
+            for i in 0..=400 {
+                let x = lo + (hi - lo) * f64::from(i) / 400.0;
+                let e = law.cdf(x);
+                let v = f(x);
+                assert!(e.lo <= v + 1e-12 && v - 1e-12 <= e.hi, "F({x}) = {v} not in {e:?} ({law:?})");
+                let y = x + (hi - lo) / 97.0;
+                assert!(law.mass_upper(x, y) >= f(y) - v - 1e-12, "[{x}, {y}]");
+            }
+        }
+        // no law without a variance
+        assert!(CdfLaw::of(&Distribution::Moments { raw: vec![q("1"), q("1")] }).is_none());
     }
 }
