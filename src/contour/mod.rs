@@ -20,7 +20,7 @@ pub mod tail;
 
 pub use bounds::{BoundChoice, BoundKind, HigherLimit, HigherMoments, PointBounds, SupportForm, UnknownBound};
 
-use crate::poly::{rational_to_f64, Interval, Poly, QPoly, Var};
+use crate::poly::{rational_to_f64, Interval, Monomial, Poly, QPoly, Var};
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use std::sync::{Arc, OnceLock};
@@ -131,7 +131,17 @@ pub struct RiskContour {
     /// The parameters' laws where their distribution function can be bounded rigorously
     /// (the whole-path bound's partition of the parameter space, §5.14).
     laws: Vec<(Var, crate::moments::cdf::CdfLaw)>,
+    /// P in centred, scaled coordinates, per frame asked (the last [`CENTRED_FRAMES_KEPT`];
+    /// shared by clones: the whole-path partition of every scene that uses this contour).
+    centred: Arc<std::sync::Mutex<Vec<CentredPoly>>>,
 }
+
+/// P(c + 2^e·z, ω, t_c + 2^(e_t)·τ) for one frame (center, exponents), exact then enclosed.
+type CentredPoly = (Vec<f64>, Vec<i32>, Arc<Poly<Interval>>);
+
+/// Frames whose centred P a contour keeps (a contour is shared by the scenes of a cache; a
+/// scene has one frame).
+pub const CENTRED_FRAMES_KEPT: usize = 4;
 
 impl RiskContour {
     /// Builds E\[P\] and E\[P²\] from the obstacle polynomial and the raw moments of its
@@ -174,6 +184,7 @@ impl RiskContour {
             higher: OnceLock::new(),
             raw_i: OnceLock::new(),
             laws: Vec::new(),
+            centred: Default::default(),
         })
     }
 
@@ -191,6 +202,48 @@ impl RiskContour {
     pub fn with_laws(mut self, laws: &[(Var, &crate::moments::Distribution)]) -> Self {
         self.laws = laws.iter().filter_map(|(v, d)| Some((*v, crate::moments::cdf::CdfLaw::of(d)?))).collect();
         self
+    }
+
+    /// P in the frame z_v = (x_v − c_v)·2^(−e_v) (space, then time; docs/design.md §5.10):
+    /// P(c + 2^e·z, ω, t_c + 2^(e_t)·τ) formed exactly and enclosed coefficient by
+    /// coefficient — far from the origin, P's own coefficients cancel (a quartic at x ≈ 10³
+    /// has terms of 10¹² for values of 10⁻⁶) and interval evaluations in x lose every
+    /// digit; in the frame they do not (the whole-path partition, §5.14). `center` and
+    /// `exponents` have dim + 1 entries (`None` otherwise, or for a centre that is not
+    /// finite or an exponent beyond ±1100); cached per frame.
+    pub fn centred_poly(&self, center: &[f64], exponents: &[i32]) -> Option<Arc<Poly<Interval>>> {
+        let n = self.layout.dim + 1;
+        if center.len() != n || exponents.len() != n || exponents.iter().any(|e| e.abs() > 1100) {
+            return None;
+        }
+        {
+            let kept = self.centred.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some((_, _, p)) = kept.iter().find(|(c, e, _)| c == center && e == exponents) {
+                return Some(p.clone());
+            }
+        }
+        let subs: Vec<Option<QPoly>> = (0..n)
+            .map(|v| {
+                let c = BigRational::from_float(*center.get(v)?)?;
+                let e = *exponents.get(v)?;
+                let two = BigRational::from_integer(2.into());
+                let scale = if e >= 0 { num_traits::pow(two, e as usize) } else { BigRational::one() / num_traits::pow(two, (-e) as usize) };
+                let mut p = QPoly::constant(c);
+                p.add_term(Monomial::var_pow(v as Var, 1), scale);
+                Some(p)
+            })
+            .collect();
+        if !subs.iter().all(Option::is_some) {
+            return None;
+        }
+        let exact = self.poly.subst(&|v| subs.get(v as usize).cloned().flatten());
+        let p = Arc::new(exact.map_coeffs(Interval::enclose_rational));
+        let mut kept = self.centred.lock().unwrap_or_else(|e| e.into_inner());
+        if kept.len() >= CENTRED_FRAMES_KEPT {
+            kept.remove(0);
+        }
+        kept.push((center.to_vec(), exponents.to_vec(), p.clone()));
+        Some(p)
     }
 
     /// The law of parameter `v`, when [`Self::with_laws`] gave one with a rigorous

@@ -184,8 +184,9 @@ pub fn whole_path_risk(
     let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
     let mut total = 0.0f64;
     let mut obstacles = Vec::with_capacity(scene.obstacles.len());
+    let frame = crate::certify::scene::scene_frame(scene);
     for o in &scene.obstacles {
-        let r = trajectory_path_risk(o.contour.get(), &refs, stop).ok_or(Interrupted)?;
+        let r = trajectory_path_risk(o.contour.get(), &refs, &frame, stop).ok_or(Interrupted)?;
         // the sum rounded up: a float at or above the exact sum of the obstacles' bounds
         total = crate::certify::path_risk::add_up(total, r.bound);
         obstacles.push(ObstacleWholePath {
@@ -216,13 +217,14 @@ pub fn plan_whole_path_risk(
     use crate::certify::path_risk::{cells_path_risk, trajectory_path_risk};
     let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
     let mut total = 0.0f64;
+    let frame = crate::certify::scene::scene_frame(kernel.scene());
     for o in &kernel.scene().obstacles {
         let c = o.contour.get();
-        let b = match cells_path_risk(c, &refs, effort, stop) {
+        let b = match cells_path_risk(c, &refs, &frame, effort, stop) {
             Some(b) => b.bound,
             None if stop() => return Err(Interrupted),
             None if !envelopes => return Ok(None),
-            None => trajectory_path_risk(c, &refs, stop).ok_or(Interrupted)?.bound,
+            None => trajectory_path_risk(c, &refs, &frame, stop).ok_or(Interrupted)?.bound,
         };
         total = crate::certify::path_risk::add_up(total, b);
         if total >= 1.0 {

@@ -28,6 +28,7 @@
 //! trajectory is bounded at once (no sum over pieces).
 
 use super::super::compose::{substitutions, PieceRef};
+use super::super::fast::Frame;
 use super::add_up;
 use crate::contour::bounds::power_range;
 use crate::contour::RiskContour;
@@ -134,6 +135,8 @@ struct Nets<'a> {
     /// P = Σ_β c_β(x, t)·ω^β: each parameter monomial β (as indices into the partition's
     /// parameters and exponents) with its coefficient polynomial in (x, t), split once.
     split: Vec<(Beta, Poly<Interval>)>,
+    /// The frame `split` is written in (space and time centred and scaled).
+    frame: Frame,
     dim: usize,
     pieces: &'a [PieceRef<'a>],
     /// `cells[piece][depth]`.
@@ -143,20 +146,22 @@ struct Nets<'a> {
 }
 
 impl<'a> Nets<'a> {
-    fn new(contour: &RiskContour, params: &[Var], pieces: &'a [PieceRef<'a>]) -> Option<Nets<'a>> {
+    fn new(contour: &RiskContour, params: &[Var], pieces: &'a [PieceRef<'a>], frame: &Frame) -> Option<Nets<'a>> {
         let layout = contour.layout();
+        let centred = contour.centred_poly(&frame.center, &frame.exponents)?;
         let mut by_beta: std::collections::BTreeMap<Beta, Poly<Interval>> = Default::default();
-        for (m, c) in contour.poly().terms() {
+        for (m, c) in centred.terms() {
             let (omega, xt) = m.split(|v| layout.is_param(v));
             let beta: Beta = omega
                 .pairs()
                 .iter()
                 .map(|&(v, e)| Some((params.iter().position(|&p| p == v)?, e)))
                 .collect::<Option<_>>()?;
-            by_beta.entry(beta).or_insert_with(Poly::zero).add_term(xt, Interval::enclose_rational(c));
+            by_beta.entry(beta).or_insert_with(Poly::zero).add_term(xt, *c);
         }
         Some(Nets {
             split: by_beta.into_iter().collect(),
+            frame: frame.clone(),
             dim: layout.dim,
             pieces,
             cells: (0..pieces.len()).map(|_| Vec::new()).collect(),
@@ -171,7 +176,7 @@ impl<'a> Nets<'a> {
             levels.push((0..n).map(|_| None).collect());
         }
         if levels[d as usize][i as usize].is_none() {
-            let c = restrict(&self.split, self.dim, self.pieces[piece], d, i, &mut self.ratios);
+            let c = restrict(&self.split, &self.frame, self.dim, self.pieces[piece], d, i, &mut self.ratios);
             self.cells[piece][d as usize][i as usize] = Some(c);
         }
         self.cells[piece][d as usize][i as usize].as_ref().and_then(|c| c.as_deref())
@@ -220,6 +225,7 @@ impl<'a> Nets<'a> {
 /// finite or of another dimension.
 fn restrict(
     split: &[(Beta, Poly<Interval>)],
+    frame: &Frame,
     dim: usize,
     piece: PieceRef<'_>,
     d: u32,
@@ -237,7 +243,22 @@ fn restrict(
         Interval::point(piece.t0) + h * Interval::point(i as f64 * scale)
     };
     let hs = h * Interval::point(scale);
-    let subs: Vec<UPoly<Interval>> = substitutions(piece, dim, ta, hs, Interval::point);
+    // the piece in the frame: z_v(s) = (x_v(t(s)) − c_v)·2^(−e_v), and τ likewise
+    let subs: Vec<UPoly<Interval>> = substitutions(piece, dim, ta, hs, Interval::point)
+        .into_iter()
+        .enumerate()
+        .map(|(v, u)| {
+            let inv = Interval::point((-frame.exponents[v] as f64).exp2());
+            let c = u.coeffs().iter().enumerate().map(|(k, &a)| {
+                if k == 0 {
+                    (a - Interval::point(frame.center[v])) * inv
+                } else {
+                    a * inv
+                }
+            });
+            UPoly::new(c.collect())
+        })
+        .collect();
     let restricted: Vec<UPoly<Interval>> = split.iter().map(|(_, c)| c.compose_univariate(&subs)).collect();
     let degree = restricted.iter().map(|u| if u.is_zero() { 0 } else { u.degree() }).max().unwrap_or(0);
     let ratio = ratios.entry(degree).or_insert_with(|| {
@@ -292,12 +313,15 @@ impl Ord for Cell {
 }
 
 /// The partition bound (module docs) of the obstacle of `contour` over the trajectory
-/// `pieces`: `None` when a parameter of the obstacle has no [`CdfLaw`] (the moment bounds
+/// `pieces`, the polynomial evaluated in `frame`'s coordinates (the scene's,
+/// `certify::scene::scene_frame`: centred and scaled so that no coefficient cancels far
+/// from the origin; any frame is sound): `None` when a parameter of the obstacle has no [`CdfLaw`] (the moment bounds
 /// apply instead), when a piece cannot be restricted (not finite, another dimension), or
 /// when `stop` said yes.
 pub fn cells_path_risk(
     contour: &RiskContour,
     pieces: &[PieceRef<'_>],
+    frame: &Frame,
     effort: CellEffort,
     stop: &dyn Fn() -> bool,
 ) -> Option<CellsBound> {
@@ -309,7 +333,7 @@ pub fn cells_path_risk(
     }
     let params: Vec<Var> = contour.poly().vars().into_iter().filter(|&v| layout.is_param(v)).collect();
     let laws: Vec<&CdfLaw> = params.iter().map(|&v| contour.law(v)).collect::<Option<_>>()?;
-    let mut nets = Nets::new(contour, &params, pieces)?;
+    let mut nets = Nets::new(contour, &params, pieces, frame)?;
     let outside = laws.iter().fold(0.0, |acc, l| add_up(acc, l.outside));
     let top: Vec<u32> = params.iter().map(|&v| contour.poly().degree_in(v)).collect();
     // Πₖ P(ωₖ in the box's side k), each factor an upper bound, the product rounded up
@@ -411,7 +435,7 @@ mod tests {
     fn bound(c: &RiskContour, pieces: &[crate::scene::Piece]) -> f64 {
         let refs: Vec<PieceRef<'_>> =
             pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
-        cells_path_risk(c, &refs, CellEffort::REPORT, &|| false).unwrap().bound
+        cells_path_risk(c, &refs, &Frame::centred(&[0.0; 3]), CellEffort::REPORT, &|| false).unwrap().bound
     }
 
     /// The distance from the origin to the segment a → b, in closed form.
@@ -530,7 +554,7 @@ mod tests {
         let c = contour("w - x1^2 - x2^2", &[("w", tiny)]);
         let p = crate::scene::Piece::segment(&[-1.0, 0.5], &[1.0, 0.5], 0.0, 1.0);
         let r = PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs };
-        assert!(cells_path_risk(&c, &[r], CellEffort::REPORT, &|| false).is_none());
+        assert!(cells_path_risk(&c, &[r], &Frame::centred(&[0.0; 3]), CellEffort::REPORT, &|| false).is_none());
     }
 
     proptest! {
@@ -574,6 +598,32 @@ mod tests {
             prop_assert!(v >= truth - 1e-9, "moments: bound {v} < truth {truth} at distance {d}");
             if d >= 0.41 {
                 prop_assert!(v <= 0.01, "moments: bound {v} at distance {d}");
+            }
+        }
+    }
+
+    /// Far from the origin and small: illustrative-3's disk scaled by 10⁻³ and moved to
+    /// (10⁶, 10⁶) — P's terms are 10¹², its values 10⁻⁷, so in the scene's coordinates every
+    /// interval would hold 0 (the bound 1). In the scene's frame (centred, scaled by 2⁻¹⁰)
+    /// the partition matches the closed form as at the origin. Evaluating in the identity
+    /// frame instead gives 1 (checked below: the frame is what makes it work).
+    #[test]
+    fn the_partition_is_tight_far_from_the_origin() {
+        let c = contour(
+            "w^2 - (x1 - 1000000)^2 - (x2 - 1000000)^2",
+            &[("w", Distribution::Uniform { low: q("0.0003"), high: q("0.0004") })],
+        );
+        let frame = Frame { center: vec![1e6, 1e6, 0.5], exponents: vec![-10, -10, -1] };
+        for (a, b) in [([-1.0, 0.35], [1.0, 0.35]), ([-1.0, -1.0], [1.0, 1.0]), ([0.2, -1.0], [0.37, 1.0]), ([0.5, 0.5], [1.0, 0.2])] {
+            let truth = ((0.4 - d_min(a, b)) / 0.1).clamp(0.0, 1.0);
+            let far = |p: [f64; 2]| [1e6 + 1e-3 * p[0], 1e6 + 1e-3 * p[1]];
+            let piece = crate::scene::Piece::segment(&far(a), &far(b), 0.0, 1.0);
+            let r = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
+            let v = cells_path_risk(&c, &[r], &frame, CellEffort::REPORT, &|| false).unwrap().bound;
+            assert!(v >= truth - 1e-9 && v <= truth + 0.02, "{a:?} -> {b:?}: bound {v}, truth {truth}");
+            if truth == 0.0 {
+                let id = cells_path_risk(&c, &[r], &Frame::centred(&[0.0; 3]), CellEffort::PLAN, &|| false).unwrap().bound;
+                assert!(id >= 0.5, "uncentred: {id}");
             }
         }
     }

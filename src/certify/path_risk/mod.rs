@@ -398,13 +398,14 @@ pub struct ObstaclePathRisk {
 pub fn trajectory_path_risk(
     contour: &RiskContour,
     pieces: &[PieceRef<'_>],
+    frame: &super::fast::Frame,
     stop: &dyn Fn() -> bool,
 ) -> Option<ObstaclePathRisk> {
-    if let Some(all) = cells_path_risk(contour, pieces, CellEffort::REPORT, stop) {
+    if let Some(all) = cells_path_risk(contour, pieces, frame, CellEffort::REPORT, stop) {
         let mut each = Vec::with_capacity(pieces.len());
         for p in pieces {
             // each piece's own bound at the plan's effort (the breakdown; the bound is the joint one)
-            let b = cells_path_risk(contour, std::slice::from_ref(p), CellEffort::PLAN, stop);
+            let b = cells_path_risk(contour, std::slice::from_ref(p), frame, CellEffort::PLAN, stop);
             if b.is_none() && stop() {
                 return None;
             }
