@@ -490,7 +490,7 @@ MESSAGES = {
                             "whole_path_seconds": {"type": "number", "minimum": 0, "description": "wall time of the whole-path bound (stats.whole_path_risk), included in seconds"},
                         },
                     },
-                    "whole_path_risk": {"type": ["number", "null"], "minimum": 0, "maximum": 1, "description": "certified plans: P(the plan meets some obstacle at some time) <= this, the parameters drawn once (docs/design.md 5.14), from the final check; absent when the deadline left no time for it and, outside trajectory mode, for receding plans and scenes with a moment-list parameter or a beta or gamma of a shape outside [1e-3, 64]; in trajectory mode <= Δ"},
+                    "whole_path_risk": {"type": ["number", "null"], "minimum": 0, "maximum": 1, "description": "certified plans: P(the plan meets some obstacle at some time) <= this, the parameters drawn once (docs/design.md 5.14), from the final check; absent when the deadline left no time for it and, outside trajectory mode, for receding plans and scenes with a parameter whose distribution function cannot be enclosed (a scale whose inverse overflows); in trajectory mode <= Δ"},
                 },
             },
             "revision": U64,
