@@ -139,6 +139,10 @@ pub struct RiskContour {
 /// P(c + 2^e·z, ω, t_c + 2^(e_t)·τ) for one frame (center, exponents), exact then enclosed.
 type CentredPoly = (Vec<f64>, Vec<i32>, Arc<Poly<Interval>>);
 
+/// Largest scale exponent of a frame (the scene frames' limit, `Frame::MAX_EXPONENT`):
+/// 2^(±1000) and its inverse are normal floats, so the pieces' mapping stays exact.
+pub const CENTRED_MAX_EXPONENT: i32 = 1000;
+
 /// Frames whose centred P a contour keeps (a contour is shared by the scenes of a cache; a
 /// scene has one frame).
 pub const CENTRED_FRAMES_KEPT: usize = 4;
@@ -210,10 +214,10 @@ impl RiskContour {
     /// has terms of 10¹² for values of 10⁻⁶) and interval evaluations in x lose every
     /// digit; in the frame they do not (the whole-path partition, §5.14). `center` and
     /// `exponents` have dim + 1 entries (`None` otherwise, or for a centre that is not
-    /// finite or an exponent beyond ±1100); cached per frame.
+    /// finite or an exponent beyond ±[`CENTRED_MAX_EXPONENT`]); cached per frame.
     pub fn centred_poly(&self, center: &[f64], exponents: &[i32]) -> Option<Arc<Poly<Interval>>> {
         let n = self.layout.dim + 1;
-        if center.len() != n || exponents.len() != n || exponents.iter().any(|e| e.abs() > 1100) {
+        if center.len() != n || exponents.len() != n || exponents.iter().any(|e| e.abs() > CENTRED_MAX_EXPONENT) {
             return None;
         }
         {

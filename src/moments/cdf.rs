@@ -202,7 +202,13 @@ impl CdfLaw {
                 let outside = erlang_tail_upper(k, y);
                 finite(CdfLaw { lo: 0.0, hi, outside, kind: Kind::Erlang { shape: k, inv_scale: inv(scale)? } })
             }
-            Distribution::Moments { raw } => CdfLaw::from_moments(raw, None, None),
+            // only the longest prefix that is a moment sequence (the Hankel check of
+            // raw_moments, as the scene's moments use): a list whose higher orders no law
+            // has would otherwise make the moment inequalities claim too much
+            Distribution::Moments { raw } => {
+                let k = (2..=raw.len()).rev().find(|&k| d.raw_moments(k as u32).is_ok())?;
+                CdfLaw::from_moments(&raw[..k], None, None)
+            }
         }
     }
 
@@ -761,5 +767,9 @@ mod tests {
         }
         // no law without a variance
         assert!(CdfLaw::of(&Distribution::Moments { raw: vec![q("1"), q("1")] }).is_none());
+        // orders that no law has are not used (the review's case: c₄ < σ⁴ would claim
+        // P(ω ≥ 1) ≤ 0.01 where a law of mean 0 and variance 1 may put 1/2)
+        let bad = CdfLaw::of(&Distribution::Moments { raw: vec![q("0"), q("1"), q("0"), q("0.01")] }).unwrap();
+        assert!(bad.mass_upper(1.0, 10.0) >= 0.5, "{bad:?}");
     }
 }
