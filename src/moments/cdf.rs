@@ -232,7 +232,7 @@ impl CdfLaw {
         };
         let enc = Interval::enclose_rational;
         let var = enc(&central(2));
-        if !(var.lo > 0.0) || !var.hi.is_finite() {
+        if (var.lo.is_nan() || var.lo <= 0.0) || !var.hi.is_finite() {
             return None;
         }
         let higher: Vec<(u32, Interval)> = (4..=raw.len())
@@ -281,7 +281,7 @@ impl CdfLaw {
     /// other laws, or d ≤ 0).
     fn moment_tail(&self, d: f64) -> f64 {
         let Kind::Moments { var, central, .. } = &self.kind else { return 1.0 };
-        if !(d > 0.0) {
+        if d.is_nan() || d <= 0.0 {
             return 1.0;
         }
         let di = Interval::point(d);
