@@ -645,7 +645,7 @@ impl Frame {
     }
 
     /// `2^(−e_v)`, the factor from centred to compiled coordinates.
-    fn inv_scale(&self, v: usize) -> f64 {
+    pub fn inv_scale(&self, v: usize) -> f64 {
         pow2(-self.exponents[v])
     }
 }

@@ -83,12 +83,12 @@ enum Kind {
     /// Beta(α, β) with other shapes on [low, low + width]; B(α, β) enclosed.
     BetaReal { alpha: Interval, beta: Interval, b: Interval, low: Interval, inv_width: Interval },
     /// Known by its moments only: the mean, the variance and the even central moments of
-    /// order ≥ 4 (enclosed), and the support when one is known (enclosures of its ends).
+    /// order ≥ 4 (enclosed), and the support when one is known (floats at or beyond its ends).
     Moments {
         mean: Interval,
         var: Interval,
         central: Vec<(u32, Interval)>,
-        support: (Option<Interval>, Option<Interval>),
+        support: (Option<f64>, Option<f64>),
         /// Distances ρₖ from the mean where the moment bound falls to 2⁻ᵏ, k = 1, 2, …:
         /// the partition's split points (see [`CdfLaw::split`]).
         grid: Vec<f64>,
@@ -258,7 +258,7 @@ impl CdfLaw {
             .collect();
         let r = radius(MOMENT_LAW_TAIL) * (1.0 + 1e-9);
         let kind =
-            Kind::Moments { mean: mu, var, central: higher, support: (low.map(Interval::point), high.map(Interval::point)), grid };
+            Kind::Moments { mean: mu, var, central: higher, support: (low, high), grid };
         let (mut lo, mut hi) = ((mu - Interval::point(r)).lo, (mu + Interval::point(r)).hi);
         let (mut out_lo, mut out_hi) = (true, true);
         if let Some(l) = low.filter(|&l| l >= lo) {
@@ -411,9 +411,9 @@ impl CdfLaw {
                 }
             }
             Kind::Moments { mean, support, .. } => {
-                if support.0.is_some_and(|l| x < l.lo) {
+                if support.0.is_some_and(|l| x < l) {
                     Interval::point(0.0)
-                } else if support.1.is_some_and(|h| x >= h.hi) {
+                } else if support.1.is_some_and(|h| x >= h) {
                     Interval::point(1.0)
                 } else if (*mean - Interval::point(x)).lo > 0.0 {
                     // x < μ: F(x) ≤ P(ω − μ ≤ −(μ − x))
@@ -541,25 +541,19 @@ const ERF_MAX_TERMS: u32 = 200;
 /// e^(−45) < 2.9·10⁻²⁰ per side).
 pub const EXP_SPAN_RATES: f64 = 45.0;
 
-/// An upper bound of e^y: the platform's `exp` (within a few ulps) widened by
-/// [`TAIL_REL_MARGIN`], never below the least positive float (e^y > 0).
+/// An upper bound of e^y ([`incomplete::exp`]: the platform's `exp` widened by
+/// [`TAIL_REL_MARGIN`], never below the least positive float; +∞ for NaN).
 fn exp_upper(y: f64) -> f64 {
-    if y.is_nan() {
-        return f64::INFINITY;
-    }
-    (y.exp() * (1.0 + TAIL_REL_MARGIN)).max(f64::MIN_POSITIVE)
+    incomplete::exp(Interval::point(y)).hi
 }
 
-/// A lower bound of e^y (≥ 0).
+/// A lower bound of e^y (≥ 0; 0 for NaN).
 fn exp_lower(y: f64) -> f64 {
-    if y.is_nan() {
-        return 0.0;
-    }
-    (y.exp() * (1.0 - TAIL_REL_MARGIN)).max(0.0)
+    incomplete::exp(Interval::point(y)).lo
 }
 
 /// The Erlang distribution function 1 − e^(−y)·Σ_{j<k} yʲ/j! at y ≥ 0 (in scale units),
-/// enclosed: the sum in intervals, e^(−y) from [`exp_lower`]/[`exp_upper`] at the ends of y.
+/// enclosed: the sum in intervals, e^(−y) by [`incomplete::exp`].
 fn erlang_cdf(k: u32, y: Interval) -> Interval {
     let y = Interval::new(y.lo.max(0.0), y.hi.max(0.0));
     let mut term = Interval::point(1.0);
@@ -568,7 +562,7 @@ fn erlang_cdf(k: u32, y: Interval) -> Interval {
         term = term * y * recip(f64::from(j));
         sum = sum + term;
     }
-    let e = Interval::new(exp_lower(-y.hi), exp_upper(-y.lo));
+    let e = incomplete::exp(-y);
     let v = Interval::point(1.0) - e * sum;
     Interval::new(v.lo.max(0.0), v.hi.min(1.0))
 }

@@ -248,7 +248,7 @@ fn restrict(
         .into_iter()
         .enumerate()
         .map(|(v, u)| {
-            let inv = Interval::point((-frame.exponents[v] as f64).exp2());
+            let inv = Interval::point(frame.inv_scale(v));
             let c = u.coeffs().iter().enumerate().map(|(k, &a)| {
                 if k == 0 {
                     (a - Interval::point(frame.center[v])) * inv
@@ -376,10 +376,11 @@ pub fn cells_path_risk(
                 // never halved; with none left the box counts whole)
                 // (CdfLaw::split: the middle, or a law known by moments its grid point)
                 let rel = |k: usize| (cell.bx[k].hi - cell.bx[k].lo) / widths[k];
-                let k = (0..cell.bx.len())
-                    .filter(|&k| widths[k] > 0.0 && laws[k].split(cell.bx[k].lo, cell.bx[k].hi).is_some())
-                    .max_by(|&a, &b| score[a].total_cmp(&score[b]).then(rel(a).total_cmp(&rel(b))));
-                let Some((k, mid)) = k.and_then(|k| Some((k, laws[k].split(cell.bx[k].lo, cell.bx[k].hi)?))) else {
+                let chosen = (0..cell.bx.len())
+                    .filter(|&k| widths[k] > 0.0)
+                    .filter_map(|k| Some((k, laws[k].split(cell.bx[k].lo, cell.bx[k].hi)?)))
+                    .max_by(|&(a, _), &(b, _)| score[a].total_cmp(&score[b]).then(rel(a).total_cmp(&rel(b))));
+                let Some((k, mid)) = chosen else {
                     hit = add_up(hit, cell.mass);
                     continue;
                 };

@@ -450,10 +450,10 @@ impl MotionChecker for SceneCertifier {
         let effort = self.path_risk?;
         let r = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
         let mut total = 0.0f64;
-        let frame = super::scene_frame(&self.scene);
+        let frame = self.compiled.frame();
         for o in &self.scene.obstacles {
             let c = o.contour.get();
-            let b = match cells_path_risk(c, std::slice::from_ref(&r), &frame, effort, stop) {
+            let b = match cells_path_risk(c, std::slice::from_ref(&r), frame, effort, stop) {
                 Some(b) => b.bound,
                 None if stop() => return None,
                 // no rigorous distribution function: the moment envelopes
