@@ -16,8 +16,10 @@
 //!   `exp` widened by [`TAIL_REL_MARGIN`], over [`EXP_SPAN_RATES`] scales;
 //! - **gamma with an integer shape** k ≤ 64 (Erlang): 1 − e^(−y)·Σ_{j<k} yʲ/j!.
 //!
-//! Other families (moment lists, beta or gamma with other shapes) have no [`CdfLaw`]: their
-//! obstacles use the moment bounds alone.
+//! Gamma and beta with real shapes in [`incomplete::MIN_SHAPE`, `incomplete::MAX_SHAPE`]
+//! use the rigorous series of [`incomplete`]; parameters known only by their moments (moment
+//! lists, shapes outside that range) get a moment law ([`CdfLaw::from_moments`]): F enclosed
+//! by Cantelli and even-order Markov bounds about the mean (design.md §5.14).
 
 use super::incomplete;
 use super::Distribution;
@@ -35,8 +37,9 @@ pub const SERIES_LIMIT: f64 = 4.1;
 pub const NORMAL_SPAN_SIGMAS: f64 = 9.0;
 
 /// Relative widening of the Mills-ratio tail, computed with the platform's `exp` (within
-/// a few ulps) and four roundings: 10⁻¹² covers them with a margin of 10³.
-pub const TAIL_REL_MARGIN: f64 = 1e-12;
+/// a few ulps) and four roundings: 10⁻¹² covers them with a margin of 10³ — the same
+/// margin as the incomplete gamma and beta functions' elementary functions.
+pub const TAIL_REL_MARGIN: f64 = incomplete::ELEMENTARY_REL_MARGIN;
 
 /// The least tail [`mills_upper`] returns: 10⁻³⁰⁰ is above every normal tail beyond
 /// z = 37.1 (where the quotient nears the subnormal range), and negligible beside any
