@@ -104,17 +104,33 @@ impl Interval {
     }
 }
 
+impl Interval {
+    /// Outward rounding of a float sum or difference: a result below the least normal
+    /// float in magnitude (0 included) is exact — with gradual underflow the exact sum of
+    /// two floats is then a multiple of 2⁻¹⁰⁷⁴ that is representable (Hauser 1996) — and is
+    /// kept; any other is widened by an ulp. Keeps exact zeros (x − x, 0 + 0) free of the
+    /// subnormal pair ±2⁻¹⁰⁷⁴, which would slow every later product by a microcode assist.
+    fn widen_sum(lo: f64, hi: f64) -> Self {
+        if lo.is_nan() || hi.is_nan() {
+            return Self::ENTIRE;
+        }
+        let lo = if lo.abs() < f64::MIN_POSITIVE { lo } else { lo.next_down() };
+        let hi = if hi.abs() < f64::MIN_POSITIVE { hi } else { hi.next_up() };
+        Interval { lo, hi }
+    }
+}
+
 impl Add for Interval {
     type Output = Interval;
     fn add(self, o: Interval) -> Interval {
-        Interval::widen(self.lo + o.lo, self.hi + o.hi)
+        Interval::widen_sum(self.lo + o.lo, self.hi + o.hi)
     }
 }
 
 impl Sub for Interval {
     type Output = Interval;
     fn sub(self, o: Interval) -> Interval {
-        Interval::widen(self.lo - o.hi, self.hi - o.lo)
+        Interval::widen_sum(self.lo - o.hi, self.hi - o.lo)
     }
 }
 
@@ -131,6 +147,9 @@ impl Mul for Interval {
         // Points: one product, exact sign handling; common in compositions.
         if self.lo == self.hi && o.lo == o.hi {
             let p = self.lo * o.lo;
+            if p == 0.0 && (self.lo == 0.0 || o.lo == 0.0) {
+                return Interval::point(0.0);
+            }
             return if p.is_nan() { Interval::ENTIRE } else { Interval::widen(p, p) };
         }
         let a = self.lo * o.lo;
@@ -140,7 +159,17 @@ impl Mul for Interval {
         if a.is_nan() || b.is_nan() || c.is_nan() || d.is_nan() {
             return Interval::ENTIRE;
         }
-        Interval::widen(a.min(b).min(c.min(d)), a.max(b).max(c.max(d)))
+        let (lo, hi) = (a.min(b).min(c.min(d)), a.max(b).max(c.max(d)));
+        // An end that is 0 stays 0 when every product equal to 0 has a zero factor (all
+        // four are then exact or of the end's strict sign); a product that underflowed to
+        // 0 from nonzero factors widens it as any other.
+        let exact_zeros = || {
+            let ok = |p: f64, x: f64, y: f64| p != 0.0 || x == 0.0 || y == 0.0;
+            ok(a, self.lo, o.lo) && ok(b, self.lo, o.hi) && ok(c, self.hi, o.lo) && ok(d, self.hi, o.hi)
+        };
+        let lo = if lo == 0.0 && exact_zeros() { 0.0 } else { lo.next_down() };
+        let hi = if hi == 0.0 && exact_zeros() { 0.0 } else { hi.next_up() };
+        Interval { lo, hi }
     }
 }
 
@@ -203,5 +232,48 @@ mod tests {
                 let m = x * y; prop_assert!(exact(m.lo) <= &eu * &ev && &eu * &ev <= exact(m.hi));
             }
         }
+
+        /// The same at the edges of the float range, where ends are kept unwidened (exact
+        /// zeros, sums below the least normal float): zeros of both signs, subnormals,
+        /// tiny and huge values; every product and sum of endpoint pairs checked exactly.
+        #[test]
+        fn unwidened_ends_are_exact(v in proptest::collection::vec(prop_oneof![
+            Just(0.0f64), Just(-0.0f64),
+            (-1_000_000i64..1_000_000).prop_map(|k| k as f64 * f64::from_bits(1)),
+            -1e-300f64..1e-300, -1e-154f64..1e-154, -1e3f64..1e3, -1e300f64..1e300,
+        ], 4)) {
+            let x = Interval::new(v[0].min(v[1]), v[0].max(v[1]));
+            let y = Interval::new(v[2].min(v[3]), v[2].max(v[3]));
+            let (s, dd, m) = (x + y, x - y, x * y);
+            // r inside i, an infinite end enclosing everything beyond the float range
+            let inside = |i: Interval, r: &BigRational| {
+                (i.lo == f64::NEG_INFINITY || exact(i.lo) <= *r) && (i.hi == f64::INFINITY || *r <= exact(i.hi))
+            };
+            for u in [x.lo, x.hi] {
+                for w in [y.lo, y.hi] {
+                    let (eu, ew) = (exact(u), exact(w));
+                    prop_assert!(inside(s, &(&eu + &ew)), "{x:?} + {y:?} = {s:?}");
+                    prop_assert!(inside(dd, &(&eu - &ew)), "{x:?} - {y:?} = {dd:?}");
+                    prop_assert!(inside(m, &(&eu * &ew)), "{x:?} * {y:?} = {m:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn exact_zeros_stay_zero() {
+        let z = Interval::point(0.0);
+        let x = Interval::new(-2.0, 3.0);
+        assert_eq!(z + z, z);
+        assert_eq!(x - x, Interval::new((-5.0f64).next_down(), 5.0f64.next_up()));
+        assert_eq!(Interval::point(1.5) - Interval::point(1.5), z);
+        assert_eq!(Interval::new(0.0, 2.0) * Interval::new(0.0, 3.0), Interval::new(0.0, 6.0f64.next_up()));
+        assert_eq!(z * z, z);
+        // a product that underflows to 0 from nonzero factors is widened
+        let tiny = Interval::point(1e-200);
+        let p = tiny * tiny;
+        assert!(p.lo < 0.0 && p.hi > 0.0);
+        let q = Interval::new(0.0, 1e-200) * Interval::new(-1e-200, 0.0);
+        assert!(q.lo < 0.0 && q.hi >= 0.0, "{q:?}");
     }
 }

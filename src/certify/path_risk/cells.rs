@@ -71,45 +71,41 @@ pub struct CellsBound {
     pub boxes: usize,
 }
 
-/// A coefficient bⱼ(ω) as terms over the partition's parameters (indices into its list).
+/// A coefficient bⱼ(ω) as terms c_β·ω^β, each monomial β an index into the partition's
+/// list of monomials ([`Nets::split`]).
 struct Coef {
-    terms: Vec<(Vec<(usize, u32)>, Interval)>,
+    terms: Vec<(usize, Interval)>,
 }
 
 impl Coef {
-    /// An enclosure of the coefficient's range over a box, from the box's power table
-    /// (`pw[k][e]` encloses the range of ωₖ^e over side k).
-    fn range(&self, pw: &[Vec<Interval>]) -> Interval {
+    /// An enclosure of the coefficient's range over a box, from the box's monomial ranges
+    /// (`mono[β]` encloses the range of ω^β over the box: [`monomials`]).
+    fn range(&self, mono: &[Interval]) -> Interval {
         let mut acc = Interval::point(0.0);
-        for (m, c) in &self.terms {
-            let mut r = *c;
-            for &(k, e) in m {
-                r = r * pw[k][e as usize];
-            }
-            acc = acc + r;
+        for &(b, c) in &self.terms {
+            acc = acc + c * mono[b];
         }
         acc
     }
 
     /// Adds to `score[k]` the width of each term's range that involves parameter k: how
     /// much of the coefficient's spread over the box halving side k may remove.
-    fn spread(&self, pw: &[Vec<Interval>], score: &mut [f64]) {
-        for (m, c) in &self.terms {
-            let mut r = *c;
-            for &(k, e) in m {
-                r = r * pw[k][e as usize];
-            }
+    fn spread(&self, mono: &[Interval], betas: &[Beta], score: &mut [f64]) {
+        for &(b, c) in &self.terms {
+            let r = c * mono[b];
             let w = r.hi - r.lo;
-            for &(k, _) in m {
+            for &(k, _) in &betas[b] {
                 score[k] += w;
             }
         }
     }
 }
 
-/// The power table of a box: `pw[k][e]` encloses the range of ωₖ^e over side k, e ≤ `top[k]`.
-fn powers(bx: &[Interval], top: &[u32]) -> Vec<Vec<Interval>> {
-    bx.iter().zip(top).map(|(&b, &t)| (0..=t).map(|e| power_range(b, e)).collect()).collect()
+/// The monomial ranges of a box: entry β encloses the range of ω^β over the box, the
+/// product of the ranges of the powers of its sides (independent sides: the product of
+/// the ranges is the exact range, enclosed; `contour::bounds::power_range` per power).
+fn monomials(bx: &[Interval], betas: &[Beta]) -> Vec<Interval> {
+    betas.iter().map(|beta| beta.iter().fold(Interval::point(1.0), |acc, &(k, e)| acc * power_range(bx[k], e))).collect()
 }
 
 /// What a box is for a part (or for the whole trajectory).
@@ -135,6 +131,8 @@ struct Nets<'a> {
     /// P = Σ_β c_β(x, t)·ω^β: each parameter monomial β (as indices into the partition's
     /// parameters and exponents) with its coefficient polynomial in (x, t), split once.
     split: Vec<(Beta, Poly<Interval>)>,
+    /// The monomials of `split`, in its order (a [`Coef`]'s terms index them).
+    betas: std::rc::Rc<[Beta]>,
     /// The frame `split` is written in (space and time centred and scaled).
     frame: Frame,
     dim: usize,
@@ -159,8 +157,10 @@ impl<'a> Nets<'a> {
                 .collect::<Option<_>>()?;
             by_beta.entry(beta).or_insert_with(Poly::zero).add_term(xt, *c);
         }
+        let split: Vec<(Beta, Poly<Interval>)> = by_beta.into_iter().collect();
         Some(Nets {
-            split: by_beta.into_iter().collect(),
+            betas: split.iter().map(|(b, _)| b.clone()).collect::<Vec<_>>().into(),
+            split,
             frame: frame.clone(),
             dim: layout.dim,
             pieces,
@@ -182,20 +182,21 @@ impl<'a> Nets<'a> {
         self.cells[piece][d as usize][i as usize].as_ref().and_then(|c| c.as_deref())
     }
 
-    /// The state of a box from its power table, from the parts still open for it
+    /// The state of a box from its monomial ranges, from the parts still open for it
     /// (`parts`: piece, depth, index); the parts left undecided at the deepest level are
     /// returned for its halves, and their coefficients' spread per side added to `score`.
     fn state(
         &mut self,
-        pw: &[Vec<Interval>],
+        mono: &[Interval],
         parts: &[Part],
         score: &mut [f64],
     ) -> Option<(State, Vec<Part>)> {
         let mut open = Vec::new();
+        let betas = self.betas.clone();
         let mut stack: Vec<Part> = parts.to_vec();
         while let Some((p, d, i)) = stack.pop() {
             let coeffs = self.coeffs(p, d, i)?;
-            let ranges: Vec<Interval> = coeffs.iter().map(|c| c.range(pw)).collect();
+            let ranges: Vec<Interval> = coeffs.iter().map(|c| c.range(mono)).collect();
             if ranges.iter().all(|r| r.hi < 0.0) {
                 continue;
             }
@@ -208,7 +209,7 @@ impl<'a> Nets<'a> {
                 stack.push((p, d + 1, 2 * i));
             } else {
                 for c in coeffs {
-                    c.spread(pw, score);
+                    c.spread(mono, &betas, score);
                 }
                 open.push((p, d, i));
             }
@@ -268,7 +269,7 @@ fn restrict(
             .collect()
     });
     let mut out: Vec<Coef> = (0..=degree).map(|_| Coef { terms: Vec::new() }).collect();
-    for ((beta, _), u) in split.iter().zip(&restricted) {
+    for (beta, u) in restricted.iter().enumerate() {
         if u.is_zero() {
             continue;
         }
@@ -279,7 +280,7 @@ fn restrict(
                 b = b + ratio[j][k] * *ak;
             }
             if !(b.lo == 0.0 && b.hi == 0.0) {
-                coef.terms.push((beta.clone(), b));
+                coef.terms.push((beta, b));
             }
         }
     }
@@ -335,7 +336,6 @@ pub fn cells_path_risk(
     let laws: Vec<&CdfLaw> = params.iter().map(|&v| contour.law(v)).collect::<Option<_>>()?;
     let mut nets = Nets::new(contour, &params, pieces, frame)?;
     let outside = laws.iter().fold(0.0, |acc, l| add_up(acc, l.outside));
-    let top: Vec<u32> = params.iter().map(|&v| contour.poly().degree_in(v)).collect();
     // Πₖ P(ωₖ in the box's side k), each factor an upper bound, the product rounded up
     // (0 only when a factor is exactly 0: a product that underflows counts as the least
     // positive float, never as an empty box)
@@ -366,7 +366,7 @@ pub fn cells_path_risk(
         boxes += 1;
         pending -= cell.mass;
         let mut score = vec![0.0; cell.bx.len()];
-        let (state, open) = nets.state(&powers(&cell.bx, &top), &cell.parts, &mut score)?;
+        let (state, open) = nets.state(&monomials(&cell.bx, &nets.betas), &cell.parts, &mut score)?;
         match state {
             State::Outside => {}
             State::Hit => hit = add_up(hit, cell.mass),
