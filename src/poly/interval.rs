@@ -3,8 +3,14 @@
 //! Every operation computes the round-to-nearest result and then widens it by one
 //! ulp in each direction (`next_down`/`next_up`). Round-to-nearest errs by at most
 //! half an ulp, so the widened interval always contains the exact result of the
-//! operation on any reals in the operands (docs/design.md §5.3). This makes "all
+//! operation on any reals in the operands (docs/design.md §1.3, §5.3). This makes "all
 //! lower bounds > 0" a proof of positivity, at a cost of a few ulps of width.
+//!
+//! Ends known to be exact are kept: a sum or difference below the least normal float in
+//! magnitude, 0 included (with gradual underflow such a sum is representable), a product
+//! end 0 whose zero products all have a zero factor, a halving that doubles back to its
+//! input. Exact zeros then stay 0 instead of becoming the subnormal pair ±2⁻¹⁰⁷⁴, whose
+//! later products each cost a microcode assist (the whole-path partition ran 1.7× slower).
 
 use super::ring::{rational_to_f64, Ring};
 use num_rational::BigRational;
@@ -91,12 +97,14 @@ impl Interval {
         self.lo <= x && x <= self.hi
     }
 
-    /// `x * 0.5`, exact for normal floats (halving only changes the exponent), but
-    /// widened anyway so subnormal underflow stays sound.
+    /// `x * 0.5`: kept when the halving is exact (it doubles back to its input: always
+    /// for normal results, and for subnormals with a zero last bit), widened otherwise.
+    /// (Checking the result's magnitude instead is not enough: the largest normal below
+    /// 2⁻¹⁰²¹ halves to a tie that rounds up to exactly the least normal float.)
     pub fn half(self) -> Self {
         let lo = self.lo * 0.5;
         let hi = self.hi * 0.5;
-        if lo.abs() >= f64::MIN_POSITIVE && hi.abs() >= f64::MIN_POSITIVE {
+        if lo * 2.0 == self.lo && hi * 2.0 == self.hi {
             Interval { lo, hi }
         } else {
             Self::widen(lo, hi)
@@ -244,7 +252,7 @@ mod tests {
         ], 4)) {
             let x = Interval::new(v[0].min(v[1]), v[0].max(v[1]));
             let y = Interval::new(v[2].min(v[3]), v[2].max(v[3]));
-            let (s, dd, m) = (x + y, x - y, x * y);
+            let (s, dd, m, hx) = (x + y, x - y, x * y, x.half());
             // r inside i, an infinite end enclosing everything beyond the float range
             let inside = |i: Interval, r: &BigRational| {
                 (i.lo == f64::NEG_INFINITY || exact(i.lo) <= *r) && (i.hi == f64::INFINITY || *r <= exact(i.hi))
@@ -255,6 +263,7 @@ mod tests {
                     prop_assert!(inside(s, &(&eu + &ew)), "{x:?} + {y:?} = {s:?}");
                     prop_assert!(inside(dd, &(&eu - &ew)), "{x:?} - {y:?} = {dd:?}");
                     prop_assert!(inside(m, &(&eu * &ew)), "{x:?} * {y:?} = {m:?}");
+                    prop_assert!(inside(hx, &(&eu / BigRational::from_integer(2.into()))), "{x:?} / 2 = {hx:?}");
                 }
             }
         }
@@ -275,5 +284,13 @@ mod tests {
         assert!(p.lo < 0.0 && p.hi > 0.0);
         let q = Interval::new(0.0, 1e-200) * Interval::new(-1e-200, 0.0);
         assert!(q.lo < 0.0 && q.hi >= 0.0, "{q:?}");
+        // halving: the largest normal below 2^-1021 halves to a tie rounded up to the least
+        // normal (helper-19's case); the result must still contain the exact half
+        let x = f64::from_bits(0x001f_ffff_ffff_ffff);
+        let h = Interval::point(x).half();
+        assert!(h.lo < f64::MIN_POSITIVE && h.hi >= f64::MIN_POSITIVE, "{h:?}");
+        let h = Interval::point(-x).half();
+        assert!(h.hi > -f64::MIN_POSITIVE, "{h:?}");
+        assert_eq!(Interval::new(-3.0, 1.0).half(), Interval::new(-1.5, 0.5));
     }
 }
