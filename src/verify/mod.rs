@@ -214,13 +214,14 @@ pub fn plan_whole_path_risk(
     envelopes: bool,
     stop: &dyn Fn() -> bool,
 ) -> Result<Option<f64>, Interrupted> {
-    use crate::certify::path_risk::{cells_path_risk, trajectory_path_risk};
+    use crate::certify::path_risk::{cells_path_risk_in, trajectory_path_risk, PieceBoxes};
     let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
     let mut total = 0.0f64;
     let frame = crate::certify::scene::scene_frame(kernel.scene());
+    let boxes = PieceBoxes::new(&refs, kernel.scene().dim, &frame);
     for o in &kernel.scene().obstacles {
         let c = o.contour.get();
-        let b = match cells_path_risk(c, &refs, &frame, effort, stop) {
+        let b = match cells_path_risk_in(c, &refs, &boxes, &frame, effort, stop) {
             Some(b) => b.bound,
             None if stop() => return Err(Interrupted),
             None if !envelopes => return Ok(None),

@@ -446,14 +446,15 @@ impl MotionChecker for SceneCertifier {
     }
 
     fn path_risk(&self, piece: &Piece, stop: &dyn Fn() -> bool) -> Option<f64> {
-        use crate::certify::path_risk::{cells_path_risk, piece_path_risk};
+        use crate::certify::path_risk::{cells_path_risk_in, piece_path_risk, PieceBoxes};
         let effort = self.path_risk?;
         let r = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
         let mut total = 0.0f64;
         let frame = self.compiled.frame();
+        let boxes = PieceBoxes::new(std::slice::from_ref(&r), self.scene.dim, frame);
         for o in &self.scene.obstacles {
             let c = o.contour.get();
-            let b = match cells_path_risk(c, std::slice::from_ref(&r), frame, effort, stop) {
+            let b = match cells_path_risk_in(c, std::slice::from_ref(&r), &boxes, frame, effort, stop) {
                 Some(b) => b.bound,
                 None if stop() => return None,
                 // no rigorous distribution function: the moment envelopes
