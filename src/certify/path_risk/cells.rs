@@ -383,7 +383,8 @@ fn pieces_near(
         for (m, c) in centred.terms() {
             value = value + m.pairs().iter().fold(*c, |acc, &(v, e)| acc * power_range(vals[v as usize], e));
         }
-        if !(value.hi < 0.0) {
+        // (a NaN end cannot prove anything: the piece is kept)
+        if value.hi >= 0.0 || value.hi.is_nan() {
             near.push(i);
         }
     }
