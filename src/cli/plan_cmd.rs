@@ -52,7 +52,7 @@ use std::time::Duration;
 /// per-obstacle mode is the paper's. --risk-mode trajectory bounds the probability of
 /// meeting any obstacle at any time along the plan, the parameters drawn once
 /// (docs/design.md §5.14): rrt-sos keeps each partial path's whole-path bound within Δ
-/// and the final check proves the plan's; slower (example-d1: 0.6 s instead of 0.07 s).
+/// and the final check proves the plan's; slower (example-d1: about 0.4 s instead of 0.04 s).
 /// Every certified plan reports its whole-path bound (stats.whole_path_risk).
 ///
 /// Writes the trajectory (format v1 plus "planner", "certified", "stats") to --out or
