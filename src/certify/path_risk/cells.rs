@@ -367,21 +367,34 @@ fn pieces_near(
 ) -> Option<Vec<usize>> {
     let layout = contour.layout();
     let centred = contour.centred_poly(&frame.center, &frame.exponents)?;
-    let nvars = centred.vars().into_iter().max().map_or(0, |v| v as usize + 1).max(layout.xt_len());
-    let mut vals = vec![Interval::point(0.0); nvars];
-    for (&v, &r) in params.iter().zip(root) {
-        vals[v as usize] = r;
+    // P's terms grouped by their (x, t) monomial, each coefficient Σ_β c_β·range(ω^β) over
+    // `root`: by subdistributivity (Σ c_β·W_β)·X ⊆ Σ (c_β·W_β·X), so the grouped form
+    // encloses P as the term-by-term sum does, never looser, with fewer products per piece
+    let mut grouped: std::collections::BTreeMap<Vec<(usize, u32)>, Interval> = Default::default();
+    for (m, c) in centred.terms() {
+        let mut w = *c;
+        let mut xt = Vec::new();
+        for &(v, e) in m.pairs() {
+            if layout.is_param(v) {
+                let k = params.iter().position(|&p| p == v)?;
+                w = w * power_range(root[k], e);
+            } else {
+                xt.push((v as usize, e));
+            }
+        }
+        let slot = grouped.entry(xt).or_insert(Interval::point(0.0));
+        *slot = *slot + w;
     }
+    let grouped: Vec<(Vec<(usize, u32)>, Interval)> = grouped.into_iter().collect();
     let mut near = Vec::new();
     for (i, bx) in boxes.boxes.iter().enumerate() {
         if bx.len() != layout.xt_len() {
             near.push(i);
             continue;
         }
-        vals[..bx.len()].copy_from_slice(bx);
         let mut value = Interval::point(0.0);
-        for (m, c) in centred.terms() {
-            value = value + m.pairs().iter().fold(*c, |acc, &(v, e)| acc * power_range(vals[v as usize], e));
+        for (m, c) in &grouped {
+            value = value + m.iter().fold(*c, |acc, &(v, e)| acc * power_range(bx[v], e));
         }
         // (a NaN end cannot prove anything: the piece is kept)
         if value.hi >= 0.0 || value.hi.is_nan() {
