@@ -116,3 +116,33 @@ def test_four_servers_one_killed_under_load(four):
     assert not results["errors"], results["errors"][:5]
     assert set(results["replies"]) == {1}, "a query got more than one reply"
     assert results["latencies"] and max(results["latencies"]) < READ_TIMEOUT_S
+
+
+def test_a_read_waiting_on_a_server_whose_token_goes_is_sent_elsewhere(server):
+    """A read sent to a server that then disappears (its liveliness token goes, no reply
+    came) is re-sent to another live server at once, not left to the timeout: a fake
+    server (a token and a queryable on its own key that never answers) beside the real
+    one; its token is withdrawn after 1 s. Without the liveliness watch the read sent to
+    the fake waits its whole 10 s timeout and fails."""
+    cfg = zenoh.Config()
+    cfg.insert_json5("mode", '"client"')
+    cfg.insert_json5("connect/endpoints", json.dumps([server.endpoint]))
+    cfg.insert_json5("scouting/multicast/enabled", "false")
+    held = []
+    with zenoh.open(cfg) as fake, riskplan.Client(server.endpoint, timeout=10.0) as c:
+        queryable = fake.declare_queryable("riskplan/@fake-1/**", held.append)  # never answered
+        token = fake.liveliness().declare_token("riskplan/_servers/fake-1/replica")
+        wait_for(lambda: "fake-1" in c.servers() and len(c.servers()) == 2, what="the client sees both servers")
+        timer = threading.Timer(1.0, token.undeclare)
+        timer.start()
+        latencies = []
+        started = time.monotonic()
+        while time.monotonic() - started < 1.5:
+            t = time.monotonic()
+            assert c.status()["server_id"] != "fake-1"
+            latencies.append(time.monotonic() - t)
+        timer.join()
+        queryable.undeclare()
+        assert held, "no read went to the fake server"
+        assert max(latencies) > 0.5, latencies  # the read held by the fake
+        assert max(latencies) < 2.5, f"a read waited {max(latencies):.2f} s for a server that had gone"
