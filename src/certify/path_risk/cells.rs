@@ -72,7 +72,7 @@ pub struct CellsBound {
 }
 
 /// A coefficient bⱼ(ω) as terms c_β·ω^β, each monomial β an index into the partition's
-/// list of monomials ([`Nets::split`]).
+/// list of monomials ([`Nets::betas`]).
 struct Coef {
     terms: Vec<(usize, Interval)>,
 }
@@ -129,11 +129,12 @@ type Level = Vec<Option<Option<Vec<Coef>>>>;
 /// The control nets of a trajectory's pieces in interval arithmetic, computed on demand.
 struct Nets<'a> {
     /// P = Σ_β c_β(x, t)·ω^β: each parameter monomial β (as indices into the partition's
-    /// parameters and exponents) with its coefficient polynomial in (x, t), split once.
-    split: Vec<(Beta, Poly<Interval>)>,
-    /// The monomials of `split`, in its order (a [`Coef`]'s terms index them).
+    /// parameters and exponents) ...
     betas: std::rc::Rc<[Beta]>,
-    /// The frame `split` is written in (space and time centred and scaled).
+    /// ... and its coefficient polynomial c_β in (x, t), in the same order, split once
+    /// (a [`Coef`]'s terms index both).
+    coefs: Vec<Poly<Interval>>,
+    /// The frame `coefs` are written in (space and time centred and scaled).
     frame: Frame,
     dim: usize,
     pieces: &'a [PieceRef<'a>],
@@ -157,10 +158,10 @@ impl<'a> Nets<'a> {
                 .collect::<Option<_>>()?;
             by_beta.entry(beta).or_insert_with(Poly::zero).add_term(xt, *c);
         }
-        let split: Vec<(Beta, Poly<Interval>)> = by_beta.into_iter().collect();
+        let (betas, coefs): (Vec<Beta>, Vec<Poly<Interval>>) = by_beta.into_iter().unzip();
         Some(Nets {
-            betas: split.iter().map(|(b, _)| b.clone()).collect::<Vec<_>>().into(),
-            split,
+            betas: betas.into(),
+            coefs,
             frame: frame.clone(),
             dim: layout.dim,
             pieces,
@@ -176,7 +177,7 @@ impl<'a> Nets<'a> {
             levels.push((0..n).map(|_| None).collect());
         }
         if levels[d as usize][i as usize].is_none() {
-            let c = restrict(&self.split, &self.frame, self.dim, self.pieces[piece], d, i, &mut self.ratios);
+            let c = restrict(&self.coefs, &self.frame, self.dim, self.pieces[piece], d, i, &mut self.ratios);
             self.cells[piece][d as usize][i as usize] = Some(c);
         }
         self.cells[piece][d as usize][i as usize].as_ref().and_then(|c| c.as_deref())
@@ -225,7 +226,7 @@ impl<'a> Nets<'a> {
 /// of the common degree D, bⱼ = Σ_{k≤j} C(j, k)/C(D, k)·a_k. `None` for a piece that is not
 /// finite or of another dimension.
 fn restrict(
-    split: &[(Beta, Poly<Interval>)],
+    coefs: &[Poly<Interval>],
     frame: &Frame,
     dim: usize,
     piece: PieceRef<'_>,
@@ -260,7 +261,7 @@ fn restrict(
             UPoly::new(c.collect())
         })
         .collect();
-    let restricted: Vec<UPoly<Interval>> = split.iter().map(|(_, c)| c.compose_univariate(&subs)).collect();
+    let restricted: Vec<UPoly<Interval>> = coefs.iter().map(|c| c.compose_univariate(&subs)).collect();
     let degree = restricted.iter().map(|u| if u.is_zero() { 0 } else { u.degree() }).max().unwrap_or(0);
     let ratio = ratios.entry(degree).or_insert_with(|| {
         let binom = |n: usize, k: usize| crate::moments::binomial(n as u32, k as u32);
