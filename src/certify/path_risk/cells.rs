@@ -341,8 +341,7 @@ impl PieceBoxes {
                     .iter()
                     .enumerate()
                     .map(|(v, u)| {
-                        let range = u.coeffs().iter().rev().fold(Interval::point(0.0), |acc, &a| acc * unit + a);
-                        (range - Interval::point(frame.center[v])) * Interval::point(frame.inv_scale(v))
+                        (u.eval(&unit) - Interval::point(frame.center[v])) * Interval::point(frame.inv_scale(v))
                     })
                     .collect()
             })
