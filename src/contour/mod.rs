@@ -136,8 +136,46 @@ pub struct RiskContour {
     centred: Arc<std::sync::Mutex<Vec<CentredPoly>>>,
 }
 
-/// P(c + 2^e·z, ω, t_c + 2^(e_t)·τ) for one frame (center, exponents), exact then enclosed.
-type CentredPoly = (Vec<f64>, Vec<i32>, Arc<Poly<Interval>>);
+/// P(c + 2^e·z, ω, t_c + 2^(e_t)·τ) for one frame (center, exponents), exact then enclosed,
+/// and its form with the parameters' ranges folded in (built on first use).
+#[derive(Debug)]
+struct CentredPoly {
+    center: Vec<f64>,
+    exponents: Vec<i32>,
+    poly: Arc<Poly<Interval>>,
+    folded: OnceLock<Option<Arc<FoldedPoly>>>,
+}
+
+/// P in a frame (z, τ) with every parameter ω ranging over its law's range [lo, hi]
+/// (`CdfLaw`: the support, or μ ± 9σ), grouped by (z, τ) monomial: Σₘ Cₘ·(z, τ)^m, each
+/// Cₘ enclosing Σ_β c_{m,β}·range(ω^β) (docs/design.md §5.14, the screen). For any box X of
+/// (z, τ), [`FoldedPoly::upper`] bounds P over X × the ranges from above: by
+/// subdistributivity (Σ c_β·W_β)·X ⊆ Σ (c_β·W_β·X), never looser than the term-by-term sum.
+/// Built once per contour and frame (a scene's obstacles are screened against every plan).
+#[derive(Debug)]
+pub struct FoldedPoly {
+    /// P's parameters (its variables past the layout's (x, t)), in increasing order.
+    pub params: Vec<Var>,
+    /// Their ranges, `[lo, hi]` of each law, in the same order.
+    pub root: Vec<Interval>,
+    /// The laws' probabilities outside their ranges, summed (rounded up).
+    pub outside: f64,
+    /// (monomial as ((x, t) index, exponent) pairs, enclosed coefficient).
+    terms: Vec<(Vec<(usize, u32)>, Interval)>,
+}
+
+impl FoldedPoly {
+    /// An upper bound of P over the box `bx` of (z, τ) (dim + 1 sides) and every ω in the
+    /// ranges, in interval arithmetic (even powers by their exact range); NaN when an end is
+    /// not a number (a NaN proves nothing: callers keep what it concerns).
+    pub fn upper(&self, bx: &[Interval]) -> f64 {
+        let mut value = Interval::point(0.0);
+        for (m, c) in &self.terms {
+            value = value + m.iter().fold(*c, |acc, &(v, e)| acc * bounds::power_range(bx[v], e));
+        }
+        value.hi
+    }
+}
 
 /// Largest scale exponent of a frame (the scene frames' limit, `Frame::MAX_EXPONENT`):
 /// 2^(±1000) and its inverse are normal floats, so the pieces' mapping stays exact.
@@ -222,8 +260,8 @@ impl RiskContour {
         }
         {
             let kept = self.centred.lock().unwrap_or_else(|e| e.into_inner());
-            if let Some((_, _, p)) = kept.iter().find(|(c, e, _)| c == center && e == exponents) {
-                return Some(p.clone());
+            if let Some(c) = kept.iter().find(|c| c.center == center && c.exponents == exponents) {
+                return Some(c.poly.clone());
             }
         }
         let subs: Vec<Option<QPoly>> = (0..n)
@@ -246,8 +284,53 @@ impl RiskContour {
         if kept.len() >= CENTRED_FRAMES_KEPT {
             kept.remove(0);
         }
-        kept.push((center.to_vec(), exponents.to_vec(), p.clone()));
+        kept.push(CentredPoly {
+            center: center.to_vec(),
+            exponents: exponents.to_vec(),
+            poly: p.clone(),
+            folded: OnceLock::new(),
+        });
         Some(p)
+    }
+
+    /// P in the frame of [`Self::centred_poly`] with the parameters' ranges folded in
+    /// ([`FoldedPoly`]); `None` when that frame is refused or a parameter has no law with a
+    /// rigorous distribution function. Cached with the centred P.
+    pub fn folded_poly(&self, center: &[f64], exponents: &[i32]) -> Option<Arc<FoldedPoly>> {
+        let centred = self.centred_poly(center, exponents)?;
+        let fold = || -> Option<Arc<FoldedPoly>> {
+            let params: Vec<Var> = self.poly.vars().into_iter().filter(|&v| self.layout.is_param(v)).collect();
+            let laws: Vec<&crate::moments::cdf::CdfLaw> = params.iter().map(|&v| self.law(v)).collect::<Option<_>>()?;
+            let root: Vec<Interval> = laws.iter().map(|l| Interval::new(l.lo, l.hi)).collect();
+            // (a + b rounded up; exact when either is 0)
+            let outside = laws.iter().fold(0.0, |acc: f64, l| match (acc, l.outside) {
+                (a, 0.0) => a,
+                (0.0, b) => b,
+                (a, b) => (a + b).next_up(),
+            });
+            let mut grouped: std::collections::BTreeMap<Vec<(usize, u32)>, Interval> = Default::default();
+            for (m, c) in centred.terms() {
+                let mut w = *c;
+                let mut xt = Vec::new();
+                for &(v, e) in m.pairs() {
+                    if self.layout.is_param(v) {
+                        let k = params.iter().position(|&p| p == v)?;
+                        w = w * bounds::power_range(root[k], e);
+                    } else {
+                        xt.push((v as usize, e));
+                    }
+                }
+                let slot = grouped.entry(xt).or_insert(Interval::point(0.0));
+                *slot = *slot + w;
+            }
+            Some(Arc::new(FoldedPoly { params, root, outside, terms: grouped.into_iter().collect() }))
+        };
+        let kept = self.centred.lock().unwrap_or_else(|e| e.into_inner());
+        match kept.iter().find(|c| c.center == center && c.exponents == exponents) {
+            Some(c) => c.folded.get_or_init(fold).clone(),
+            // (evicted meanwhile by another frame: formed without keeping it)
+            None => fold(),
+        }
     }
 
     /// The law of parameter `v`, when [`Self::with_laws`] gave one with a rigorous

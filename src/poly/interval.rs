@@ -97,6 +97,11 @@ impl Interval {
         self.lo <= x && x <= self.hi
     }
 
+    /// The smallest interval containing both (exact: ends are compared, not computed).
+    pub fn hull(self, o: Interval) -> Self {
+        Interval { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi) }
+    }
+
     /// `x * 0.5`: kept when the halving is exact (it doubles back to its input: always
     /// for normal results, and for subnormals with a zero last bit), widened otherwise.
     /// (Checking the result's magnitude instead is not enough: the largest normal below

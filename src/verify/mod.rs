@@ -184,9 +184,10 @@ pub fn whole_path_risk(
     let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
     let mut total = 0.0f64;
     let mut obstacles = Vec::with_capacity(scene.obstacles.len());
-    let frame = crate::certify::scene::scene_frame(scene);
-    for o in &scene.obstacles {
-        let r = trajectory_path_risk(o.contour.get(), &refs, &frame, stop).ok_or(Interrupted)?;
+    // each obstacle in its own frame (§5.14)
+    let frames = kernel.path_frames(stop)?;
+    for (o, frame) in scene.obstacles.iter().zip(frames.iter()) {
+        let r = trajectory_path_risk(o.contour.get(), &refs, frame, stop).ok_or(Interrupted)?;
         // the sum rounded up: a float at or above the exact sum of the obstacles' bounds
         total = crate::certify::path_risk::add_up(total, r.bound);
         obstacles.push(ObstacleWholePath {
@@ -217,15 +218,16 @@ pub fn plan_whole_path_risk(
     use crate::certify::path_risk::{cells_path_risk_in, trajectory_path_risk, PieceBoxes};
     let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
     let mut total = 0.0f64;
-    let frame = crate::certify::scene::scene_frame(kernel.scene());
-    let boxes = PieceBoxes::new(&refs, kernel.scene().dim, &frame);
-    for o in &kernel.scene().obstacles {
+    // each obstacle in its own frame (§5.14)
+    let frames = kernel.path_frames(stop)?;
+    let boxes = PieceBoxes::new(&refs, kernel.scene().dim);
+    for (o, frame) in kernel.scene().obstacles.iter().zip(frames.iter()) {
         let c = o.contour.get();
-        let b = match cells_path_risk_in(c, &refs, &boxes, &frame, effort, stop) {
+        let b = match cells_path_risk_in(c, &refs, &boxes, frame, effort, stop) {
             Some(b) => b.bound,
             None if stop() => return Err(Interrupted),
             None if !envelopes => return Ok(None),
-            None => trajectory_path_risk(c, &refs, &frame, stop).ok_or(Interrupted)?.bound,
+            None => trajectory_path_risk(c, &refs, frame, stop).ok_or(Interrupted)?.bound,
         };
         total = crate::certify::path_risk::add_up(total, b);
         if total >= 1.0 {

@@ -108,3 +108,75 @@ fn whole_path_bound_covers_the_audit_on_d1() {
     );
     assert!(w.bound >= any.lower, "bound {} below the audit's lower end {}", w.bound, any.lower);
 }
+
+/// A scene of 40 disks with Gaussian centres (σ = 0.05) and uniform radius scales, far
+/// from the origin (workspace [500, 563] × [−300, −237]): past 16 obstacles each
+/// obstacle's whole-path partition is written in its own frame, about its refined centre
+/// (`SceneKernel::path_frames`, docs/design.md §5.14), the pieces' boxes moved into it.
+/// The default plan's whole-path bound of every obstacle and of the trajectory is at least
+/// the seeded Monte Carlo audit's lower end (the library's sampler: no code shared with
+/// the partition, its frames or its screen).
+#[test]
+fn whole_path_bound_in_obstacle_frames_covers_the_audit() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(40);
+    let (x0, y0, side) = (500.0, -300.0, 63.0);
+    let mut params = serde_json::Map::new();
+    let mut obstacles = Vec::new();
+    while obstacles.len() < 40 {
+        let (cx, cy): (f64, f64) = (x0 + rng.random_range(0.0..side), y0 + rng.random_range(0.0..side));
+        let r: f64 = rng.random_range(1.0..2.5);
+        let clear = |x: f64, y: f64| ((cx - x).powi(2) + (cy - y).powi(2)).sqrt() > r + 3.0;
+        if !clear(x0 + 1.0, y0 + 1.0) || !clear(x0 + side - 1.0, y0 + side - 1.0) {
+            continue;
+        }
+        let k = obstacles.len() + 1;
+        params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
+        params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
+        let (cx, cy, r) = ((cx * 100.0).round() / 100.0, (cy * 100.0).round() / 100.0, (r * 100.0).round() / 100.0);
+        obstacles.push(serde_json::json!({
+            "id": format!("disk{k}"),
+            "poly": format!("({r}*s{k})^2 - (x1 - {cx} - d{k})^2 - (x2 - ({cy}))^2"),
+        }));
+    }
+    let text = serde_json::json!({
+        "format": "riskplan-scene/1", "name": "disks-40-far", "dim": 2,
+        "workspace": {"lower": [x0, y0], "upper": [x0 + side, y0 + side]},
+        "horizon": [0, 1], "risk": 0.1, "params": params, "obstacles": obstacles,
+        "start": [x0 + 1.0, y0 + 1.0], "goal": [x0 + side - 1.0, y0 + side - 1.0],
+    })
+    .to_string();
+    let s = Arc::new(riskplan::scene::Scene::from_json(&text).unwrap());
+    let kernel = SceneKernel::new(s.clone());
+    let (_, out) = PlanRequest::default().run(&kernel, None).unwrap();
+    let traj = out.trajectory.expect("a plan");
+    let frames = kernel.path_frames(&|| false).unwrap();
+    let scene_frame = riskplan::certify::scene::scene_frame(&s);
+    assert!(frames.iter().all(|f| *f != scene_frame), "every static obstacle gets its own frame");
+    let reported = out.stats.whole_path_risk.expect("every certified plan reports it");
+    let opts = VerifyOptions { whole_path: true, detail: Detail::FirstNotSafe, ..Default::default() };
+    let w = verify_with(&kernel, &traj.pieces, &s.risk, &opts, &|| false).unwrap().report.whole_path_risk.unwrap();
+    let samples = size("WHOLE_PATH_SAMPLES", 20_000, 100_000) as u64;
+    let audit = AuditOptions { times_per_piece: 100, samples, seed: 40, confidence: 0.98 };
+    let (per, any) = audit_whole_path(&s, &traj, &audit).unwrap();
+    for ((id, est), o) in per.iter().zip(&w.obstacles) {
+        if est.estimate > 0.0 {
+            println!("{id}: bound {:.2e}, audit {:.2e} [{:.2e}, {:.2e}]", o.bound, est.estimate, est.lower, est.upper);
+        }
+        assert!(o.bound >= est.lower, "{id}: bound {} below the audit's lower end {}", o.bound, est.lower);
+    }
+    println!(
+        "{} pieces: plan's bound {reported:.3e}, verify's {:.3e}, audit {:.3e} [{:.3e}, {:.3e}]",
+        traj.pieces.len(),
+        w.bound,
+        any.estimate,
+        any.lower,
+        any.upper
+    );
+    assert!(
+        reported >= any.lower && w.bound >= any.lower,
+        "bounds {reported}, {} below the audit's lower end {}",
+        w.bound,
+        any.lower
+    );
+}

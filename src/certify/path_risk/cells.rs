@@ -31,7 +31,7 @@ use super::super::compose::{substitutions, PieceRef};
 use super::super::fast::Frame;
 use super::add_up;
 use crate::contour::bounds::power_range;
-use crate::contour::RiskContour;
+use crate::contour::{FoldedPoly, RiskContour};
 use crate::moments::cdf::{mass_between, CdfLaw};
 use crate::poly::{Interval, Poly, UPoly, Var};
 use std::collections::BinaryHeap;
@@ -314,94 +314,135 @@ impl Ord for Cell {
     }
 }
 
-/// Enclosures of a trajectory's pieces in a frame, for the partition's screen
-/// ([`cells_path_risk_in`]), built once for all obstacles of a scene: per piece, each
-/// coordinate (time last) over the piece's time, z_v(s) = (x_v(t(s)) − c_v)·2^(−e_v) for
-/// s ∈ [0, 1], by Horner in interval arithmetic. (Measured on 512 disks: one box per
-/// piece screens best; eight parts per piece in a tree of hulls cost more evaluations
-/// than they saved.)
+/// Parts of a piece the screen encloses separately: 2^3 = 8 equal parts of its time. A
+/// piece whose box meets an obstacle's reach may still pass it at every part (its box is
+/// the hull of a long, diagonal or curved piece); measured on 512 disks, six in ten of the
+/// obstacles that passed the screen of whole pieces were then proven outside by the
+/// partition's root box, at the cost of restricting their pieces — the parts' boxes prove
+/// most of them outside at a few interval evaluations each. The parts are the partition's
+/// own parts at this depth (piece, depth, index), so the partition starts from those kept.
+pub const SCREEN_DEPTH: u32 = 3;
+
+/// Enclosures of a trajectory's pieces, for the partition's screen ([`cells_path_risk_in`]),
+/// built once for all obstacles of a scene: per piece and per part of its time
+/// (2^[`SCREEN_DEPTH`] of them), each coordinate (time last) over the part, x_v(t(s)) for
+/// s in the part, by Horner in interval arithmetic; and a binary tree of hulls over
+/// consecutive pieces, so that an obstacle far from a stretch of the trajectory is
+/// dismissed for the whole stretch at one evaluation. In the scene's coordinates: each
+/// obstacle's screen moves them into its own frame.
 pub struct PieceBoxes {
-    boxes: Vec<Vec<Interval>>,
+    /// `parts[piece][k]`: the box of part k, s ∈ [k, k + 1]·2^(−SCREEN_DEPTH).
+    parts: Vec<Vec<Vec<Interval>>>,
+    /// The tree; `nodes[0]` is its root (when there are pieces).
+    nodes: Vec<HullNode>,
+}
+
+/// A node of [`PieceBoxes`]' tree: the hull of the boxes of pieces `first..end`.
+struct HullNode {
+    hull: Vec<Interval>,
+    first: usize,
+    end: usize,
+    /// The two halves, or `None` for a single piece.
+    children: Option<(usize, usize)>,
 }
 
 impl PieceBoxes {
-    /// The boxes of `pieces` (of dimension `dim`) in `frame`. A piece that is not finite or
-    /// of another dimension gets the whole line (the partition refuses it anyway).
-    pub fn new(pieces: &[PieceRef<'_>], dim: usize, frame: &Frame) -> PieceBoxes {
-        let unit = Interval::new(0.0, 1.0);
-        let boxes = pieces
+    /// The boxes of `pieces` (of dimension `dim`). A piece that is not finite or of another
+    /// dimension gets the whole line (the partition refuses it anyway).
+    pub fn new(pieces: &[PieceRef<'_>], dim: usize) -> PieceBoxes {
+        let n_parts = 1usize << SCREEN_DEPTH;
+        let scale = (-(SCREEN_DEPTH as i32) as f64).exp2();
+        let parts: Vec<Vec<Vec<Interval>>> = pieces
             .iter()
             .map(|piece| {
-                if !piece.is_finite() || piece.coeffs.len() != dim || frame.center.len() != dim + 1 {
-                    return vec![Interval::ENTIRE; dim + 1];
+                if !piece.is_finite() || piece.coeffs.len() != dim {
+                    return vec![vec![Interval::ENTIRE; dim + 1]; n_parts];
                 }
                 let t0 = Interval::point(piece.t0);
                 let h = Interval::point(piece.t1) - t0;
-                substitutions(*piece, dim, t0, h, Interval::point)
-                    .iter()
-                    .enumerate()
-                    .map(|(v, u)| {
-                        (u.eval(&unit) - Interval::point(frame.center[v])) * Interval::point(frame.inv_scale(v))
+                let subs = substitutions(*piece, dim, t0, h, Interval::point);
+                (0..n_parts)
+                    .map(|k| {
+                        // (k·2⁻³ and (k + 1)·2⁻³ are exact)
+                        let s = Interval::new(k as f64 * scale, (k + 1) as f64 * scale);
+                        subs.iter().map(|u| u.eval(&s)).collect()
                     })
                     .collect()
             })
             .collect();
-        PieceBoxes { boxes }
+        let mut boxes = PieceBoxes { parts, nodes: Vec::new() };
+        if !pieces.is_empty() {
+            boxes.build(0, pieces.len());
+        }
+        boxes
+    }
+
+    /// Adds the node of pieces `first..end` and its subtree; returns its index.
+    fn build(&mut self, first: usize, end: usize) -> usize {
+        let at = self.nodes.len();
+        self.nodes.push(HullNode { hull: Vec::new(), first, end, children: None });
+        let hull_of = |a: &[Interval], b: &[Interval]| -> Vec<Interval> { a.iter().zip(b).map(|(x, y)| x.hull(*y)).collect() };
+        if end - first == 1 {
+            let parts = &self.parts[first];
+            self.nodes[at].hull = parts[1..].iter().fold(parts[0].clone(), |acc, b| hull_of(&acc, b));
+        } else {
+            let mid = first + (end - first) / 2;
+            let (a, b) = (self.build(first, mid), self.build(mid, end));
+            self.nodes[at].hull = hull_of(&self.nodes[a].hull, &self.nodes[b].hull);
+            self.nodes[at].children = Some((a, b));
+        }
+        at
     }
 }
 
-/// The indices of the pieces on which P(x(t), ω, t) may be ≥ 0 for some t of the piece
-/// and some ω of the box `root` (over the partition's parameters `params`): a cheap screen
-/// before the partition. P, written in the frame of `boxes`, is evaluated on each piece's
-/// box × `root` in interval arithmetic (even powers by their exact range); an upper end
-/// below 0 proves the piece misses the obstacle for every ω in `root` — which the
-/// partition's root box would also find, at the cost of the piece's restriction (on 512
-/// disks the final check restricted every piece for every obstacle). `None` when the
-/// frame's polynomial cannot be formed.
-fn pieces_near(
-    contour: &RiskContour,
-    params: &[Var],
-    root: &[Interval],
-    boxes: &PieceBoxes,
-    frame: &Frame,
-) -> Option<Vec<usize>> {
-    let layout = contour.layout();
-    let centred = contour.centred_poly(&frame.center, &frame.exponents)?;
-    // P's terms grouped by their (x, t) monomial, each coefficient Σ_β c_β·range(ω^β) over
-    // `root`: by subdistributivity (Σ c_β·W_β)·X ⊆ Σ (c_β·W_β·X), so the grouped form
-    // encloses P as the term-by-term sum does, never looser, with fewer products per piece
-    let mut grouped: std::collections::BTreeMap<Vec<(usize, u32)>, Interval> = Default::default();
-    for (m, c) in centred.terms() {
-        let mut w = *c;
-        let mut xt = Vec::new();
-        for &(v, e) in m.pairs() {
-            if layout.is_param(v) {
-                let k = params.iter().position(|&p| p == v)?;
-                w = w * power_range(root[k], e);
-            } else {
-                xt.push((v as usize, e));
-            }
+/// The parts of the trajectory's pieces (at depth [`SCREEN_DEPTH`], as the partition's
+/// parts) on which P(x(t), ω, t) may be ≥ 0 for some t of the part and some ω of the
+/// parameters' ranges: a cheap screen before the partition. P, folded over the ranges in
+/// `frame` ([`FoldedPoly`]), is bounded above on the tree's hulls, then on the parts' boxes
+/// of the pieces whose hulls it does not dismiss, each box moved into the frame
+/// (z_v = (x_v − c_v)·2^(−e_v), in interval arithmetic); an upper bound below 0 proves the
+/// stretch, piece or part misses the obstacle for every ω of the ranges — which the
+/// partition's root box would also find, at the cost of the pieces' restrictions (on 512
+/// disks the final check restricted every piece for every obstacle). A NaN bound proves
+/// nothing: what it concerns is kept.
+fn parts_near(folded: &FoldedPoly, boxes: &PieceBoxes, frame: &Frame) -> Vec<Part> {
+    let n = frame.center.len();
+    let shift: Vec<(Interval, Interval)> =
+        (0..n).map(|v| (Interval::point(frame.center[v]), Interval::point(frame.inv_scale(v)))).collect();
+    let mut z = vec![Interval::point(0.0); n];
+    let mut clear = |bx: &[Interval]| {
+        if bx.len() != n {
+            return false;
         }
-        let slot = grouped.entry(xt).or_insert(Interval::point(0.0));
-        *slot = *slot + w;
-    }
-    let grouped: Vec<(Vec<(usize, u32)>, Interval)> = grouped.into_iter().collect();
+        for (zv, (x, (c, inv))) in z.iter_mut().zip(bx.iter().zip(&shift)) {
+            *zv = (*x - *c) * *inv;
+        }
+        folded.upper(&z) < 0.0
+    };
     let mut near = Vec::new();
-    for (i, bx) in boxes.boxes.iter().enumerate() {
-        if bx.len() != layout.xt_len() {
-            near.push(i);
+    let mut stack: Vec<usize> = if boxes.nodes.is_empty() { Vec::new() } else { vec![0] };
+    while let Some(i) = stack.pop() {
+        let node = &boxes.nodes[i];
+        if clear(&node.hull) {
             continue;
         }
-        let mut value = Interval::point(0.0);
-        for (m, c) in &grouped {
-            value = value + m.iter().fold(*c, |acc, &(v, e)| acc * power_range(bx[v], e));
-        }
-        // (a NaN end cannot prove anything: the piece is kept)
-        if value.hi >= 0.0 || value.hi.is_nan() {
-            near.push(i);
+        match node.children {
+            Some((a, b)) => {
+                stack.push(b);
+                stack.push(a);
+            }
+            None => {
+                let p = node.first;
+                debug_assert_eq!(node.end, p + 1);
+                for (k, bx) in boxes.parts[p].iter().enumerate() {
+                    if !clear(bx) {
+                        near.push((p, SCREEN_DEPTH, k as u64));
+                    }
+                }
+            }
         }
     }
-    Some(near)
+    near
 }
 
 /// The partition bound (module docs) of the obstacle of `contour` over the trajectory
@@ -417,12 +458,13 @@ pub fn cells_path_risk(
     effort: CellEffort,
     stop: &dyn Fn() -> bool,
 ) -> Option<CellsBound> {
-    let boxes = PieceBoxes::new(pieces, contour.layout().dim, frame);
+    let boxes = PieceBoxes::new(pieces, contour.layout().dim);
     cells_path_risk_in(contour, pieces, &boxes, frame, effort, stop)
 }
 
-/// [`cells_path_risk`] with the pieces' boxes in `frame` built once by the caller
-/// ([`PieceBoxes::new`] of the same pieces and frame), for many obstacles.
+/// [`cells_path_risk`] with the pieces' boxes built once by the caller ([`PieceBoxes::new`]
+/// of the same pieces), for many obstacles (each in its own frame, if the caller likes:
+/// [`crate::certify::scene::SceneKernel::path_frames`]).
 pub fn cells_path_risk_in(
     contour: &RiskContour,
     pieces: &[PieceRef<'_>],
@@ -437,17 +479,18 @@ pub fn cells_path_risk_in(
     if pieces.iter().any(|p| !p.is_finite() || p.coeffs.len() != layout.dim) {
         return None;
     }
-    let params: Vec<Var> = contour.poly().vars().into_iter().filter(|&v| layout.is_param(v)).collect();
-    let laws: Vec<&CdfLaw> = params.iter().map(|&v| contour.law(v)).collect::<Option<_>>()?;
-    let outside = laws.iter().fold(0.0, |acc, l| add_up(acc, l.outside));
-    let root: Vec<Interval> = laws.iter().map(|l| Interval::new(l.lo, l.hi)).collect();
-    // the pieces that may meet the obstacle for some ω of the root box (the others are
+    // P folded over the laws' ranges: the root box (None when a parameter has no law)
+    let folded = contour.folded_poly(&frame.center, &frame.exponents)?;
+    let outside = folded.outside;
+    // the parts that may meet the obstacle for some ω of the root box (the others are
     // outside it on every box of the partition)
-    let near = pieces_near(contour, &params, &root, boxes, frame)?;
+    let near = parts_near(&folded, boxes, frame);
     if near.is_empty() {
         return Some(CellsBound { bound: outside.min(1.0), boxes: 0 });
     }
-    let mut nets = Nets::new(contour, &params, pieces, frame)?;
+    let (params, root) = (&folded.params, folded.root.clone());
+    let laws: Vec<&CdfLaw> = params.iter().map(|&v| contour.law(v)).collect::<Option<_>>()?;
+    let mut nets = Nets::new(contour, params, pieces, frame)?;
     // Πₖ P(ωₖ in the box's side k), each factor an upper bound, the product rounded up
     // (0 only when a factor is exactly 0: a product that underflows counts as the least
     // positive float, never as an empty box)
@@ -460,9 +503,8 @@ pub fn cells_path_risk_in(
     };
     let root_ends: Vec<(Interval, Interval)> = laws.iter().map(|l| (l.cdf(l.lo), l.cdf(l.hi))).collect();
     let widths: Vec<f64> = laws.iter().map(|l| l.hi - l.lo).collect();
-    let all_parts: Vec<Part> = near.into_iter().map(|p| (p, 0, 0)).collect();
     let mut heap = BinaryHeap::new();
-    heap.push(Cell { mass: mass(&root_ends), bx: root, ends: root_ends, parts: all_parts });
+    heap.push(Cell { mass: mass(&root_ends), bx: root, ends: root_ends, parts: near });
     let mut pending = heap.peek().map_or(0.0, |c| c.mass);
     let mut hit = 0.0f64;
     let mut boxes = 0usize;
@@ -645,14 +687,15 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(256))]
-        /// The screen before the partition keeps every piece that can meet the obstacle
-        /// (closed form: a segment meets the disk of radius w ~ U[0.3, 0.4] at the origin for
-        /// some w iff its distance from the origin is ≤ 0.4), in the identity frame and in a
-        /// shifted, scaled one; and it drops the pieces far from it (distance ≥ 0.4 + the
-        /// segment's length: its box is then clear of the disk).
+        /// The screen before the partition keeps every part of a piece that can meet the
+        /// obstacle (closed form: a segment meets the disk of radius w ~ U[0.3, 0.4] at the
+        /// origin for some w iff its distance from the origin is ≤ 0.4), through the tree of
+        /// hulls and the parts' boxes, in the identity frame and in a shifted, scaled one; and
+        /// it drops the parts far from it (distance ≥ 0.4 + the part's length: its box is then
+        /// clear of the disk).
         #[test]
-        fn the_screen_keeps_every_piece_that_may_meet(
-            pts in proptest::collection::vec((-2.0f64..2.0, -2.0f64..2.0), 2..7),
+        fn the_screen_keeps_every_part_that_may_meet(
+            pts in proptest::collection::vec((-2.0f64..2.0, -2.0f64..2.0), 2..12),
             shift in -3.0f64..3.0, e in -3i32..3i32,
         ) {
             let c = contour("w^2 - x1^2 - x2^2", &[("w", Distribution::Uniform { low: q("0.3"), high: q("0.4") })]);
@@ -662,21 +705,25 @@ mod tests {
                 .map(|(i, w)| crate::scene::Piece::segment(&[w[0].0, w[0].1], &[w[1].0, w[1].1], i as f64, i as f64 + 1.0))
                 .collect();
             let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
-            let params: Vec<Var> = vec![3];
-            let root = [Interval::new(0.3, 0.4)];
+            let n_parts = 1u64 << SCREEN_DEPTH;
             for (k, frame) in [Frame::centred(&[0.0; 3]), Frame { center: vec![shift, -shift, 1.0], exponents: vec![e, -e, 1] }].into_iter().enumerate() {
-                let near = pieces_near(&c, &params, &root, &PieceBoxes::new(&refs, 2, &frame), &frame).unwrap();
+                let folded = c.folded_poly(&frame.center, &frame.exponents).unwrap();
+                let near = parts_near(&folded, &PieceBoxes::new(&refs, 2), &frame);
                 for (i, w) in pts.windows(2).enumerate() {
-                    let (a, b) = ([w[0].0, w[0].1], [w[1].0, w[1].1]);
-                    let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
-                    let d = d_min(a, b);
-                    if d <= 0.4 + 1e-9 {
-                        prop_assert!(near.contains(&i), "piece {i} at distance {d} dropped in {frame:?}");
-                    }
-                    // (in the identity frame P's squares are ranged exactly; a shifted frame
-                    // expands them and the screen may keep more)
-                    if k == 0 && d >= 0.4 + 1.5 * len + 1e-6 {
-                        prop_assert!(!near.contains(&i), "piece {i} at distance {d}, length {len} kept");
+                    for j in 0..n_parts {
+                        let at = |s: f64| [w[0].0 + (w[1].0 - w[0].0) * s, w[0].1 + (w[1].1 - w[0].1) * s];
+                        let (a, b) = (at(j as f64 / n_parts as f64), at((j + 1) as f64 / n_parts as f64));
+                        let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+                        let d = d_min(a, b);
+                        let kept = near.contains(&(i, SCREEN_DEPTH, j));
+                        if d <= 0.4 + 1e-9 {
+                            prop_assert!(kept, "part {j} of piece {i} at distance {d} dropped in {frame:?}");
+                        }
+                        // (in the identity frame P's squares are ranged exactly; a shifted frame
+                        // expands them and the screen may keep more)
+                        if k == 0 && d >= 0.4 + 1.5 * len + 1e-6 {
+                            prop_assert!(!kept, "part {j} of piece {i} at distance {d}, length {len} kept");
+                        }
                     }
                 }
             }

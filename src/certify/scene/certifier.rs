@@ -450,9 +450,10 @@ impl MotionChecker for SceneCertifier {
         let effort = self.path_risk?;
         let r = PieceRef { t0: piece.t0, t1: piece.t1, coeffs: &piece.coeffs };
         let mut total = 0.0f64;
-        let frame = self.compiled.frame();
-        let boxes = PieceBoxes::new(std::slice::from_ref(&r), self.scene.dim, frame);
-        for o in &self.scene.obstacles {
+        // each obstacle in its own frame (docs/design.md §5.14)
+        let frames = self.kernel.path_frames(stop).ok()?;
+        let boxes = PieceBoxes::new(std::slice::from_ref(&r), self.scene.dim);
+        for (o, frame) in self.scene.obstacles.iter().zip(frames.iter()) {
             let c = o.contour.get();
             let b = match cells_path_risk_in(c, std::slice::from_ref(&r), &boxes, frame, effort, stop) {
                 Some(b) => b.bound,

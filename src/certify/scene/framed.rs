@@ -70,6 +70,11 @@ pub(crate) struct NearBound {
 }
 
 impl Near {
+    /// The point the box tests are written about ([`super::index::obstacle_center`]).
+    pub(crate) fn center(&self) -> &[f64] {
+        &self.center
+    }
+
     /// The polynomials of the box tests at Δ (1 − Δ enclosed in `one_minus_delta`): the
     /// Cantelli polynomial g₁ = E\[P\]² − (1−Δ)·E\[P²\] around the centre, formed before any
     /// evaluation so that its leading terms cancel symbolically (evaluating E\[P\]² and

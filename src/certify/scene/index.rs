@@ -525,6 +525,54 @@ pub fn obstacle_center(contour: &crate::contour::RiskContour, region: &[(f64, f6
     best.1
 }
 
+/// Most evaluations of E\[P\] [`refine_center`] spends on one obstacle (about 40 halvings
+/// of its step over 2·dim directions: the step shrinks from a grid cell to ~10⁻¹² of it).
+pub const CENTER_REFINE_EVALS: usize = 400;
+
+/// [`obstacle_center`] refined by a compass search on E\[P\] at the point's time, inside
+/// `region`: from `start`, a step of half a grid cell per axis is tried both ways, taken
+/// when E\[P\] grows, halved when no direction helps, within [`CENTER_REFINE_EVALS`]. The
+/// grid point may lie half a cell (a sixteenth of the workspace) from the obstacle; the
+/// whole-path partition writes P about this point, and its interval ranges widen with the
+/// distance from it (docs/design.md §5.14). Any point is sound; a near one is tighter.
+pub fn refine_center(contour: &crate::contour::RiskContour, start: &[f64], region: &[(f64, f64)]) -> Vec<f64> {
+    let dim = region.len() - 1;
+    let mut x = start.to_vec();
+    let value = |x: &[f64]| {
+        let m = contour.moments_f64(x).0;
+        if m.is_nan() {
+            f64::NEG_INFINITY
+        } else {
+            m
+        }
+    };
+    let mut best = value(&x);
+    let mut step: Vec<f64> = (0..dim).map(|d| 0.5 * (region[d].1 - region[d].0) / CENTER_GRID as f64).collect();
+    let mut evals = 1;
+    while evals + 2 * dim <= CENTER_REFINE_EVALS {
+        let mut moved = false;
+        for d in 0..dim {
+            for sign in [1.0, -1.0] {
+                let mut y = x.clone();
+                y[d] = (x[d] + sign * step[d]).clamp(region[d].0, region[d].1);
+                let v = value(&y);
+                evals += 1;
+                if v > best {
+                    (best, x, moved) = (v, y, true);
+                    break;
+                }
+            }
+        }
+        if !moved {
+            step.iter_mut().for_each(|s| *s *= 0.5);
+            if step.iter().zip(region).all(|(s, r)| *s <= 1e-12 * (r.1 - r.0)) {
+                break;
+            }
+        }
+    }
+    x
+}
+
 fn build_grid(scene: &Scene, covers: &[std::sync::OnceLock<ObstacleCovers>]) -> Grid {
     let ws = &scene.workspace;
     let dim = scene.dim;
