@@ -190,3 +190,60 @@ fn a_piece_backwards_in_time_is_refused_without_a_panic() {
     let still = Piece::segment(&start, &start, 0.1, 0.9);
     assert_eq!(cert.check(&still), Motion::Accepted, "the start, held still");
 }
+
+/// The planners' checker on many obstacles: a piece whose box meets several obstacles'
+/// covers is split into parts, each looked up in the index, and the parts' candidates
+/// united (`SceneCertifier`, a bit per obstacle). 128 disks `(r·s)² − (x − cx − d)² −
+/// (y − cy)²`, s ~ U[0.9, 1.1], d ~ N(0, 0.05), Δ = 0.05; 3000 random pieces of 2 to 12
+/// disk radii. Oracle in closed form, sharing no code with the checker: a piece that comes
+/// within 0.9·r − 0.25 of a nominal centre has a point that collides for every s and every
+/// |d| ≤ 0.25 (5σ), with probability above 0.999 > Δ — it must be refused.
+#[test]
+fn checker_refuses_every_piece_through_a_disk_among_many() {
+    use rand::{Rng, SeedableRng};
+    use riskplan::motion::{Motion, MotionChecker};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(128);
+    let side = 10.0 * 128f64.sqrt();
+    let mut params = serde_json::Map::new();
+    let mut obstacles = Vec::new();
+    let mut disks = Vec::new();
+    for k in 1..=128 {
+        let (cx, cy, r): (f64, f64, f64) = (
+            (rng.random_range(0.0..side) * 100.0f64).round() / 100.0,
+            (rng.random_range(0.0..side) * 100.0f64).round() / 100.0,
+            (rng.random_range(0.8..1.6) * 100.0f64).round() / 100.0,
+        );
+        params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
+        params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
+        obstacles.push(serde_json::json!({"id": format!("disk{k}"), "poly": format!("({r}*s{k})^2 - (x1 - {cx} - d{k})^2 - (x2 - {cy})^2")}));
+        disks.push((cx, cy, r));
+    }
+    let text = serde_json::json!({
+        "format": "riskplan-scene/1", "name": "disks-128", "dim": 2,
+        "workspace": {"lower": [0, 0], "upper": [side, side]}, "horizon": [0, 1], "risk": 0.05,
+        "params": params, "obstacles": obstacles, "start": [0.5, 0.5], "goal": [side - 0.5, side - 0.5],
+    })
+    .to_string();
+    let s = Arc::new(riskplan::scene::Scene::from_json(&text).unwrap());
+    let checker = riskplan::certify::scene::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
+    let dist = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let vv = dx * dx + dy * dy;
+        let u = if vv > 0.0 { (((c[0] - a[0]) * dx + (c[1] - a[1]) * dy) / vv).clamp(0.0, 1.0) } else { 0.0 };
+        ((a[0] + u * dx - c[0]).powi(2) + (a[1] + u * dy - c[1]).powi(2)).sqrt()
+    };
+    let (mut through, mut accepted) = (0, 0);
+    for _ in 0..3000 {
+        let a = [rng.random_range(2.0..side - 2.0), rng.random_range(2.0..side - 2.0)];
+        let (len, angle): (f64, f64) = (rng.random_range(2.4..14.4), rng.random_range(0.0..std::f64::consts::TAU));
+        let b = [(a[0] + len * angle.cos()).clamp(0.0, side), (a[1] + len * angle.sin()).clamp(0.0, side)];
+        let piece = Piece::segment(&a, &b, 0.0, 1.0);
+        let hit = disks.iter().any(|&(cx, cy, r)| dist(a, b, [cx, cy]) < 0.9 * r - 0.25);
+        let ok = checker.check(&piece) == Motion::Accepted;
+        through += hit as usize;
+        accepted += ok as usize;
+        assert!(!(hit && ok), "a piece {a:?} -> {b:?} through a disk was accepted");
+    }
+    println!("128 disks: {through} of 3000 pieces through a disk (all refused), {accepted} accepted");
+    assert!(through > 300 && accepted > 300, "the test exercises both answers: {through} through, {accepted} accepted");
+}

@@ -319,14 +319,11 @@ impl SceneCertifier {
         // parts cost a box and a lookup each: no more than the candidates they may save
         let k = bbox.map_or(1, |b| index.sub_pieces_for(b)).min(SPLIT_PARTS_PER_CANDIDATE * out.len());
         let Some(parts) = (k > 1).then(|| piece_sub_boxes(pr, k)).flatten() else { return };
-        out.clear();
-        let mut part = Vec::new();
+        let mut set = index.candidate_set();
         for (b, (a, z)) in &parts {
-            index.candidates(Some(b), *a, *z, &mut part);
-            out.extend_from_slice(&part);
+            index.mark_candidates(Some(b), *a, *z, &mut set);
         }
-        out.sort_unstable();
-        out.dedup();
+        set.emit(out);
     }
 }
 
