@@ -127,6 +127,14 @@ pub struct PreparedPlan {
     pub bounds: BoundChoice,
 }
 
+/// The share of Δ by which the whole-path bound a plan reports may exceed, summed over the
+/// obstacles, what the partition would give with unlimited boxes (docs/design.md §5.14):
+/// an obstacle's partition stops once its undecided probability is below this share of Δ
+/// over the number of obstacles. Without it an obstacle at 10⁻⁹ beside the plan was
+/// refined to 10⁻¹² (its whole box budget: on 512 disks, half the whole-path time) for a
+/// sum of 10⁻⁴.
+pub const WHOLE_PATH_SLACK_SHARE: f64 = 0.01;
+
 /// How long the final check of a plan found in time may run past the plan's deadline
 /// (docs/design.md §5.12): well inside the 100 ms within which plans answer after
 /// their limit; a check still running then ends the plan as `deadline_reached`.
@@ -177,7 +185,8 @@ impl PreparedPlan {
                     // the moment envelopes' exact arithmetic can take seconds)
                     let budgeted = self.risk_mode == RiskMode::Trajectory;
                     let whole = |effort| crate::verify::plan_whole_path_risk(&self.kernel, &traj.pieces, effort, budgeted, &stop);
-                    let mut wp = whole(CellEffort::PLAN);
+                    let obstacles = self.kernel.scene().obstacles.len().max(1) as f64;
+                    let mut wp = whole(CellEffort::PLAN.with_slack(WHOLE_PATH_SLACK_SHARE * delta / obstacles));
                     if budgeted && wp.as_ref().is_ok_and(|b| b.is_some_and(|b| b > delta)) {
                         wp = whole(CellEffort::REPORT);
                     }
