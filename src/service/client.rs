@@ -51,6 +51,12 @@ struct Servers {
     suspended: HashMap<String, std::time::Instant>,
 }
 
+/// How often a read waiting on a server's own key looks whether that server's liveliness
+/// token is still up (proto/README.md, "Failover"): a read in flight to a server that was
+/// killed is not always ended by Zenoh before the query's timeout; once the token goes the
+/// read is sent elsewhere at once.
+const LIVENESS_POLL: Duration = Duration::from_millis(50);
+
 /// How long a server whose own key left a read without reply is left out of the choice.
 const SUSPEND: Duration = Duration::from_secs(1);
 
@@ -237,6 +243,11 @@ impl Client {
         self.servers.lock().map(|s| s.live.clone()).unwrap_or_default()
     }
 
+    /// Whether server `id`'s liveliness token is up.
+    fn is_live(&self, id: &str) -> bool {
+        self.servers.lock().map(|s| s.live.iter().any(|x| x == id)).unwrap_or(true)
+    }
+
     /// Where a query on `route` goes: a read to a live server's own key (the power of
     /// two choices, `Servers::pick`), anything else — or a read when no server is
     /// known — to the shared key; with `?min_revision=R` on reads when asked for.
@@ -318,12 +329,28 @@ impl Client {
                 return Err(ClientError::Zenoh(e.to_string()));
             }
         };
-        let first = replies.recv_async().await;
-        pending.finish(first.is_err());
-        let Ok(reply) = first else {
-            // No reply to a read: the server that took it died (or none is up yet).
-            // Reads are safe to repeat: the next goes to another live server (or the
-            // shared key, where Zenoh routes it to one); writes (apply) are never repeated.
+        // a read on a server's own key is waited for only while its token is up
+        let first = match &pending.target {
+            Target::Own(id) => {
+                let gone = async {
+                    while self.is_live(id) {
+                        tokio::time::sleep(LIVENESS_POLL).await;
+                    }
+                };
+                tokio::select! {
+                    r = replies.recv_async() => r.ok(),
+                    () = gone => None,
+                }
+            }
+            Target::Shared(_) => replies.recv_async().await.ok(),
+        };
+        pending.finish(first.is_none());
+        let Some(reply) = first else {
+            // No reply to a read: the server that took it died (or none is up yet), or
+            // its token went while it held the read. Reads are safe to repeat (a late
+            // reply to the abandoned one is dropped with its receiver): the next goes to
+            // another live server (or the shared key, where Zenoh routes it to one);
+            // writes (apply) are never repeated.
             let left = timeout.saturating_sub(started.elapsed() + RETRY_PAUSE);
             if route.is_read() && !left.is_zero() {
                 if !own {

@@ -25,6 +25,8 @@ mod plan_scenes;
 mod proto_examples;
 mod reference_scenes;
 #[cfg(all(feature = "service", feature = "cli"))]
+mod service_failover;
+#[cfg(all(feature = "service", feature = "cli"))]
 mod service_metrics;
 #[cfg(all(feature = "service", feature = "cli"))]
 mod service_shutdown;
