@@ -302,12 +302,7 @@ impl RiskContour {
             let params: Vec<Var> = self.poly.vars().into_iter().filter(|&v| self.layout.is_param(v)).collect();
             let laws: Vec<&crate::moments::cdf::CdfLaw> = params.iter().map(|&v| self.law(v)).collect::<Option<_>>()?;
             let root: Vec<Interval> = laws.iter().map(|l| Interval::new(l.lo, l.hi)).collect();
-            // (a + b rounded up; exact when either is 0)
-            let outside = laws.iter().fold(0.0, |acc: f64, l| match (acc, l.outside) {
-                (a, 0.0) => a,
-                (0.0, b) => b,
-                (a, b) => (a + b).next_up(),
-            });
+            let outside = laws.iter().fold(0.0, |acc, l| crate::moments::cdf::add_up(acc, l.outside));
             let mut grouped: std::collections::BTreeMap<Vec<(usize, u32)>, Interval> = Default::default();
             for (m, c) in centred.terms() {
                 let mut w = *c;

@@ -50,6 +50,18 @@ pub const MILLS_FLOOR: f64 = 1e-300;
 /// polynomial has α + β terms).
 pub const MAX_BETA_INTEGER: u64 = 64;
 
+/// `a + b` rounded up (both ≥ 0): sums of upper bounds of probabilities stay upper bounds
+/// (exact when either is 0).
+pub fn add_up(a: f64, b: f64) -> f64 {
+    if a == 0.0 {
+        b
+    } else if b == 0.0 {
+        a
+    } else {
+        (a + b).next_up()
+    }
+}
+
 /// A parameter's law, in the form the partition needs: its range and the probability of
 /// any sub-interval, bounded from above.
 #[derive(Clone, Debug, PartialEq)]

@@ -344,11 +344,11 @@ pub struct PieceBoxes {
     nodes: Vec<HullNode>,
 }
 
-/// A node of [`PieceBoxes`]' tree: the hull of the boxes of pieces `first..end`.
+/// A node of [`PieceBoxes`]' tree: the hull of the boxes of a run of consecutive pieces.
 struct HullNode {
     hull: Vec<Interval>,
+    /// The run's first piece (the only one when the node has no children).
     first: usize,
-    end: usize,
     /// The two halves, or `None` for a single piece.
     children: Option<(usize, usize)>,
 }
@@ -387,7 +387,7 @@ impl PieceBoxes {
     /// Adds the node of pieces `first..end` and its subtree; returns its index.
     fn build(&mut self, first: usize, end: usize) -> usize {
         let at = self.nodes.len();
-        self.nodes.push(HullNode { hull: Vec::new(), first, end, children: None });
+        self.nodes.push(HullNode { hull: Vec::new(), first, children: None });
         let hull_of = |a: &[Interval], b: &[Interval]| -> Vec<Interval> { a.iter().zip(b).map(|(x, y)| x.hull(*y)).collect() };
         if end - first == 1 {
             let parts = &self.parts[first];
@@ -440,7 +440,6 @@ fn parts_near(folded: &FoldedPoly, boxes: &PieceBoxes, frame: &Frame) -> Vec<Par
             }
             None => {
                 let p = node.first;
-                debug_assert_eq!(node.end, p + 1);
                 for (k, bx) in boxes.parts[p].iter().enumerate() {
                     if !clear(bx) {
                         near.push((p, SCREEN_DEPTH, k as u64));

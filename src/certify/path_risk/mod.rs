@@ -73,17 +73,8 @@ impl PiecePathRisk {
     }
 }
 
-/// `a + b` rounded up (both ≥ 0): sums of upper bounds of probabilities stay upper bounds
-/// (exact when either is 0).
-pub fn add_up(a: f64, b: f64) -> f64 {
-    if a == 0.0 {
-        b
-    } else if b == 0.0 {
-        a
-    } else {
-        (a + b).next_up()
-    }
-}
+/// `a + b` rounded up (both ≥ 0; exact when either is 0): `moments::cdf::add_up`.
+pub use crate::moments::cdf::add_up;
 
 /// A float ≥ `q`: the upper end of its outward-rounded enclosure.
 pub fn upper_f64(q: &BigRational) -> f64 {
