@@ -166,8 +166,9 @@ pub struct FoldedPoly {
 
 impl FoldedPoly {
     /// An upper bound of P over the box `bx` of (z, τ) (dim + 1 sides) and every ω in the
-    /// ranges, in interval arithmetic (even powers by their exact range); NaN when an end is
-    /// not a number (a NaN proves nothing: callers keep what it concerns).
+    /// ranges, in interval arithmetic (even powers by their exact range). An operation that
+    /// would give NaN gives the whole line (`Interval`), so the bound is then +∞ and proves
+    /// nothing.
     pub fn upper(&self, bx: &[Interval]) -> f64 {
         let mut value = Interval::point(0.0);
         for (m, c) in &self.terms {

@@ -410,8 +410,8 @@ impl PieceBoxes {
 /// (z_v = (x_v − c_v)·2^(−e_v), in interval arithmetic); an upper bound below 0 proves the
 /// stretch, piece or part misses the obstacle for every ω of the ranges — which the
 /// partition's root box would also find, at the cost of the pieces' restrictions (on 512
-/// disks the final check restricted every piece for every obstacle). A NaN bound proves
-/// nothing: what it concerns is kept.
+/// disks the final check restricted every piece for every obstacle). Only a bound below 0
+/// drops anything (`<` is false for NaN, should one ever arise).
 fn parts_near(folded: &FoldedPoly, boxes: &PieceBoxes, frame: &Frame) -> Vec<Part> {
     let n = frame.center.len();
     let shift: Vec<(Interval, Interval)> =
