@@ -778,14 +778,13 @@ impl Substitution {
                 _ => false,
             };
             if !straight {
-                // exactly in rationals, then each coefficient rounded once
-                let q = |v: f64| BigRational::from_float(v);
-                let (Some(qt0), Some(qt1), Some(qc)) = (q(t0), q(t1), q(c)) else { return None };
-                let coeffs: Option<Vec<BigRational>> = row.iter().map(|&v| q(v)).collect();
-                let poly = crate::poly::UPoly::new(coeffs?).compose_affine(&qt0, &(&qt1 - &qt0));
-                let poly = poly.sub(&crate::poly::UPoly::constant(qc));
-                for (k, slot) in out.coeffs[d].iter_mut().enumerate().take(row.len()) {
-                    let (v, r) = round_for_model(&poly.coeff(k))?;
+                // exactly (dyadic rationals: floats' sums and products, no divisions), then
+                // each coefficient rounded once
+                use crate::poly::dyadic::{compose_affine, Dyadic};
+                let mut poly = compose_affine(row, t0, t1)?;
+                poly[0] = poly[0].sub(&Dyadic::from_f64(c)?);
+                for (slot, q) in out.coeffs[d].iter_mut().zip(&poly).take(row.len()) {
+                    let (v, r) = round_for_model(&q.to_rational())?;
                     *slot = (v, v.abs(), r);
                 }
                 out.len[d] = row.len();

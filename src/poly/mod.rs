@@ -9,6 +9,7 @@
 //! over independent parameters (§2.3), and printing that [`parse`] reads back.
 
 mod affine;
+pub mod dyadic;
 mod interval;
 mod parse;
 mod ring;

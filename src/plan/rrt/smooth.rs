@@ -135,8 +135,8 @@ pub const MAX_NUDGE_ULPS: usize = 16;
 /// exactly; positions change by ulps, far below the trajectory format's continuity
 /// tolerance.
 pub fn inside(mut piece: Piece, lower: &[f64], upper: &[f64]) -> Piece {
-    use num_rational::BigRational;
-    let q = |v: f64| BigRational::from_float(v);
+    // exactly, in dyadic rationals (what floats' sums and products are)
+    let q = crate::poly::dyadic::Dyadic::from_f64;
     let (Some(t0), Some(t1)) = (q(piece.t0), q(piece.t1)) else { return piece };
     for (d, c) in piece.coeffs.iter_mut().enumerate() {
         if c.len() != 2 {
@@ -145,7 +145,7 @@ pub fn inside(mut piece: Piece, lower: &[f64], upper: &[f64]) -> Piece {
         let (Some(lo), Some(hi)) = (q(lower[d]), q(upper[d])) else { continue };
         for _ in 0..MAX_NUDGE_ULPS {
             let (Some(c0), Some(c1)) = (q(c[0]), q(c[1])) else { break };
-            let ends = [&c0 + &c1 * &t0, &c0 + &c1 * &t1];
+            let ends = [c0.add(&c1.mul(&t0)), c0.add(&c1.mul(&t1))];
             if ends.iter().any(|e| *e > hi) {
                 c[0] = c[0].next_down();
             } else if ends.iter().any(|e| *e < lo) {
