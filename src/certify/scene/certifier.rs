@@ -77,16 +77,26 @@ impl SceneCertifier {
         let kernel = scene.into();
         let scene = kernel.scene().clone();
         assert_eq!(deltas.len(), scene.obstacles.len(), "one risk level per obstacle");
-        let one_minus = deltas
+        // each distinct level converted once (exact arithmetic: on 512 obstacles at one Δ,
+        // converting every copy cost half a millisecond per plan)
+        let mut last: Option<(&RiskLevel, (f64, bool), Level)> = None;
+        let (one_minus, levels): (Vec<(f64, bool)>, Vec<Level>) = deltas
             .iter()
             .map(|d| {
+                if let Some((prev, om, level)) = &last {
+                    if *prev == d {
+                        return (*om, *level);
+                    }
+                }
                 let q = BigRational::from_integer(1.into()) - d.rational();
                 let f = crate::poly::rational_to_f64(&q);
-                (f, BigRational::from_float(f).is_some_and(|e| e == q))
+                let om = (f, BigRational::from_float(f).is_some_and(|e| e == q));
+                let level = Level::new(d.rational());
+                last = Some((d, om, level));
+                (om, level)
             })
-            .collect();
+            .unzip();
         let compiled = kernel.compiled();
-        let levels = deltas.iter().map(|d| Level::new(d.rational())).collect();
         let kappas = scene
             .obstacles
             .iter()
@@ -312,18 +322,33 @@ impl SceneCertifier {
     /// ([`SceneIndex::sub_pieces_for`]), each with its own proven box, and the candidates
     /// are those of the parts (the parts cover the piece: sound).
     fn candidates(&self, index: &SceneIndex, pr: PieceRef<'_>, bbox: Option<&[(f64, f64)]>, out: &mut Vec<usize>) {
+        let split = |k: usize, out: &mut Vec<usize>| {
+            let Some(parts) = (k > 1).then(|| piece_sub_boxes(pr, k)).flatten() else { return false };
+            let mut set = index.candidate_set();
+            for (b, (a, z)) in &parts {
+                index.mark_candidates(Some(b), *a, *z, &mut set);
+            }
+            set.emit(out);
+            true
+        };
+        let k = bbox.map_or(1, |b| index.sub_pieces_for(b));
+        // a long piece among many obstacles is split before its whole box is looked up
+        // (that lookup visits every grid cell of the box: on 512 disks a diagonal
+        // shortcut's cost more than deciding the obstacles found), by the grid's estimate
+        if let Some(est) = bbox.and_then(|b| index.expected_candidates(b)).filter(|_| k > 1) {
+            if est >= SPLIT_MIN_CANDIDATES as f64 {
+                let cap = (SPLIT_PARTS_PER_CANDIDATE as f64 * est).min(usize::MAX as f64) as usize;
+                if split(k.min(cap), out) {
+                    return;
+                }
+            }
+        }
         index.candidates(bbox, pr.t0, pr.t1, out);
         if out.len() < SPLIT_MIN_CANDIDATES {
             return;
         }
         // parts cost a box and a lookup each: no more than the candidates they may save
-        let k = bbox.map_or(1, |b| index.sub_pieces_for(b)).min(SPLIT_PARTS_PER_CANDIDATE * out.len());
-        let Some(parts) = (k > 1).then(|| piece_sub_boxes(pr, k)).flatten() else { return };
-        let mut set = index.candidate_set();
-        for (b, (a, z)) in &parts {
-            index.mark_candidates(Some(b), *a, *z, &mut set);
-        }
-        set.emit(out);
+        split(k.min(SPLIT_PARTS_PER_CANDIDATE * out.len()), out);
     }
 }
 
@@ -450,9 +475,10 @@ impl MotionChecker for SceneCertifier {
         // each obstacle in its own frame (docs/design.md §5.14)
         let frames = self.kernel.path_frames(stop).ok()?;
         let boxes = PieceBoxes::new(std::slice::from_ref(&r), self.scene.dim);
-        for (o, frame) in self.scene.obstacles.iter().zip(frames.iter()) {
+        for (i, (o, frame)) in self.scene.obstacles.iter().zip(frames.iter()).enumerate() {
             let c = o.contour.get();
-            let b = match cells_path_risk_in(c, std::slice::from_ref(&r), &boxes, frame, effort, stop) {
+            let reach = self.kernel.path_reach(i, frame);
+            let b = match cells_path_risk_in(c, std::slice::from_ref(&r), &boxes, frame, reach.as_deref(), effort, stop) {
                 Some(b) => b.bound,
                 None if stop() => return None,
                 // no rigorous distribution function: the moment envelopes

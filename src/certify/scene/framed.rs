@@ -100,15 +100,77 @@ impl Near {
     fn clears(&self, bbox: &[Interval], t: Interval, b: &NearBound) -> bool {
         let mut vals: Vec<Interval> = bbox.iter().zip(&self.center).map(|(&b, &c)| b - Interval::point(c)).collect();
         vals.push(t - Interval::point(self.center[bbox.len()]));
-        let m = self.mean.eval(&vals);
+        let mut powers = Powers::new(&vals);
+        let m = powers.eval(&self.mean);
         // NaN-safe: a NaN bound is not below 0
         if m.hi.partial_cmp(&0.0) != Some(std::cmp::Ordering::Less) {
             return false;
         }
-        if b.g1.eval(&vals).lo > 0.0 {
+        if powers.eval(&b.g1).lo > 0.0 {
             return true;
         }
-        (b.delta * (m * m) - b.one_minus_delta * b.var.eval(&vals)).lo > 0.0
+        (b.delta * (m * m) - b.one_minus_delta * powers.eval(&b.var)).lo > 0.0
+    }
+}
+
+/// The powers of a box's sides for the box tests' evaluations, each formed once and
+/// shared by the three polynomials of a test: `w^e` as [`power_range`] forms it (repeated
+/// outward-rounded products; an even power of a side that contains 0 from 0), so a
+/// polynomial's enclosure is Σ c·Π w_v^e over its terms, sound term by term. (The general
+/// `Poly::eval` formed every power of every term anew: most of the final check's time on
+/// crowded scenes.)
+///
+/// [`power_range`]: crate::contour::bounds::power_range
+struct Powers<'a> {
+    vals: &'a [Interval],
+    /// `chain[v][k]` = w_v^(k+1) by repeated products, for the first `len[v]` exponents.
+    chain: [[Interval; Powers::KEPT]; Powers::VARS],
+    len: [usize; Powers::VARS],
+}
+
+impl<'a> Powers<'a> {
+    /// Sides whose powers are kept (space up to 3 dimensions and time).
+    const VARS: usize = 4;
+    /// Exponents kept per side (higher ones are formed directly).
+    const KEPT: usize = 12;
+
+    fn new(vals: &'a [Interval]) -> Self {
+        Powers { vals, chain: [[Interval::point(0.0); Self::KEPT]; Self::VARS], len: [0; Self::VARS] }
+    }
+
+    /// The enclosure of `w_v^e`.
+    fn power(&mut self, v: usize, e: u32) -> Interval {
+        let Some(&w) = self.vals.get(v) else { return Interval::new(f64::NEG_INFINITY, f64::INFINITY) };
+        let k = e as usize;
+        if e == 0 || v >= Self::VARS || k > Self::KEPT {
+            return crate::contour::bounds::power_range(w, e);
+        }
+        while self.len[v] < k {
+            let next = if self.len[v] == 0 { w } else { self.chain[v][self.len[v] - 1] * w };
+            self.chain[v][self.len[v]] = next;
+            self.len[v] += 1;
+        }
+        let acc = self.chain[v][k - 1];
+        if e % 2 == 0 {
+            if w.lo <= 0.0 && w.hi >= 0.0 {
+                return Interval::new(0.0, acc.hi.max(0.0));
+            }
+            return Interval::new(acc.lo.max(0.0), acc.hi);
+        }
+        acc
+    }
+
+    /// The enclosure of `p` over the box.
+    fn eval(&mut self, p: &crate::poly::Poly<Interval>) -> Interval {
+        let mut acc = Interval::point(0.0);
+        for (m, c) in p.terms() {
+            let mut t = *c;
+            for &(v, e) in m.pairs() {
+                t = t * self.power(v as usize, e);
+            }
+            acc = acc + t;
+        }
+        acc
     }
 }
 
@@ -317,6 +379,17 @@ pub(crate) fn piece_passes_verify_path(
     let bbox = near.and_then(|_| interval_hull(pr));
     let parts = std::cell::OnceCell::new();
     let ped_hull = std::cell::OnceCell::new();
+    // 1 − Δᵢ enclosed (exact arithmetic), again only when the level differs from the last
+    // obstacle's (scenes mostly share one Δ)
+    let last: std::cell::Cell<Option<(usize, Interval)>> = std::cell::Cell::new(None);
+    let one_minus = |i: usize, d: &RiskLevel| match last.get() {
+        Some((prev, om)) if deltas.get(prev) == Some(d) => om,
+        _ => {
+            let om = one_minus_enclosed(d);
+            last.set(Some((i, om)));
+            om
+        }
+    };
     let obstacle_passes = |i: usize| {
         let (Some(o), Some(d)) = (scene.obstacles.get(i), deltas.get(i)) else { return false };
         if let (Some(p), true) = (&o.pedestrian, bounds.beyond_cantelli()) {
@@ -327,7 +400,7 @@ pub(crate) fn piece_passes_verify_path(
             }
             return crate::certify::tail::piece_clear_exact(p, d.rational(), pr).is_safe();
         }
-        let omd = one_minus_enclosed(d);
+        let omd = one_minus(i, d);
         if let (Some((Some(n), g1)), Some(b)) = (near.map(|(n, c)| (&n[i], &c[i])), &bbox) {
             let g1 = g1.get_or_init(|| n.cantelli(omd));
             if n.clears(b, Interval::new(pr.t0, pr.t1), g1) {

@@ -146,6 +146,8 @@ struct Grid {
     size: Vec<f64>,
     cells: Vec<Vec<u32>>,
     always: Vec<u32>,
+    /// Entries per cell, on average over the grid.
+    mean_entries: f64,
 }
 
 impl Grid {
@@ -373,6 +375,22 @@ impl SceneIndex {
         let mut set = self.candidate_set();
         self.mark_candidates(bbox, t0, t1, &mut set);
         set.emit(out);
+    }
+
+    /// About how many obstacles the grid files under `bbox` (its cells in the box times
+    /// the grid's mean entries per cell, plus the obstacles always checked), without
+    /// visiting them: what lets [`SceneCertifier`](super::SceneCertifier) split a long
+    /// piece before looking up its whole box (a diagonal piece's box spans thousands of
+    /// cells). `None` without a grid (small scenes: every obstacle is tested directly).
+    pub fn expected_candidates(&self, bbox: &[(f64, f64)]) -> Option<f64> {
+        let g = self.grid.get()?;
+        let clipped: Vec<(f64, f64)> = bbox
+            .iter()
+            .zip(self.lower.iter().zip(&self.upper))
+            .map(|(&(lo, hi), (&l, &u))| (lo.max(l), hi.min(u)))
+            .collect();
+        let cells: f64 = g.cell_range(&self.lower, &clipped).iter().map(|&(a, b)| (b + 1 - a.min(b)) as f64).product();
+        Some(cells * g.mean_entries + g.always.len() as f64)
     }
 
     /// An empty set of this scene's obstacles, for [`Self::mark_candidates`].
@@ -630,7 +648,8 @@ fn build_grid(scene: &Scene, covers: &[std::sync::OnceLock<ObstacleCovers>]) -> 
     let per = ((total as f64).powf(1.0 / dim as f64).floor() as usize).max(1);
     let n = vec![per; dim];
     let size: Vec<f64> = (0..dim).map(|d| (ws.upper[d] - ws.lower[d]) / per as f64).collect();
-    let mut grid = Grid { n, size, cells: vec![Vec::new(); per.pow(dim as u32)], always: Vec::new() };
+    let mut grid =
+        Grid { n, size, cells: vec![Vec::new(); per.pow(dim as u32)], always: Vec::new(), mean_entries: 0.0 };
     for (i, c) in covers.iter().enumerate() {
         let Some(slabs) = c.get().and_then(|c| c.slabs.as_ref()) else {
             grid.always.push(i as u32);
@@ -654,6 +673,7 @@ fn build_grid(scene: &Scene, covers: &[std::sync::OnceLock<ObstacleCovers>]) -> 
             grid.cells[cell].push(i as u32);
         }
     }
+    grid.mean_entries = grid.cells.iter().map(Vec::len).sum::<usize>() as f64 / grid.cells.len() as f64;
     grid
 }
 
