@@ -221,9 +221,10 @@ pub fn plan_whole_path_risk(
     // each obstacle in its own frame (§5.14)
     let frames = kernel.path_frames(stop)?;
     let boxes = PieceBoxes::new(&refs, kernel.scene().dim);
-    for (o, frame) in kernel.scene().obstacles.iter().zip(frames.iter()) {
+    for (i, (o, frame)) in kernel.scene().obstacles.iter().zip(frames.iter()).enumerate() {
         let c = o.contour.get();
-        let b = match cells_path_risk_in(c, &refs, &boxes, frame, effort, stop) {
+        let reach = kernel.path_reach(i, frame);
+        let b = match cells_path_risk_in(c, &refs, &boxes, frame, reach.as_deref(), effort, stop) {
             Some(b) => b.bound,
             None if stop() => return Err(Interrupted),
             None if !envelopes => return Ok(None),

@@ -328,7 +328,7 @@ impl Ord for Cell {
 /// partition's root box, at the cost of restricting their pieces — the parts' boxes prove
 /// most of them outside at a few interval evaluations each. The parts are the partition's
 /// own parts at this depth (piece, depth, index), so the partition starts from those kept.
-pub const SCREEN_DEPTH: u32 = 3;
+pub const SCREEN_DEPTH: u32 = 5;
 
 /// Enclosures of a trajectory's pieces, for the partition's screen ([`cells_path_risk_in`]),
 /// built once for all obstacles of a scene: per piece and per part of its time
@@ -402,6 +402,121 @@ impl PieceBoxes {
     }
 }
 
+/// Bisection steps per side of a [`Reach`] box: its sides are found within 2^−16 of the
+/// region's width (a looser side only clears less; the steps are paid once per obstacle
+/// and scene).
+pub const REACH_STEPS: u32 = 16;
+
+/// Where in a region (the workspace × the horizon) an obstacle may be met for some ω of
+/// its parameters' ranges, as a box: every point of the region outside the box lies in a
+/// slab of the region (all of it but one side cut short) on which [`FoldedPoly::upper`]
+/// is below 0 — P < 0 there for every ω of the ranges. The screen's first test
+/// ([`cells_path_risk_in`]): a stretch of the trajectory inside the region and outside
+/// the box misses the obstacle, at a few comparisons instead of P's interval evaluation
+/// (on 512 disks, most of the whole-path bound's time went to evaluating far obstacles).
+/// Built once per obstacle and scene ([`crate::certify::scene::SceneKernel`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Reach {
+    /// The region, in the scene's coordinates (time last).
+    region: Vec<(f64, f64)>,
+    /// `[A_v, B_v]` per coordinate, rounded outward: a point of the region with
+    /// `x_v < A_v` or `x_v > B_v` is clear. `None`: every point of the region is.
+    sides: Option<Vec<(f64, f64)>>,
+    /// The laws' probability outside their ranges ([`FoldedPoly::outside`]): the bound of
+    /// a trajectory the reach clears whole.
+    outside: f64,
+}
+
+impl Reach {
+    /// The reach of the obstacle whose P is `folded` in `frame`, in `region` (a box of
+    /// the scene's coordinates, time last; `None` for a region of another dimension or
+    /// not finite). Each side by bisection ([`REACH_STEPS`]); interval evaluation is
+    /// inclusion-monotone, so a slab inside a clear one is clear.
+    pub fn new(folded: &FoldedPoly, frame: &Frame, region: &[(f64, f64)]) -> Option<Reach> {
+        let n = frame.center.len();
+        if region.len() != n
+            || frame.exponents.len() != n
+            || frame.exponents.iter().any(|e| e.abs() > Frame::MAX_EXPONENT)
+            || region.iter().any(|(lo, hi)| !(lo.is_finite() && hi.is_finite() && lo <= hi))
+        {
+            return None;
+        }
+        let to_frame = |v: usize, x: Interval| (x - Interval::point(frame.center[v])) * Interval::point(frame.inv_scale(v));
+        let z: Vec<Interval> = region.iter().enumerate().map(|(v, &(lo, hi))| to_frame(v, Interval::new(lo, hi))).collect();
+        let clear = |v: usize, side: Interval| {
+            let mut bx = z.clone();
+            bx[v] = side;
+            folded.upper(&bx) < 0.0
+        };
+        if folded.upper(&z) < 0.0 {
+            return Some(Reach { region: region.to_vec(), sides: None, outside: folded.outside });
+        }
+        let mut sides = Vec::with_capacity(n);
+        for (v, zv) in z.iter().enumerate() {
+            // in the frame: a = the largest end found with [zv.lo, a] clear (zv.lo: none),
+            // b = the smallest with [b, zv.hi] clear
+            let bisect = |from_low: bool| -> Option<f64> {
+                let slab = |e: f64| if from_low { Interval::new(zv.lo, e) } else { Interval::new(e, zv.hi) };
+                let (mut good, mut bad) = if from_low { (zv.lo, zv.hi) } else { (zv.hi, zv.lo) };
+                if !clear(v, slab(good)) {
+                    return None;
+                }
+                for _ in 0..REACH_STEPS {
+                    let mid = 0.5 * good + 0.5 * bad;
+                    if !mid.is_finite() || mid == good || mid == bad {
+                        break;
+                    }
+                    if clear(v, slab(mid)) {
+                        good = mid;
+                    } else {
+                        bad = mid;
+                    }
+                }
+                Some(good)
+            };
+            // back in the scene's coordinates, rounded outward: x = c + z·2^e
+            let scale = Interval::point(super::super::fast::pow2(frame.exponents[v]));
+            let back = |e: f64| Interval::point(e) * scale + Interval::point(frame.center[v]);
+            let a = bisect(true).map_or(f64::NEG_INFINITY, |e| back(e).lo);
+            let b = bisect(false).map_or(f64::INFINITY, |e| back(e).hi);
+            sides.push((a, b));
+        }
+        Some(Reach { region: region.to_vec(), sides: Some(sides), outside: folded.outside })
+    }
+
+    /// Whether every point of the box `bx` (scene coordinates, time last) is clear: inside
+    /// the region, and beyond a side of the reach (false for NaN).
+    pub fn clears(&self, bx: &[Interval]) -> bool {
+        if bx.len() != self.region.len() || !bx.iter().zip(&self.region).all(|(x, &(lo, hi))| x.lo >= lo && x.hi <= hi) {
+            return false;
+        }
+        match &self.sides {
+            None => true,
+            Some(sides) => bx.iter().zip(sides).any(|(x, &(a, b))| x.hi < a || x.lo > b),
+        }
+    }
+}
+
+/// Whether `reach` clears every part of every piece (the tree's hulls first).
+fn reach_clears_all(boxes: &PieceBoxes, reach: &Reach) -> bool {
+    let mut stack: Vec<usize> = if boxes.nodes.is_empty() { Vec::new() } else { vec![0] };
+    while let Some(i) = stack.pop() {
+        let node = &boxes.nodes[i];
+        if reach.clears(&node.hull) {
+            continue;
+        }
+        match node.children {
+            Some((a, b)) => {
+                stack.push(b);
+                stack.push(a);
+            }
+            None if boxes.parts[node.first].iter().all(|bx| reach.clears(bx)) => {}
+            None => return false,
+        }
+    }
+    true
+}
+
 /// The parts of the trajectory's pieces (at depth [`SCREEN_DEPTH`], as the partition's
 /// parts) on which P(x(t), ω, t) may be ≥ 0 for some t of the part and some ω of the
 /// parameters' ranges: a cheap screen before the partition. P, folded over the ranges in
@@ -412,7 +527,7 @@ impl PieceBoxes {
 /// partition's root box would also find, at the cost of the pieces' restrictions (on 512
 /// disks the final check restricted every piece for every obstacle). Only a bound below 0
 /// drops anything (`<` is false for NaN, should one ever arise).
-fn parts_near(folded: &FoldedPoly, boxes: &PieceBoxes, frame: &Frame) -> Vec<Part> {
+fn parts_near(folded: &FoldedPoly, boxes: &PieceBoxes, frame: &Frame, reach: Option<&Reach>) -> Vec<Part> {
     let n = frame.center.len();
     let shift: Vec<(Interval, Interval)> =
         (0..n).map(|v| (Interval::point(frame.center[v]), Interval::point(frame.inv_scale(v)))).collect();
@@ -420,6 +535,9 @@ fn parts_near(folded: &FoldedPoly, boxes: &PieceBoxes, frame: &Frame) -> Vec<Par
     let mut clear = |bx: &[Interval]| {
         if bx.len() != n {
             return false;
+        }
+        if reach.is_some_and(|r| r.clears(bx)) {
+            return true;
         }
         for (zv, (x, (c, inv))) in z.iter_mut().zip(bx.iter().zip(&shift)) {
             *zv = (*x - *c) * *inv;
@@ -465,7 +583,7 @@ pub fn cells_path_risk(
     stop: &dyn Fn() -> bool,
 ) -> Option<CellsBound> {
     let boxes = PieceBoxes::new(pieces, contour.layout().dim);
-    cells_path_risk_in(contour, pieces, &boxes, frame, effort, stop)
+    cells_path_risk_in(contour, pieces, &boxes, frame, None, effort, stop)
 }
 
 /// [`cells_path_risk`] with the pieces' boxes built once by the caller ([`PieceBoxes::new`]
@@ -476,6 +594,7 @@ pub fn cells_path_risk_in(
     pieces: &[PieceRef<'_>],
     boxes: &PieceBoxes,
     frame: &Frame,
+    reach: Option<&Reach>,
     effort: CellEffort,
     stop: &dyn Fn() -> bool,
 ) -> Option<CellsBound> {
@@ -485,12 +604,17 @@ pub fn cells_path_risk_in(
     if pieces.iter().any(|p| !p.is_finite() || p.coeffs.len() != layout.dim) {
         return None;
     }
+    // an obstacle whose reach the trajectory stays out of (most, on crowded scenes): its
+    // laws' outside mass, without P (the reach was found from P folded over the ranges)
+    if let Some(r) = reach.filter(|r| reach_clears_all(boxes, r)) {
+        return Some(CellsBound { bound: r.outside.min(1.0), boxes: 0 });
+    }
     // P folded over the laws' ranges: the root box (None when a parameter has no law)
     let folded = contour.folded_poly(&frame.center, &frame.exponents)?;
     let outside = folded.outside;
     // the parts that may meet the obstacle for some ω of the root box (the others are
     // outside it on every box of the partition)
-    let near = parts_near(&folded, boxes, frame);
+    let near = parts_near(&folded, boxes, frame, reach);
     if near.is_empty() {
         return Some(CellsBound { bound: outside.min(1.0), boxes: 0 });
     }
@@ -714,7 +838,7 @@ mod tests {
             let n_parts = 1u64 << SCREEN_DEPTH;
             for (k, frame) in [Frame::centred(&[0.0; 3]), Frame { center: vec![shift, -shift, 1.0], exponents: vec![e, -e, 1] }].into_iter().enumerate() {
                 let folded = c.folded_poly(&frame.center, &frame.exponents).unwrap();
-                let near = parts_near(&folded, &PieceBoxes::new(&refs, 2), &frame);
+                let near = parts_near(&folded, &PieceBoxes::new(&refs, 2), &frame, None);
                 for (i, w) in pts.windows(2).enumerate() {
                     for j in 0..n_parts {
                         let at = |s: f64| [w[0].0 + (w[1].0 - w[0].0) * s, w[0].1 + (w[1].1 - w[0].1) * s];
@@ -732,6 +856,50 @@ mod tests {
                         }
                     }
                 }
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// The reach of a disk ‖x − m‖ ≤ w, w ~ U[0.3, 0.4], in a region around it, against
+        /// the closed form (a point may be met iff it is within 0.4 of m): a box it clears is
+        /// inside the region and farther than 0.4 from m, whatever the frame; a box outside
+        /// the region is never cleared; and in the disk's own frame the reach is tight (a box
+        /// beyond 0.45 + 1 % of the region on a side is cleared).
+        #[test]
+        fn the_reach_clears_only_boxes_the_disk_cannot_meet(
+            m in (-5.0f64..5.0, -5.0f64..5.0),
+            half in 1.0f64..20.0,
+            shift in -3.0f64..3.0, e in -3i32..3i32,
+            boxes in proptest::collection::vec((0.0f64..1.0, 0.0f64..1.0, 0.0f64..0.3, 0.0f64..0.3), 40),
+        ) {
+            let text = format!("w^2 - (x1 - ({}))^2 - (x2 - ({}))^2", m.0, m.1);
+            let c = contour(&text, &[("w", Distribution::Uniform { low: q("0.3"), high: q("0.4") })]);
+            let region = [(m.0 - half, m.0 + half), (m.1 - 0.5 * half, m.1 + 2.0 * half), (0.0, 1.0)];
+            for (k, frame) in [Frame { center: vec![m.0, m.1, 0.5], exponents: vec![0, 0, 0] }, Frame { center: vec![shift, -shift, 1.0], exponents: vec![e, -e, 1] }].into_iter().enumerate() {
+                let folded = c.folded_poly(&frame.center, &frame.exponents).unwrap();
+                let reach = Reach::new(&folded, &frame, &region).unwrap();
+                for &(u, v, wx, wy) in &boxes {
+                    // a box of the region (sides up to 30 % of it), at any time
+                    let lo = [region[0].0 + u * (region[0].1 - region[0].0), region[1].0 + v * (region[1].1 - region[1].0)];
+                    let hi = [lo[0] + wx * (region[0].1 - region[0].0), lo[1] + wy * (region[1].1 - region[1].0)];
+                    let bx = [Interval::new(lo[0], hi[0]), Interval::new(lo[1], hi[1]), Interval::new(0.25, 0.75)];
+                    let inside = hi[0] <= region[0].1 && hi[1] <= region[1].1;
+                    // the closed form: the box's distance from m
+                    let gap = |l: f64, h: f64, c: f64| (l - c).max(c - h).max(0.0);
+                    let d = gap(lo[0], hi[0], m.0).hypot(gap(lo[1], hi[1], m.1));
+                    if reach.clears(&bx) {
+                        prop_assert!(inside, "box {bx:?} outside the region {region:?} cleared");
+                        prop_assert!(d > 0.4, "box {bx:?} at {d} from the disk cleared in {frame:?}");
+                    }
+                    let beyond = 0.45 + 0.01 * 3.0 * half;
+                    if k == 0 && inside && (lo[0] - m.0 > beyond || m.0 - hi[0] > beyond || lo[1] - m.1 > beyond || m.1 - hi[1] > beyond) {
+                        prop_assert!(reach.clears(&bx), "box {bx:?} at {d} from the disk kept: {reach:?}");
+                    }
+                }
+                let out = [Interval::new(region[0].1 - 0.1, region[0].1 + 0.1), Interval::new(m.1 + 0.4 * half, m.1 + 0.5 * half), Interval::new(0.0, 1.0)];
+                prop_assert!(!reach.clears(&out), "a box across the region's side cleared");
             }
         }
     }

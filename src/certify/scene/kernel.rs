@@ -11,12 +11,17 @@ use super::index::SceneIndex;
 pub use super::compiled::CompiledSet;
 use super::decide::Interrupted;
 use crate::certify::fast::Frame;
+use crate::certify::path_risk::Reach;
 use crate::contour::RiskLevel;
 use crate::scene::Scene;
 use std::sync::{Arc, Mutex, OnceLock};
 
 /// Indexes kept per scene (one per distinct list of per-obstacle risk levels).
 pub const INDEXES_PER_SCENE: usize = 4;
+
+/// How much wider, relative to its sides, the region of the obstacles' [`Reach`] boxes
+/// is than the workspace × the horizon ([`SceneKernel::path_reach`]).
+pub const REACH_REGION_MARGIN: f64 = 1.0 / 1024.0;
 
 /// A scene with what its checkers cache (cheap to clone: the caches are shared).
 #[derive(Clone)]
@@ -30,6 +35,8 @@ struct Inner {
     framed: OnceLock<Arc<FramedContours>>,
     /// Per obstacle, the frame of its whole-path partition ([`SceneKernel::path_frames`]).
     path_frames: OnceLock<Arc<Vec<Frame>>>,
+    /// Per obstacle, where in the workspace × horizon it may be met ([`SceneKernel::path_reach`]).
+    path_reach: Vec<OnceLock<Option<Arc<Reach>>>>,
     indexes: Mutex<Vec<(Vec<RiskLevel>, Arc<SceneIndex>)>>,
     /// The indexes of the scene's previous revision, whose covers of unchanged obstacles
     /// the indexes built here take over.
@@ -74,12 +81,14 @@ impl From<&SceneKernel> for SceneKernel {
 impl SceneKernel {
     /// A kernel for `scene`, with nothing built yet.
     pub fn new(scene: Arc<Scene>) -> Self {
+        let path_reach = (0..scene.obstacles.len()).map(|_| OnceLock::new()).collect();
         SceneKernel {
             inner: Arc::new(Inner {
                 scene,
                 compiled: OnceLock::new(),
                 framed: OnceLock::new(),
                 path_frames: OnceLock::new(),
+                path_reach,
                 indexes: Mutex::new(Vec::new()),
                 previous: Vec::new(),
             }),
@@ -102,12 +111,14 @@ impl SceneKernel {
         if previous.is_empty() {
             previous = self.inner.previous.clone();
         }
+        let path_reach = (0..scene.obstacles.len()).map(|_| OnceLock::new()).collect();
         SceneKernel {
             inner: Arc::new(Inner {
                 scene,
                 compiled,
                 framed: OnceLock::new(),
                 path_frames: OnceLock::new(),
+                path_reach,
                 indexes: Mutex::new(Vec::new()),
                 previous,
             }),
@@ -173,6 +184,30 @@ impl SceneKernel {
             frames.push(frame);
         }
         Ok(self.inner.path_frames.get_or_init(|| Arc::new(frames)).clone())
+    }
+
+    /// Where obstacle `i` may be met in the workspace × the horizon, for some ω of its
+    /// parameters' ranges ([`Reach`], docs/design.md §5.14): the whole-path screen's first
+    /// test. Built on first use from P folded in `frame` (the obstacle's path frame; the
+    /// box it gives is a statement about P in the scene's coordinates, true whatever frame
+    /// found it) and kept; `None` for an obstacle without rigorous laws.
+    pub fn path_reach(&self, i: usize, frame: &Frame) -> Option<Arc<Reach>> {
+        let slot = self.inner.path_reach.get(i)?;
+        slot.get_or_init(|| {
+            let scene = &self.inner.scene;
+            let folded = scene.obstacles.get(i)?.contour.get().folded_poly(&frame.center, &frame.exponents)?;
+            let ws = &scene.workspace;
+            let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
+            region.push(scene.horizon);
+            // widened a little: the enclosures of pieces that end on the boundary (and
+            // of their times) overshoot it by roundings, and a box must lie inside
+            for side in &mut region {
+                let m = REACH_REGION_MARGIN * (side.1 - side.0);
+                *side = (side.0 - m, side.1 + m);
+            }
+            Reach::new(&folded, frame, &region).map(Arc::new)
+        })
+        .clone()
     }
 
     /// The index at `deltas` if this kernel holds it (never builds).
