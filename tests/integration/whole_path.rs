@@ -180,3 +180,104 @@ fn whole_path_bound_in_obstacle_frames_covers_the_audit() {
         any.lower
     );
 }
+
+/// review21: 48 disks `(r·s)² − (x − cx)² − (y − cy)²`, s ~ U[0.9, 1.1], far from the
+/// origin (workspace [10⁴, 10⁴ + 70]²), so that every obstacle's whole-path partition is
+/// written in its own refined frame and screened by the tree of hulls and parts. Random
+/// polylines (1 to 6 straight pieces, some of zero duration) are driven *through* the disks.
+/// Closed form, sharing no code with the bound: the trajectory meets disk k iff
+/// s ≥ d_min/r, so P_k = (1.1 − d_min/r)/0.2 clamped. Every obstacle's `verify` bound is at
+/// least P_k, and the plan bound (with the slack) is at least Σ_k P_k's lower end: max_k P_k.
+#[test]
+fn review_whole_path_bounds_in_obstacle_frames_cover_the_closed_form_of_each_disk() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+    let (x0, side) = (10_000.0, 70.0);
+    let mut params = serde_json::Map::new();
+    let mut obstacles = Vec::new();
+    let mut disks = Vec::new();
+    for k in 1..=48 {
+        let (cx, cy, r): (f64, f64, f64) = (
+            ((x0 + rng.random_range(3.0..side - 3.0)) * 100.0f64).round() / 100.0,
+            ((x0 + rng.random_range(3.0..side - 3.0)) * 100.0f64).round() / 100.0,
+            (rng.random_range(0.8..2.0) * 100.0f64).round() / 100.0,
+        );
+        params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
+        obstacles.push(serde_json::json!({"id": format!("disk{k}"), "poly": format!("({r}*s{k})^2 - (x1 - {cx})^2 - (x2 - {cy})^2")}));
+        disks.push((cx, cy, r));
+    }
+    let text = serde_json::json!({
+        "format": "riskplan-scene/1", "name": "review-48-far", "dim": 2,
+        "workspace": {"lower": [x0, x0], "upper": [x0 + side, x0 + side]}, "horizon": [0, 10], "risk": 0.1,
+        "params": params, "obstacles": obstacles,
+    })
+    .to_string();
+    let s = Arc::new(riskplan::scene::Scene::from_json(&text).unwrap());
+    let kernel = SceneKernel::new(s.clone());
+    let frames = kernel.path_frames(&|| false).unwrap();
+    for (f, &(cx, cy, _)) in frames.iter().zip(&disks) {
+        assert!(f.center.iter().all(|v| v.is_finite()));
+        assert!((f.center[0] - cx).abs() < 1.0 && (f.center[1] - cy).abs() < 1.0, "frame {f:?} far from ({cx}, {cy})");
+    }
+    let seg = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let vv = dx * dx + dy * dy;
+        let u = if vv > 0.0 { (((c[0] - a[0]) * dx + (c[1] - a[1]) * dy) / vv).clamp(0.0, 1.0) } else { 0.0 };
+        ((a[0] + u * dx - c[0]).powi(2) + (a[1] + u * dy - c[1]).powi(2)).sqrt()
+    };
+    let (mut met, mut grazing) = (0, 0);
+    for case in 0..150 {
+        // a polyline through the centres of a few disks, offset by up to 1.2 radii
+        let n = rng.random_range(1..=6);
+        let mut pts: Vec<[f64; 2]> = Vec::new();
+        for _ in 0..=n {
+            let (cx, cy, r) = disks[rng.random_range(0..disks.len())];
+            let (ang, off): (f64, f64) = (rng.random_range(0.0..std::f64::consts::TAU), rng.random_range(0.0..1.2) * r);
+            pts.push([(cx + off * ang.cos()).clamp(x0, x0 + side), (cy + off * ang.sin()).clamp(x0, x0 + side)]);
+        }
+        let mut t = 0.0;
+        let pieces: Vec<Piece> = pts
+            .windows(2)
+            .map(|w| {
+                let h = if rng.random_bool(0.15) { 0.0 } else { rng.random_range(0.1..1.5) };
+                let p = if h == 0.0 {
+                    Piece { t0: t, t1: t, coeffs: vec![vec![w[0][0], 0.0], vec![w[0][1], 0.0]] }
+                } else {
+                    Piece::segment(&w[0], &w[1], t, t + h)
+                };
+                t += h;
+                p
+            })
+            .collect();
+        let truths: Vec<f64> = disks
+            .iter()
+            .map(|&(cx, cy, r)| {
+                let d = pieces
+                    .iter()
+                    .map(|p| {
+                        let at = |t: f64| [p.coeffs[0][0] + p.coeffs[0][1] * t, p.coeffs[1][0] + p.coeffs[1][1] * t];
+                        seg(at(p.t0), at(p.t1), [cx, cy])
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                ((1.1 - d / r) / 0.2).clamp(0.0, 1.0)
+            })
+            .collect();
+        let w = riskplan::verify::whole_path_risk(&kernel, &pieces, &|| false).unwrap();
+        for (k, (o, &p)) in w.obstacles.iter().zip(&truths).enumerate() {
+            // (1e-6: the closed form's own float rounding)
+            assert!(
+                o.bound >= p - 1e-6,
+                "case {case}, disk {k}: bound {} below the closed form {p} ({pieces:?})",
+                o.bound
+            );
+            met += (p > 0.0) as usize;
+            grazing += (p > 0.0 && p < 0.5) as usize;
+        }
+        let slack = riskplan::certify::path_risk::CellEffort::PLAN.with_slack(0.01 * 0.1 / 48.0);
+        let plan = riskplan::verify::plan_whole_path_risk(&kernel, &pieces, slack, false, &|| false).unwrap().unwrap();
+        let top = truths.iter().copied().fold(0.0, f64::max);
+        assert!(plan >= top - 1e-6, "case {case}: plan bound {plan} below the closed form {top}");
+    }
+    println!("{met} (obstacle, trajectory) pairs met, {grazing} grazing");
+    assert!(met > 150 && grazing > 25, "{met} met, {grazing} grazing");
+}

@@ -906,6 +906,215 @@ mod tests {
         }
     }
 
+
+    // ---- review21: adversarial screen tests ----
+
+    /// The obstacles the screen is attacked with: (text, laws).
+    fn review_obstacle(kind: usize, a: i64, b: i64) -> RiskContour {
+        let u = |lo: &str, hi: &str| Distribution::Uniform { low: q(lo), high: q(hi) };
+        let n = |m: &str, s: &str| Distribution::Normal { mean: q(m), std: q(s) };
+        match kind {
+            // a disk at (a, b)/64, radius w
+            0 => contour(&format!("w^2 - (x1 - {a}/64)^2 - (x2 - {b}/64)^2"), &[("w", u("0.3", "0.4"))]),
+            // moving pedestrian of uncertain speed
+            1 => contour("9/100 - (x1 + 5 - v*t)^2 - x2^2", &[("v", n("1", "0.2"))]),
+            // parameters mixed with x and t, odd powers of ranges around 0
+            2 => contour("w*x1*t + v*x2^3 - x1^2*t^2 - 1/4", &[("w", u("-1", "1")), ("v", n("0", "0.5"))]),
+            // high degree in x and ω
+            3 => contour("w^3 - x1^4 - (x2 - v)^2", &[("w", u("-0.5", "1")), ("v", n("0", "0.3"))]),
+            // time in the obstacle, ω odd and even, cross term
+            4 => contour(&format!("w^5*t - (x1 - {a}/64)^2 - (x2 - {b}/64)^2 + v*x1*x2"), &[("w", u("-1", "1.2")), ("v", n("0", "0.1"))]),
+            // a tiny disk (radius ~ 2^-530) near the origin: subnormal squares
+            6 => contour(&format!("(w*w0)^2 - (x1 - {a}/64*w0)^2 - (x2 - {b}/64*w0)^2").replace("w0", "(1/3514776401986872174070733209129673327241950873673372369609965291102998109899599898686750536018664732148375711432438199315006457855854921632037902485050909261824)"), &[("w", u("0.3", "0.4"))]),
+            // a disk at 2^40
+            7 => contour(&format!("w^2 - (x1 - 1099511627776 - {a}/64)^2 - (x2 - {b}/64)^2"), &[("w", u("0.3", "0.4"))]),
+            // a disk far from the origin (10^6 + a, b)
+            _ => contour(&format!("w^2 - (x1 - 1000000 - {a}/64)^2 - (x2 - {b}/64)^2"), &[("w", u("0.3", "0.4"))]),
+        }
+    }
+
+    /// P exactly at (x, t, ω).
+    fn exact_p(c: &RiskContour, xt: &[BigRational], omega: &[BigRational]) -> BigRational {
+        let mut vals: Vec<BigRational> = xt.to_vec();
+        vals.extend(omega.iter().cloned());
+        c.poly().eval(&vals)
+    }
+
+    fn r(f: f64) -> BigRational {
+        BigRational::from_float(f).unwrap()
+    }
+
+    /// A piece of degree `deg` in local time around `(cx, cy)`, written in absolute time.
+    fn review_piece(t0: f64, h: f64, local: &[(f64, f64)], cx: f64, cy: f64) -> crate::scene::Piece {
+        // x(t) = Σ a_k ((t − t0)/max(h, 1))^k, expanded in t
+        let sc = 1.0 / h.max(1.0);
+        let mut rows = vec![vec![0.0; local.len()], vec![0.0; local.len()]];
+        for (k, &(ax, ay)) in local.iter().enumerate() {
+            // (sc·(t − t0))^k = Σ_j C(k, j) sc^k t^j (−t0)^(k−j)
+            for j in 0..=k {
+                let c = crate::contour::bounds::binomial_f64(k as u32, j as u32) * sc.powi(k as i32) * (-t0).powi((k - j) as i32);
+                rows[0][j] += ax * c;
+                rows[1][j] += ay * c;
+            }
+        }
+        rows[0][0] += cx;
+        rows[1][0] += cy;
+        crate::scene::Piece { t0, t1: t0 + h, coeffs: rows }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(40))]
+        /// Every part the screen drops has P < 0 at every sampled (t, ω) of the part and the
+        /// laws' ranges, evaluated exactly (no interval code), for pieces of degree 0–5,
+        /// zero-length pieces, moving and mixed obstacles, in frames near, far, and with
+        /// extreme exponents; with and without a reach (region: the pieces' hull, widened).
+        #[test]
+        fn review_dropped_parts_are_negative_at_every_sample(
+            kind in 0usize..8, a in -128i64..128, b in -128i64..128,
+            pieces in proptest::collection::vec(
+                (-1.0f64..3.0, prop_oneof![Just(0.0), 1e-9f64..1e-6, 0.01f64..3.0],
+                 proptest::collection::vec((-1.5f64..1.5, -1.5f64..1.5), 1..7),
+                 -2.5f64..2.5, -2.5f64..2.5),
+                1..6),
+            fc in (-3.0f64..3.0, -3.0f64..3.0, -3.0f64..5.0),
+            fe in prop_oneof![(-4i32..4, -4i32..4, -4i32..4), (-60i32..60, -60i32..60, -60i32..60), Just((1000, -1000, 1000)), Just((-1000, 1000, -1000))],
+        ) {
+            let c = review_obstacle(kind, a, b);
+            let (off, sc, es) = match kind { 5 => (1_000_000.0, 1.0, 0), 6 => (0.0, 0.5f64.powi(530), -530), 7 => (1099511627776.0, 1.0, 0), _ => (0.0, 1.0, 0) };
+            let pieces: Vec<crate::scene::Piece> = pieces
+                .iter()
+                .map(|(t0, h, local, cx, cy)| {
+                    let local: Vec<(f64, f64)> = local.iter().map(|&(x, y)| (x * sc, y * sc)).collect();
+                    review_piece(*t0, *h, &local, cx * sc + off, cy * sc)
+                })
+                .collect();
+            let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
+            let boxes = PieceBoxes::new(&refs, 2);
+            let frames = [
+                Frame::centred(&[off, 0.0, 0.0]),
+                Frame { center: vec![fc.0 * sc + off, fc.1 * sc, fc.2], exponents: vec![fe.0 + es, fe.1 + es, fe.2] },
+            ];
+            // the region of the reach: the pieces' hull, widened (any region is sound)
+            let mut region: Vec<(f64, f64)> = vec![(f64::INFINITY, f64::NEG_INFINITY); 3];
+            for p in &refs {
+                for (k, side) in crate::certify::scene::interval_hull(*p).unwrap_or_default().iter().enumerate().take(2) {
+                    region[k] = (region[k].0.min(side.lo), region[k].1.max(side.hi));
+                }
+                region[2] = (region[2].0.min(p.t0), region[2].1.max(p.t1));
+            }
+            for side in &mut region {
+                let m = 0.01 * (side.1 - side.0) + 1e-300;
+                *side = (side.0 - m, side.1 + m);
+            }
+            for (frame, with_reach) in frames.iter().flat_map(|f| [(f.clone(), false), (f.clone(), true)]) {
+                let Some(folded) = c.folded_poly(&frame.center, &frame.exponents) else { continue };
+                let reach = if with_reach { Reach::new(&folded, &frame, &region) } else { None };
+                let near = parts_near(&folded, &boxes, &frame, reach.as_ref());
+                let omegas: Vec<Vec<BigRational>> = {
+                    let grids: Vec<Vec<BigRational>> = folded
+                        .root
+                        .iter()
+                        .map(|w| (0..=4).map(|j| r(w.lo) + (r(w.hi) - r(w.lo)) * BigRational::new(j.into(), 4.into())).collect())
+                        .collect();
+                    let mut all = vec![Vec::new()];
+                    for g in grids {
+                        all = all.iter().flat_map(|o| g.iter().map(move |v| { let mut o = o.clone(); o.push(v.clone()); o })).collect();
+                    }
+                    all
+                };
+                let n_parts = 1u64 << SCREEN_DEPTH;
+                for (i, p) in refs.iter().enumerate() {
+                    for k in 0..n_parts {
+                        if near.contains(&(i, SCREEN_DEPTH, k)) {
+                            continue;
+                        }
+                        for j in 0..=2i64 {
+                            let s = BigRational::new((2 * k as i64 + j).into(), (2 * n_parts as i64).into());
+                            let t = r(p.t0) + (r(p.t1) - r(p.t0)) * &s;
+                            let mut xt: Vec<BigRational> = p
+                                .coeffs
+                                .iter()
+                                .map(|row| row.iter().rev().fold(BigRational::from_integer(0.into()), |acc, &cf| acc * &t + r(cf)))
+                                .collect();
+                            xt.push(t.clone());
+                            for o in &omegas {
+                                let v = exact_p(&c, &xt, o);
+                                prop_assert!(v < BigRational::from_integer(0.into()),
+                                    "part {k} of piece {i} dropped, yet P = {} ≥ 0 at s = {s}, ω = {o:?}, kind {kind}, frame {frame:?}, piece {p:?}",
+                                    num_traits::ToPrimitive::to_f64(&v).unwrap_or(f64::NAN));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        /// The whole bound (screen and partition) in a random frame is at least a Monte Carlo
+        /// estimate of the event's probability (ω drawn from the laws, t sampled densely:
+        /// a lower estimate of P(E)), minus 3.3 σ.
+        #[test]
+        fn review_bound_in_any_frame_covers_a_sampled_audit(
+            kind in 0usize..8, a in -64i64..64, b in -64i64..64,
+            pieces in proptest::collection::vec(
+                (0.0f64..2.0, 0.01f64..2.0,
+                 proptest::collection::vec((-1.0f64..1.0, -1.0f64..1.0), 1..6),
+                 -1.5f64..1.5, -1.5f64..1.5),
+                1..4),
+            fc in (-3.0f64..3.0, -3.0f64..3.0, -3.0f64..5.0),
+            fe in prop_oneof![(-4i32..4, -4i32..4, -4i32..4), (-40i32..40, -40i32..40, -40i32..40)],
+            seed in 0u64..1000,
+        ) {
+            use rand::Rng;
+            let c = review_obstacle(kind, a, b);
+            let (off, sc, es) = match kind { 5 => (1_000_000.0, 1.0, 0), 6 => (0.0, 0.5f64.powi(530), -530), 7 => (1099511627776.0, 1.0, 0), _ => (0.0, 1.0, 0) };
+            let pieces: Vec<crate::scene::Piece> = pieces
+                .iter()
+                .map(|(t0, h, local, cx, cy)| {
+                    let local: Vec<(f64, f64)> = local.iter().map(|&(x, y)| (x * sc, y * sc)).collect();
+                    review_piece(*t0, *h, &local, cx * sc + off, cy * sc)
+                })
+                .collect();
+            let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
+            let frame = Frame { center: vec![fc.0 * sc + off, fc.1 * sc, fc.2], exponents: vec![fe.0 + es, fe.1 + es, fe.2] };
+            // (the audit evaluates P expanded, in floats: far or tiny disks are left to the exact test)
+            if kind >= 5 { return Ok(()); }
+            let Some(bnd) = cells_path_risk(&c, &refs, &frame, CellEffort::PLAN.with_slack(1e-3), &|| false) else { return Ok(()) };
+            // the laws, sampled
+            let folded = c.folded_poly(&frame.center, &frame.exponents).unwrap();
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let n = 3000;
+            let pf = c.poly().map_coeffs(|x| num_traits::ToPrimitive::to_f64(x).unwrap());
+            let mut hits = 0;
+            for _ in 0..n {
+                let omega: Vec<f64> = folded.params.iter().enumerate().map(|(k, _)| {
+                    let (lo, hi) = (folded.root[k].lo, folded.root[k].hi);
+                    // uniform laws: their range; normal: μ ± 9σ, drawn from the normal
+                    match (kind, k) {
+                        (1, 0) => rand_distr::Normal::new(1.0, 0.2).unwrap().sample(&mut rng),
+                        (2, 1) => rand_distr::Normal::new(0.0, 0.5).unwrap().sample(&mut rng),
+                        (3, 1) => rand_distr::Normal::new(0.0, 0.3).unwrap().sample(&mut rng),
+                        (4, 1) => rand_distr::Normal::new(0.0, 0.1).unwrap().sample(&mut rng),
+                        _ => rng.random_range(lo..=hi),
+                    }
+                }).collect();
+                let met = refs.iter().any(|p| (0..=400).any(|j| {
+                    let t = p.t0 + (p.t1 - p.t0) * j as f64 / 400.0;
+                    let mut v: Vec<f64> = p.coeffs.iter().map(|row| row.iter().rev().fold(0.0, |acc, &cf| acc * t + cf)).collect();
+                    v.push(t);
+                    v.extend(&omega);
+                    pf.eval(&v) >= 1e-9
+                }));
+                hits += met as usize;
+            }
+            let pm = hits as f64 / n as f64;
+            let margin = 3.3 * (pm * (1.0 - pm) / n as f64).sqrt() + 2.0 / n as f64;
+            prop_assert!(bnd.bound >= pm - margin, "bound {} below the audit {pm} (kind {kind}, frame {frame:?}, pieces {pieces:?})", bnd.bound);
+        }
+    }
+
     /// A trajectory bounded at once is not the sum of its pieces: four pieces along the
     /// uniform disk at distance 0.35 share one event {w ≥ 0.35} of probability 1/2.
     #[test]
