@@ -11,8 +11,9 @@ use num_bigint::BigInt;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 
-/// The exact number `m·2^e`.
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// The exact number `m·2^e`. Equality is equality of the numbers (the same value
+/// has many representations, e.g. 2·2^0 = 1·2^1), so it agrees with [`Ord`].
+#[derive(Clone, Debug)]
 pub struct Dyadic {
     m: BigInt,
     e: i64,
@@ -95,6 +96,14 @@ impl Dyadic {
     }
 }
 
+impl PartialEq for Dyadic {
+    fn eq(&self, o: &Dyadic) -> bool {
+        self.cmp(o) == std::cmp::Ordering::Equal
+    }
+}
+
+impl Eq for Dyadic {}
+
 impl PartialOrd for Dyadic {
     fn partial_cmp(&self, o: &Dyadic) -> Option<std::cmp::Ordering> {
         Some(self.cmp(o))
@@ -163,6 +172,19 @@ mod tests {
         }
         assert!(Dyadic::from_f64(f64::NAN).is_none());
         assert!(Dyadic::from_f64(f64::INFINITY).is_none());
+    }
+
+    /// Equal numbers in different representations are equal, and `==` agrees with
+    /// `cmp` (a derived, field-wise `==` would call 2·2^0 and 1·2^1 different).
+    #[test]
+    fn equality_is_equality_of_numbers() {
+        let a = Dyadic { m: BigInt::from(2), e: 0 };
+        let b = Dyadic { m: BigInt::from(1), e: 1 };
+        assert_eq!(a, b);
+        assert_eq!(a.cmp(&b), std::cmp::Ordering::Equal);
+        let c = Dyadic { m: BigInt::from(3), e: 0 };
+        assert_ne!(a, c);
+        assert_eq!(Dyadic::zero(), Dyadic { m: BigInt::zero(), e: -40 });
     }
 
     proptest! {

@@ -951,10 +951,11 @@ mod tests {
         let mut rows = vec![vec![0.0; local.len()], vec![0.0; local.len()]];
         for (k, &(ax, ay)) in local.iter().enumerate() {
             // (sc·(t − t0))^k = Σ_j C(k, j) sc^k t^j (−t0)^(k−j)
-            for j in 0..=k {
+            let (row_x, row_y) = rows.split_at_mut(1);
+            for (j, (rx, ry)) in row_x[0].iter_mut().zip(row_y[0].iter_mut()).enumerate().take(k + 1) {
                 let c = crate::contour::bounds::binomial_f64(k as u32, j as u32) * sc.powi(k as i32) * (-t0).powi((k - j) as i32);
-                rows[0][j] += ax * c;
-                rows[1][j] += ay * c;
+                *rx += ax * c;
+                *ry += ay * c;
             }
         }
         rows[0][0] += cx;

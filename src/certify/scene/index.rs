@@ -737,6 +737,9 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// A part of a piece in the review test: its box (per axis) and its time interval.
+    type ReviewPart = (Vec<(f64, f64)>, (f64, f64));
+
     proptest! {
         /// The parts' boxes cover the piece: every sampled point of the curve, evaluated
         /// directly (exact rationals, no code of the boxes), lies in the box of a part
@@ -822,7 +825,7 @@ mod tests {
             let (mut nonempty, mut partial) = (0, 0);
             for _ in 0..400 {
                 let k = rng.random_range(1..7);
-                let parts: Vec<(Vec<(f64, f64)>, (f64, f64))> = (0..k)
+                let parts: Vec<ReviewPart> = (0..k)
                     .map(|_| {
                         let w: f64 = rng.random_range(0.0..3.0);
                         let (x, y) = (rng.random_range(0.0..side - w), rng.random_range(0.0..side - w));
