@@ -145,10 +145,11 @@ fn bench(c: &mut Criterion) {
             ratios.push(st.planning_time_s / first);
             per_edge.push(edge);
             eprintln!(
-                "disks-{n} seed {seed}, whole default plan (warm): first path {:.3} ms, whole {:.2} ms ({:.1}x), final check {:.2} ms (whole-path bound {:.2} ms), {} edges at {:.2} us each, length {:.2}",
+                "disks-{n} seed {seed}, whole default plan (warm): first path {:.3} ms, whole {:.2} ms ({:.1}x), post-processing {:.2} ms, final check {:.2} ms (whole-path bound {:.2} ms), {} edges at {:.2} us each, length {:.2}",
                 first * 1e3,
                 st.planning_time_s * 1e3,
                 st.planning_time_s / first,
+                st.improve_time_s * 1e3,
                 st.final_check.as_ref().map_or(0.0, |f| f.seconds) * 1e3,
                 st.final_check.as_ref().map_or(0.0, |f| f.whole_path_seconds) * 1e3,
                 st.edges_checked,
