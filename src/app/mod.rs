@@ -130,7 +130,8 @@ pub struct PreparedPlan {
 /// The share of Δ by which the whole-path bound a plan reports may exceed, summed over the
 /// obstacles, what the partition would give with unlimited boxes (docs/design.md §5.14):
 /// an obstacle's partition stops once its undecided probability is below this share of Δ
-/// over the number of obstacles. Without it an obstacle at 10⁻⁹ beside the plan was
+/// over the number of obstacles whose reach the plan enters (the others need no
+/// partition). Without it an obstacle at 10⁻⁹ beside the plan was
 /// refined to 10⁻¹² (its whole box budget: on 512 disks, half the whole-path time) for a
 /// sum of 10⁻⁴.
 pub const WHOLE_PATH_SLACK_SHARE: f64 = 0.01;
@@ -184,11 +185,12 @@ impl PreparedPlan {
                     // (outside trajectory mode, only when every obstacle admits the partition:
                     // the moment envelopes' exact arithmetic can take seconds)
                     let budgeted = self.risk_mode == RiskMode::Trajectory;
-                    let whole = |effort| crate::verify::plan_whole_path_risk(&self.kernel, &traj.pieces, effort, budgeted, &stop);
-                    let obstacles = self.kernel.scene().obstacles.len().max(1) as f64;
-                    let mut wp = whole(CellEffort::PLAN.with_slack(WHOLE_PATH_SLACK_SHARE * delta / obstacles));
+                    let whole = |effort, slack| {
+                        crate::verify::plan_whole_path_risk(&self.kernel, &traj.pieces, effort, slack, budgeted, &stop)
+                    };
+                    let mut wp = whole(CellEffort::PLAN, WHOLE_PATH_SLACK_SHARE * delta);
                     if budgeted && wp.as_ref().is_ok_and(|b| b.is_some_and(|b| b > delta)) {
-                        wp = whole(CellEffort::REPORT);
+                        wp = whole(CellEffort::REPORT, 0.0);
                     }
                     // in trajectory mode the planner's own sum over the pieces (what it kept
                     // within Δ) is a bound too: the smaller one decides

@@ -207,11 +207,19 @@ pub fn whole_path_risk(
 /// seconds on long plans; `Ok(None)` without it); summed over the obstacles (Boole),
 /// rounded up, at most 1.
 ///
+/// `slack`: how much the sum may exceed, in all, what `effort` alone would give — shared
+/// evenly by the obstacles whose partition may run, those whose reach does not clear
+/// the whole plan (the others add their laws' outside mass, with no slack): each one's
+/// partition ends once its undecided probability is within its share
+/// ([`CellEffort::with_slack`]). 0 (or not a number): none.
+///
 /// [`cells_path_risk`]: crate::certify::path_risk::cells_path_risk
+/// [`CellEffort::with_slack`]: crate::certify::path_risk::CellEffort::with_slack
 pub fn plan_whole_path_risk(
     kernel: &SceneKernel,
     pieces: &[crate::scene::Piece],
     effort: crate::certify::path_risk::CellEffort,
+    slack: f64,
     envelopes: bool,
     stop: &dyn Fn() -> bool,
 ) -> Result<Option<f64>, Interrupted> {
@@ -221,9 +229,13 @@ pub fn plan_whole_path_risk(
     // each obstacle in its own frame (§5.14)
     let frames = kernel.path_frames(stop)?;
     let boxes = PieceBoxes::new(&refs, kernel.scene().dim);
-    for (i, (o, frame)) in kernel.scene().obstacles.iter().zip(frames.iter()).enumerate() {
+    let reaches: Vec<_> = frames.iter().enumerate().map(|(i, frame)| kernel.path_reach(i, frame)).collect();
+    // the obstacles that may be partitioned share the slack (an obstacle without a reach
+    // counts among them)
+    let open = reaches.iter().filter(|r| !r.as_ref().is_some_and(|r| r.clears_all(&boxes))).count();
+    let effort = effort.with_slack(slack / open.max(1) as f64);
+    for (o, (frame, reach)) in kernel.scene().obstacles.iter().zip(frames.iter().zip(&reaches)) {
         let c = o.contour.get();
-        let reach = kernel.path_reach(i, frame);
         let b = match cells_path_risk_in(c, &refs, &boxes, frame, reach.as_deref(), effort, stop) {
             Some(b) => b.bound,
             None if stop() => return Err(Interrupted),

@@ -273,8 +273,10 @@ fn review_whole_path_bounds_in_obstacle_frames_cover_the_closed_form_of_each_dis
             met += (p > 0.0) as usize;
             grazing += (p > 0.0 && p < 0.5) as usize;
         }
-        let slack = riskplan::certify::path_risk::CellEffort::PLAN.with_slack(0.01 * 0.1 / 48.0);
-        let plan = riskplan::verify::plan_whole_path_risk(&kernel, &pieces, slack, false, &|| false).unwrap().unwrap();
+        let effort = riskplan::certify::path_risk::CellEffort::PLAN;
+        let plan = riskplan::verify::plan_whole_path_risk(&kernel, &pieces, effort, 0.01 * 0.1, false, &|| false)
+            .unwrap()
+            .unwrap();
         let top = truths.iter().copied().fold(0.0, f64::max);
         assert!(plan >= top - 1e-6, "case {case}: plan bound {plan} below the closed form {top}");
     }

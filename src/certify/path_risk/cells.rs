@@ -499,6 +499,14 @@ impl Reach {
     }
 }
 
+impl Reach {
+    /// Whether this reach clears every part of every piece of `boxes`: the obstacle's
+    /// partition bound over those pieces is then its laws' outside mass alone.
+    pub fn clears_all(&self, boxes: &PieceBoxes) -> bool {
+        reach_clears_all(boxes, self)
+    }
+}
+
 /// Whether `reach` clears every part of every piece (the tree's hulls first).
 fn reach_clears_all(boxes: &PieceBoxes, reach: &Reach) -> bool {
     let mut stack: Vec<usize> = if boxes.nodes.is_empty() { Vec::new() } else { vec![0] };
