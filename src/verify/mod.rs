@@ -227,20 +227,28 @@ pub fn plan_whole_path_risk(
     let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
     let mut total = 0.0f64;
     // each obstacle in its own frame (§5.14)
-    let frames = kernel.path_frames(stop)?;
+    let (frames, reaches, grid) = kernel.path_reaches(stop)?;
     let boxes = PieceBoxes::new(&refs, kernel.scene().dim);
-    let reaches: Vec<_> = frames.iter().enumerate().map(|(i, frame)| kernel.path_reach(i, frame)).collect();
-    // the obstacles that may be partitioned share the slack (an obstacle without a reach
+    // the obstacles whose reach may not clear the pieces: from the grid of the reaches
+    // (every other one's reach clears them: its bound is its laws' outside mass), or all
+    let candidates = grid.and_then(|g| g.candidates(&boxes));
+    let examined = |i: usize| candidates.as_ref().is_none_or(|c| c[i]);
+    // those whose reach does not clear them share the slack (an obstacle without a reach
     // counts among them)
-    let open = reaches.iter().filter(|r| !r.as_ref().is_some_and(|r| r.clears_all(&boxes))).count();
+    let clears = |i: usize| !examined(i) || reaches[i].as_ref().is_some_and(|r| r.clears_all(&boxes));
+    let cleared: Vec<bool> = (0..reaches.len()).map(clears).collect();
+    let open = cleared.iter().filter(|&&c| !c).count();
     let effort = effort.with_slack(slack / open.max(1) as f64);
-    for (o, (frame, reach)) in kernel.scene().obstacles.iter().zip(frames.iter().zip(&reaches)) {
+    for (i, (o, (frame, reach))) in kernel.scene().obstacles.iter().zip(frames.iter().zip(&reaches)).enumerate() {
         let c = o.contour.get();
-        let b = match cells_path_risk_in(c, &refs, &boxes, frame, reach.as_deref(), effort, stop) {
-            Some(b) => b.bound,
-            None if stop() => return Err(Interrupted),
-            None if !envelopes => return Ok(None),
-            None => trajectory_path_risk(c, &refs, frame, stop).ok_or(Interrupted)?.bound,
+        let b = match reach.as_ref().filter(|_| cleared[i]) {
+            Some(r) => r.cleared_bound(),
+            None => match cells_path_risk_in(c, &refs, &boxes, frame, reach.as_deref(), effort, stop) {
+                Some(b) => b.bound,
+                None if stop() => return Err(Interrupted),
+                None if !envelopes => return Ok(None),
+                None => trajectory_path_risk(c, &refs, frame, stop).ok_or(Interrupted)?.bound,
+            },
         };
         total = crate::certify::path_risk::add_up(total, b);
         if total >= 1.0 {

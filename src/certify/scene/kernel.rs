@@ -11,7 +11,7 @@ use super::index::SceneIndex;
 pub use super::compiled::CompiledSet;
 use super::decide::Interrupted;
 use crate::certify::fast::Frame;
-use crate::certify::path_risk::Reach;
+use crate::certify::path_risk::{Reach, ReachGrid};
 use crate::contour::RiskLevel;
 use crate::scene::Scene;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -37,6 +37,8 @@ struct Inner {
     path_frames: OnceLock<Arc<Vec<Frame>>>,
     /// Per obstacle, where in the workspace × horizon it may be met ([`SceneKernel::path_reach`]).
     path_reach: Vec<OnceLock<Option<Arc<Reach>>>>,
+    /// The reaches in a grid ([`SceneKernel::path_reach_grid`]).
+    path_reach_grid: OnceLock<Option<Arc<ReachGrid>>>,
     indexes: Mutex<Vec<(Vec<RiskLevel>, Arc<SceneIndex>)>>,
     /// The indexes of the scene's previous revision, whose covers of unchanged obstacles
     /// the indexes built here take over.
@@ -89,6 +91,7 @@ impl SceneKernel {
                 framed: OnceLock::new(),
                 path_frames: OnceLock::new(),
                 path_reach,
+                path_reach_grid: OnceLock::new(),
                 indexes: Mutex::new(Vec::new()),
                 previous: Vec::new(),
             }),
@@ -119,6 +122,7 @@ impl SceneKernel {
                 framed: OnceLock::new(),
                 path_frames: OnceLock::new(),
                 path_reach,
+                path_reach_grid: OnceLock::new(),
                 indexes: Mutex::new(Vec::new()),
                 previous,
             }),
@@ -196,18 +200,45 @@ impl SceneKernel {
         slot.get_or_init(|| {
             let scene = &self.inner.scene;
             let folded = scene.obstacles.get(i)?.contour.get().folded_poly(&frame.center, &frame.exponents)?;
-            let ws = &scene.workspace;
-            let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
-            region.push(scene.horizon);
-            // widened a little: the enclosures of pieces that end on the boundary (and
-            // of their times) overshoot it by roundings, and a box must lie inside
-            for side in &mut region {
-                let m = REACH_REGION_MARGIN * (side.1 - side.0);
-                *side = (side.0 - m, side.1 + m);
-            }
-            Reach::new(&folded, frame, &region).map(Arc::new)
+            Reach::new(&folded, frame, &self.reach_region()).map(Arc::new)
         })
         .clone()
+    }
+
+    /// The region of the obstacles' reaches: the workspace × the horizon, widened a
+    /// little ([`REACH_REGION_MARGIN`]): the enclosures of pieces that end on the boundary
+    /// (and of their times) overshoot it by roundings, and a box must lie inside.
+    fn reach_region(&self) -> Vec<(f64, f64)> {
+        let scene = &self.inner.scene;
+        let ws = &scene.workspace;
+        let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
+        region.push(scene.horizon);
+        for side in &mut region {
+            let m = REACH_REGION_MARGIN * (side.1 - side.0);
+            *side = (side.0 - m, side.1 + m);
+        }
+        region
+    }
+
+    /// Every obstacle's reach in its path frame ([`SceneKernel::path_reach`] of
+    /// [`SceneKernel::path_frames`]) and their grid ([`ReachGrid`]: the obstacles a
+    /// trajectory may come near, found from its boxes). Built once per scene (`Err` when
+    /// `stop` said stop first).
+    #[allow(clippy::type_complexity)]
+    pub fn path_reaches(
+        &self,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<(Arc<Vec<Frame>>, Vec<Option<Arc<Reach>>>, Option<Arc<ReachGrid>>), Interrupted> {
+        let frames = self.path_frames(stop)?;
+        let mut reaches = Vec::with_capacity(frames.len());
+        for (i, frame) in frames.iter().enumerate() {
+            if self.inner.path_reach.get(i).is_some_and(|s| s.get().is_none()) && stop() {
+                return Err(Interrupted);
+            }
+            reaches.push(self.path_reach(i, frame));
+        }
+        let grid = self.inner.path_reach_grid.get_or_init(|| ReachGrid::new(&self.reach_region(), &reaches).map(Arc::new)).clone();
+        Ok((frames, reaches, grid))
     }
 
     /// The index at `deltas` if this kernel holds it (never builds).
