@@ -50,6 +50,13 @@ pub trait MotionChecker: Send + Sync {
     fn path_risk(&self, _piece: &Piece, _stop: &dyn Fn() -> bool) -> Option<f64> {
         None
     }
+    /// A cheap guess that [`MotionChecker::check`] would reject `piece` (docs/design.md
+    /// §6.8): post-processing does not try a shortcut so guessed. Never an acceptance —
+    /// whatever it answers, every piece returned is still checked — so a wrong guess can
+    /// only leave a path longer. `false` when the checker has no guess.
+    fn likely_rejected(&self, _piece: &Piece) -> bool {
+        false
+    }
     /// The obstacle whose contour excludes `x` at time `t`, if the checker knows.
     fn blocking_obstacle(&self, _x: &[f64], _t: f64) -> Option<String> {
         None

@@ -423,6 +423,15 @@ impl RiskContour {
         (self.mean_f.eval(&vals), self.second_f.eval(&vals))
     }
 
+    /// Floating-point E\[P\] at `xt` (a guess's arithmetic, not a decision's).
+    pub fn mean_f64(&self, xt: &[f64]) -> f64 {
+        if xt.len() >= self.layout.xt_len() {
+            self.mean_f.eval(xt)
+        } else {
+            self.mean_f.eval(&self.pad(xt, 0.0))
+        }
+    }
+
     /// Floating-point Cantelli bound at `xt` (for plots and displays, not for decisions).
     pub fn bound_f64(&self, xt: &[f64]) -> f64 {
         let (m, s) = self.moments_f64(xt);

@@ -191,18 +191,12 @@ fn a_piece_backwards_in_time_is_refused_without_a_panic() {
     assert_eq!(cert.check(&still), Motion::Accepted, "the start, held still");
 }
 
-/// The planners' checker on many obstacles: a piece whose box meets several obstacles'
-/// covers is split into parts, each looked up in the index, and the parts' candidates
-/// united (`SceneCertifier`, a bit per obstacle). 128 disks `(r·s)² − (x − cx − d)² −
-/// (y − cy)²`, s ~ U[0.9, 1.1], d ~ N(0, 0.05), Δ = 0.05; 3000 random pieces of 2 to 12
-/// disk radii. Oracle in closed form, sharing no code with the checker: a piece that comes
-/// within 0.9·r − 0.25 of a nominal centre has a point that collides for every s and every
-/// |d| ≤ 0.25 (5σ), with probability above 0.999 > Δ — it must be refused.
-#[test]
-fn checker_refuses_every_piece_through_a_disk_among_many() {
-    use rand::{Rng, SeedableRng};
-    use riskplan::motion::{Motion, MotionChecker};
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(128);
+/// The 128 disks of the tests below: the scene, each disk's nominal centre and radius, and
+/// the side of the square workspace.
+type Disks = (Arc<riskplan::scene::Scene>, Vec<(f64, f64, f64)>, f64);
+
+fn disks_128(rng: &mut rand_chacha::ChaCha8Rng) -> Disks {
+    use rand::Rng;
     let side = 10.0 * 128f64.sqrt();
     let mut params = serde_json::Map::new();
     let mut obstacles = Vec::new();
@@ -224,14 +218,32 @@ fn checker_refuses_every_piece_through_a_disk_among_many() {
         "params": params, "obstacles": obstacles, "start": [0.5, 0.5], "goal": [side - 0.5, side - 0.5],
     })
     .to_string();
-    let s = Arc::new(riskplan::scene::Scene::from_json(&text).unwrap());
+    (Arc::new(riskplan::scene::Scene::from_json(&text).unwrap()), disks, side)
+}
+
+/// The distance from point `c` to the segment `a`–`b`, in closed form.
+fn segment_distance(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let vv = dx * dx + dy * dy;
+    let u = if vv > 0.0 { (((c[0] - a[0]) * dx + (c[1] - a[1]) * dy) / vv).clamp(0.0, 1.0) } else { 0.0 };
+    ((a[0] + u * dx - c[0]).powi(2) + (a[1] + u * dy - c[1]).powi(2)).sqrt()
+}
+
+/// The planners' checker on many obstacles: a piece whose box meets several obstacles'
+/// covers is split into parts, each looked up in the index, and the parts' candidates
+/// united (`SceneCertifier`, a bit per obstacle). 128 disks `(r·s)² − (x − cx − d)² −
+/// (y − cy)²`, s ~ U[0.9, 1.1], d ~ N(0, 0.05), Δ = 0.05; 3000 random pieces of 2 to 12
+/// disk radii. Oracle in closed form, sharing no code with the checker: a piece that comes
+/// within 0.9·r − 0.25 of a nominal centre has a point that collides for every s and every
+/// |d| ≤ 0.25 (5σ), with probability above 0.999 > Δ — it must be refused.
+#[test]
+fn checker_refuses_every_piece_through_a_disk_among_many() {
+    use rand::{Rng, SeedableRng};
+    use riskplan::motion::{Motion, MotionChecker};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(128);
+    let (s, disks, side) = disks_128(&mut rng);
     let checker = riskplan::certify::scene::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
-    let dist = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let vv = dx * dx + dy * dy;
-        let u = if vv > 0.0 { (((c[0] - a[0]) * dx + (c[1] - a[1]) * dy) / vv).clamp(0.0, 1.0) } else { 0.0 };
-        ((a[0] + u * dx - c[0]).powi(2) + (a[1] + u * dy - c[1]).powi(2)).sqrt()
-    };
+    let dist = segment_distance;
     let (mut through, mut accepted) = (0, 0);
     for _ in 0..3000 {
         let a = [rng.random_range(2.0..side - 2.0), rng.random_range(2.0..side - 2.0)];
@@ -246,4 +258,39 @@ fn checker_refuses_every_piece_through_a_disk_among_many() {
     }
     println!("128 disks: {through} of 3000 pieces through a disk (all refused), {accepted} accepted");
     assert!(through > 300 && accepted > 300, "the test exercises both answers: {through} through, {accepted} accepted");
+}
+
+/// The checker's guess for post-processing (`likely_rejected`, docs/design.md §6.8) on the
+/// 128 disks: it never guesses "rejected" for a piece the check accepts (E\[P\] < 0 is then
+/// proven along the whole piece), and it catches the pieces through the middle of a disk
+/// (closed form: within half a radius of a nominal centre, where E\[P\] > 0 for these laws),
+/// at least 95 % of them — its samples are a cover's quarter apart.
+#[test]
+fn the_guess_never_refuses_an_accepted_piece_and_finds_pieces_through_disks() {
+    use rand::{Rng, SeedableRng};
+    use riskplan::motion::{Motion, MotionChecker};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(129);
+    let (s, disks, side) = disks_128(&mut rng);
+    let checker = riskplan::certify::scene::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
+    // the index (and its grid) is built by the first check
+    let _ = checker.check(&Piece::segment(&[1.0, 1.0], &[1.5, 1.0], 0.0, 1.0));
+    let (mut accepted, mut through, mut caught) = (0, 0, 0);
+    for _ in 0..3000 {
+        let a = [rng.random_range(2.0..side - 2.0), rng.random_range(2.0..side - 2.0)];
+        let (len, angle): (f64, f64) = (rng.random_range(2.4..40.0), rng.random_range(0.0..std::f64::consts::TAU));
+        let b = [(a[0] + len * angle.cos()).clamp(0.0, side), (a[1] + len * angle.sin()).clamp(0.0, side)];
+        let piece = Piece::segment(&a, &b, 0.0, 1.0);
+        let guess = checker.likely_rejected(&piece);
+        if checker.check(&piece) == Motion::Accepted {
+            accepted += 1;
+            assert!(!guess, "an accepted piece {a:?} -> {b:?} guessed rejected");
+        }
+        if disks.iter().any(|&(cx, cy, r)| segment_distance(a, b, [cx, cy]) < 0.5 * r) {
+            through += 1;
+            caught += guess as usize;
+        }
+    }
+    println!("128 disks: {accepted} accepted, {caught} of {through} pieces through a disk's middle guessed");
+    assert!(accepted > 200 && through > 500, "both kinds exercised: {accepted} accepted, {through} through");
+    assert!(caught as f64 >= 0.95 * through as f64, "guessed only {caught} of {through}");
 }

@@ -378,6 +378,59 @@ impl ObstacleFinding {
     }
 }
 
+/// Points per typical cover side ([`SceneIndex::typical_extent`]) at which
+/// [`SceneCertifier::nominally_blocked`] samples a piece: a cover spans an obstacle and
+/// its Cantelli ring, so a piece through an obstacle's nominal region has a sample
+/// inside it unless it only clips the region's edge (then the guess is `false`, and the
+/// check decides as always).
+pub const GUESS_SAMPLES_PER_EXTENT: f64 = 4.0;
+
+/// Most sample points of one guess.
+pub const GUESS_MAX_SAMPLES: usize = 256;
+
+impl SceneCertifier {
+    /// Whether a point sampled along the piece has E\[P\] ≥ 0 in floating point for an
+    /// obstacle the index files there: where E\[P\] ≥ 0 the mean constraint of eq. (15)
+    /// fails and no bound proves the piece (the check rejects it, up to rounding at the
+    /// contour; docs/design.md §6.8). A guess for
+    /// post-processing ([`MotionChecker::likely_rejected`]): on 512 disks most random
+    /// shortcuts cross an obstacle, and the check spent most of post-processing rejecting
+    /// them (finding the candidates of a long piece, then deciding them). Only on scenes
+    /// with an index grid and the fast path; pedestrians are not guessed.
+    pub fn nominally_blocked(&self, piece: &Piece) -> bool {
+        if !self.fast || piece.t0.partial_cmp(&piece.t1).is_none_or(|o| o == std::cmp::Ordering::Greater) {
+            return false;
+        }
+        let index = self.index();
+        let Some(extent) = index.typical_extent() else { return false };
+        let (a, b) = (piece.at(piece.t0), piece.at(piece.t1));
+        let len = crate::motion::dist(&a, &b);
+        let steps = (len / extent * GUESS_SAMPLES_PER_EXTENT).ceil();
+        if !steps.is_finite() {
+            return false;
+        }
+        let steps = (steps as usize).clamp(1, GUESS_MAX_SAMPLES);
+        let dim = a.len();
+        let mut xt = vec![0.0; dim + 1];
+        for k in 0..=steps {
+            let t = piece.t0 + (piece.t1 - piece.t0) * (k as f64 / steps as f64);
+            for (x, c) in xt.iter_mut().zip(&piece.coeffs) {
+                *x = c.iter().rev().fold(0.0, |acc, &k| acc * t + k);
+            }
+            xt[dim] = t;
+            let Some((cell, always)) = index.point_candidates(&xt[..dim]) else { return false };
+            let inside = |&i: &u32| {
+                let o = &self.scene.obstacles[i as usize];
+                o.pedestrian.is_none() && o.contour.mean_f64(&xt) >= 0.0
+            };
+            if cell.iter().any(inside) || always.iter().any(inside) {
+                return true;
+            }
+        }
+        false
+    }
+}
+
 impl SceneCertifier {
     /// [`MotionChecker::check`], with the number of obstacles decided (the work).
     fn check_counting(&self, piece: &Piece) -> (Motion, u64) {
@@ -492,6 +545,10 @@ impl MotionChecker for SceneCertifier {
         Some(total)
     }
 
+    fn likely_rejected(&self, piece: &Piece) -> bool {
+        self.nominally_blocked(piece)
+    }
+
     fn blocking_obstacle(&self, x: &[f64], t: f64) -> Option<String> {
         match point_status(&self.scene, x, t, &self.deltas, self.bounds) {
             PointStatus::InContour(i) => Some(self.scene.obstacles[i].id.clone()),
@@ -530,3 +587,4 @@ impl MotionChecker for SceneCertifier {
         Motion::Accepted
     }
 }
+

@@ -393,6 +393,25 @@ impl SceneIndex {
         Some(cells * g.mean_entries + g.always.len() as f64)
     }
 
+    /// The obstacles the grid files in the cell of point `x` and the ones always checked
+    /// (an obstacle may be in both); `None` without a grid or for a point that is not
+    /// finite. For guesses, not decisions.
+    pub fn point_candidates(&self, x: &[f64]) -> Option<(&[u32], &[u32])> {
+        let g = self.grid.get()?;
+        if x.len() != self.lower.len() {
+            return None;
+        }
+        let mut flat = 0;
+        for d in (0..x.len()).rev() {
+            let k = ((x[d] - self.lower[d]) / g.size[d]).floor();
+            if !k.is_finite() {
+                return None;
+            }
+            flat = flat * g.n[d] + (k.max(0.0) as usize).min(g.n[d] - 1);
+        }
+        Some((g.cells[flat].as_slice(), g.always.as_slice()))
+    }
+
     /// An empty set of this scene's obstacles, for [`Self::mark_candidates`].
     pub fn candidate_set(&self) -> CandidateSet {
         let words = self.covers.len().div_ceil(64);

@@ -193,7 +193,7 @@ pub fn shortcut(
         } else {
             Piece::segment(&a.1, &b.1, horizon.0, horizon.1)
         };
-        if counter.check(checker, &piece) != Motion::Accepted {
+        if checker.likely_rejected(&piece) || counter.check(checker, &piece) != Motion::Accepted {
             return None;
         }
         Some(if path_budget.is_some() { checker.path_risk(&piece, &|| term.should_stop()).unwrap_or(1.0) } else { 0.0 })
