@@ -366,20 +366,61 @@ impl<C: Ring> Poly<C> {
     /// If a variable that occurs has no entry in `subs` (a caller bug).
     pub fn compose_univariate(&self, subs: &[UPoly<C>]) -> UPoly<C> {
         let mut powers: Vec<Vec<UPoly<C>>> = subs.iter().map(|s| vec![UPoly::constant(C::one()), s.clone()]).collect();
-        let mut acc = UPoly::zero();
+        self.compose_with_powers(&mut powers)
+    }
+
+    /// [`Self::compose_univariate`] with the powers of the substitutions formed so far
+    /// (`powers[v][e]` = `subs[v]^e`, at least the 0th and 1st), extended as needed.
+    fn compose_with_powers(&self, powers: &mut [Vec<UPoly<C>>]) -> UPoly<C> {
+        // each term's product and the sum in reused buffers, with the operations of
+        // `UPoly::mul` and `UPoly::add` in their order (the same enclosures), without a
+        // polynomial allocated per factor
+        let mut acc: Vec<C> = Vec::new();
+        let (mut term, mut next): (Vec<C>, Vec<C>) = (Vec::new(), Vec::new());
         for (m, c) in &self.terms {
-            let mut term = UPoly::constant(c.clone());
+            term.clear();
+            if !c.is_zero() {
+                term.push(c.clone());
+            }
             for &(v, e) in m.pairs() {
                 let pw = &mut powers[v as usize];
                 while pw.len() <= e as usize {
-                    let next = pw[pw.len() - 1].mul(&pw[1]);
-                    pw.push(next);
+                    let p = pw[pw.len() - 1].mul(&pw[1]);
+                    pw.push(p);
                 }
-                term = term.mul(&pw[e as usize]);
+                let f = pw[e as usize].coeffs();
+                if term.is_empty() || f.is_empty() {
+                    term.clear();
+                    break;
+                }
+                next.clear();
+                next.resize(term.len() + f.len() - 1, C::zero());
+                for (i, a) in term.iter().enumerate() {
+                    if a.is_zero() {
+                        continue;
+                    }
+                    for (j, b) in f.iter().enumerate() {
+                        next[i + j] = next[i + j].radd(&a.rmul(b));
+                    }
+                }
+                while next.last().is_some_and(|c| c.is_zero()) {
+                    next.pop();
+                }
+                std::mem::swap(&mut term, &mut next);
             }
-            acc = acc.add(&term);
+            if acc.len() < term.len() {
+                acc.resize(term.len(), C::zero());
+            }
+            // (`UPoly::add` adds zero to the coefficients beyond the shorter operand)
+            for (k, a) in acc.iter_mut().enumerate() {
+                let t = term.get(k).cloned().unwrap_or_else(C::zero);
+                *a = a.radd(&t);
+            }
+            while acc.last().is_some_and(|c| c.is_zero()) {
+                acc.pop();
+            }
         }
-        acc
+        UPoly::new(acc)
     }
 
     /// If only `v` occurs (or none), the dense univariate polynomial in `v`.
@@ -416,6 +457,17 @@ impl<C: Ring> Poly<C> {
         }
         Ok(r)
     }
+}
+
+/// [`Poly::compose_univariate`] of each of `polys` with the same `subs`, the powers of the
+/// substitutions formed once for all (the whole-path partition composes every parameter
+/// monomial's coefficient with one piece part, docs/design.md §5.14).
+pub fn compose_univariate_all<'a, C: Ring + 'a>(
+    polys: impl IntoIterator<Item = &'a Poly<C>>,
+    subs: &[UPoly<C>],
+) -> Vec<UPoly<C>> {
+    let mut powers: Vec<Vec<UPoly<C>>> = subs.iter().map(|s| vec![UPoly::constant(C::one()), s.clone()]).collect();
+    polys.into_iter().map(|p| p.compose_with_powers(&mut powers)).collect()
 }
 
 /// Formatting of coefficients in polynomial text that [`parse`] reads back.

@@ -270,14 +270,16 @@ fn restrict(
             UPoly::new(c.collect())
         })
         .collect();
-    let restricted: Vec<UPoly<Interval>> = coefs.iter().map(|c| c.compose_univariate(&subs)).collect();
+    let restricted: Vec<UPoly<Interval>> = crate::poly::compose_univariate_all(coefs, &subs);
     let degree = restricted.iter().map(|u| if u.is_zero() { 0 } else { u.degree() }).max().unwrap_or(0);
-    let ratio = ratios.entry(degree).or_insert_with(|| {
-        let binom = |n: usize, k: usize| crate::moments::binomial(n as u32, k as u32);
-        (0..=degree)
-            .map(|j| (0..=j).map(|k| Interval::enclose_rational(&(binom(j, k) / binom(degree, k)))).collect())
-            .collect()
-    });
+    let kept;
+    let ratio: &[Vec<Interval>] = match BERNSTEIN_RATIOS.get(degree) {
+        Some(cell) => cell.get_or_init(|| bernstein_ratios(degree)),
+        None => {
+            kept = ratios.entry(degree).or_insert_with(|| bernstein_ratios(degree));
+            kept
+        }
+    };
     let mut out: Vec<Coef> = (0..=degree).map(|_| Coef { terms: Vec::new() }).collect();
     for (beta, u) in restricted.iter().enumerate() {
         if u.is_zero() {
@@ -296,6 +298,25 @@ fn restrict(
     }
     Some(out)
 }
+
+/// The Bernstein conversion's ratios C(j, k)/C(D, k) for j ≤ D, k ≤ j, enclosed from the
+/// exact rationals.
+fn bernstein_ratios(degree: usize) -> Vec<Vec<Interval>> {
+    let binom = |n: usize, k: usize| crate::moments::binomial(n as u32, k as u32);
+    (0..=degree)
+        .map(|j| (0..=j).map(|k| Interval::enclose_rational(&(binom(j, k) / binom(degree, k)))).collect())
+        .collect()
+}
+
+/// [`bernstein_ratios`] of the degrees below [`BERNSTEIN_RATIOS_KEPT`], formed once per
+/// process (exact binomials: they were formed anew for every obstacle of every plan, 6 %
+/// of the whole-path bound's time on 512 disks).
+static BERNSTEIN_RATIOS: [std::sync::OnceLock<Vec<Vec<Interval>>>; BERNSTEIN_RATIOS_KEPT] =
+    [const { std::sync::OnceLock::new() }; BERNSTEIN_RATIOS_KEPT];
+
+/// Degrees whose Bernstein ratios are kept for the process (a restricted P of degree 4 in
+/// space on quadratic pieces has degree 8; higher ones are kept per partition).
+const BERNSTEIN_RATIOS_KEPT: usize = 33;
 
 /// A box waiting in the partition, largest probability first.
 struct Cell {
@@ -833,7 +854,11 @@ pub fn cells_path_risk_in(
         }
         factors.iter().fold(1.0f64, |acc, f| acc * f).next_up().min(1.0)
     };
-    let root_ends: Vec<(Interval, Interval)> = laws.iter().map(|l| (l.cdf(l.lo), l.cdf(l.hi))).collect();
+    // F at the ends of the boxes' sides, from the contour's memo (the same middles are
+    // split plan after plan)
+    let cdf = |k: usize, x: f64| contour.law_cdf(params[k], x).unwrap_or_else(|| laws[k].cdf(x));
+    let root_ends: Vec<(Interval, Interval)> =
+        laws.iter().enumerate().map(|(k, l)| (cdf(k, l.lo), cdf(k, l.hi))).collect();
     let widths: Vec<f64> = laws.iter().map(|l| l.hi - l.lo).collect();
     let mut heap = BinaryHeap::new();
     heap.push(Cell { mass: mass(&root_ends), bx: root, ends: root_ends, parts: near });
@@ -869,7 +894,7 @@ pub fn cells_path_risk_in(
                     hit = add_up(hit, cell.mass);
                     continue;
                 };
-                let f_mid = laws[k].cdf(mid);
+                let f_mid = cdf(k, mid);
                 let (f_lo, f_hi) = cell.ends[k];
                 for (lo, hi, ends_k) in [(cell.bx[k].lo, mid, (f_lo, f_mid)), (mid, cell.bx[k].hi, (f_mid, f_hi))] {
                     let mut bx = cell.bx.clone();

@@ -339,8 +339,9 @@ impl FramedContours {
             }
             None => o.contour.interval_polys(),
         };
-        let e1 = m.compose_univariate(&subs);
-        let e2 = s.compose_univariate(&subs);
+        // (the powers of the piece's coordinates formed once for both)
+        let [e1, e2]: [UPoly<Interval>; 2] =
+            crate::poly::compose_univariate_all([m, s], &subs).try_into().expect("two polynomials composed");
         (e1.mul(&e1).sub(&e2.scale(&one_minus_delta)), e1.neg())
     }
 }
