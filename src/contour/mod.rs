@@ -102,6 +102,51 @@ pub fn cantelli_bound_f64(mean: f64, second: f64) -> f64 {
 /// Enclosures of a contour's raw parameter moments: per parameter, E[ω^k] for k = 0, 1, …
 type EnclosedMoments = Vec<(Var, Vec<Interval>)>;
 
+/// A floating-point polynomial's terms in flat arrays, for evaluation without the map of
+/// monomials or the generic powers (the post-processing guess, [`RiskContour::mean_f64`]).
+#[derive(Clone, Debug, Default)]
+struct FlatPoly {
+    coeffs: Vec<f64>,
+    /// Where each term's (variable, exponent) pairs end in `pairs`.
+    ends: Vec<usize>,
+    pairs: Vec<(usize, i32)>,
+}
+
+impl FlatPoly {
+    fn of(p: &Poly<f64>) -> FlatPoly {
+        let mut f = FlatPoly::default();
+        for (m, &c) in p.terms() {
+            f.coeffs.push(c);
+            f.pairs.extend(m.pairs().iter().map(|&(v, e)| (v as usize, e.min(i32::MAX as u32) as i32)));
+            f.ends.push(f.pairs.len());
+        }
+        f
+    }
+
+    /// The value at `vals` (a variable beyond them is 0).
+    fn eval(&self, vals: &[f64]) -> f64 {
+        let mut acc = 0.0;
+        let mut start = 0;
+        for (&c, &end) in self.coeffs.iter().zip(&self.ends) {
+            let mut t = c;
+            for &(v, e) in &self.pairs[start..end] {
+                let x = vals.get(v).copied().unwrap_or(0.0);
+                // (products for the low powers of contours, not the `powi` library call)
+                t *= match e {
+                    1 => x,
+                    2 => x * x,
+                    3 => x * x * x,
+                    4 => (x * x) * (x * x),
+                    _ => x.powi(e),
+                };
+            }
+            acc += t;
+            start = end;
+        }
+        acc
+    }
+}
+
 /// The moment-expanded contour polynomials of one obstacle, kept for its lifetime.
 #[derive(Clone, Debug)]
 pub struct RiskContour {
@@ -111,6 +156,8 @@ pub struct RiskContour {
     /// E\[P²\](x, t), exact.
     pub second: QPoly,
     mean_f: Poly<f64>,
+    /// `mean_f`'s terms flattened (the post-processing guess evaluates it along pieces).
+    mean_flat: FlatPoly,
     second_f: Poly<f64>,
     mean_i: Poly<Interval>,
     second_i: Poly<Interval>,
@@ -225,6 +272,7 @@ impl RiskContour {
             .collect();
         Ok(RiskContour {
             layout,
+            mean_flat: FlatPoly::of(&mean.map_coeffs(rational_to_f64)),
             mean_f: mean.map_coeffs(rational_to_f64),
             second_f: second.map_coeffs(rational_to_f64),
             mean_i: mean.map_coeffs(Interval::enclose_rational),
@@ -454,11 +502,7 @@ impl RiskContour {
 
     /// Floating-point E\[P\] at `xt` (a guess's arithmetic, not a decision's).
     pub fn mean_f64(&self, xt: &[f64]) -> f64 {
-        if xt.len() >= self.layout.xt_len() {
-            self.mean_f.eval(xt)
-        } else {
-            self.mean_f.eval(&self.pad(xt, 0.0))
-        }
+        self.mean_flat.eval(xt)
     }
 
     /// Floating-point Cantelli bound at `xt` (for plots and displays, not for decisions).

@@ -294,3 +294,34 @@ fn the_guess_never_refuses_an_accepted_piece_and_finds_pieces_through_disks() {
     assert!(accepted > 200 && through > 500, "both kinds exercised: {accepted} accepted, {through} through");
     assert!(caught as f64 >= 0.95 * through as f64, "guessed only {caught} of {through}");
 }
+
+/// On a crowded scene a plan's whole-path bound is computed on the thread beside its final
+/// check (`app::WHOLE_PATH_BESIDE_MIN_OBSTACLES`): what the plan reports is the bound of its
+/// trajectory at the plan's effort and slack, computed again here on this thread — the same
+/// number, for several seeds one after another (the thread is reused).
+#[test]
+fn the_whole_path_bound_computed_beside_the_check_is_the_plans_own() {
+    use rand::SeedableRng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(130);
+    let (s, _, _) = disks_128(&mut rng);
+    assert!(s.obstacles.len() >= riskplan::app::WHOLE_PATH_BESIDE_MIN_OBSTACLES);
+    let kernel = riskplan::verify::SceneKernel::from(s.clone());
+    for seed in 1..=3 {
+        let req = riskplan::app::PlanRequest { seed, ..Default::default() };
+        let (problem, out) = req.run(&kernel, None).expect("plan");
+        assert!(out.certified, "seed {seed}: {:?}", out.reason);
+        let traj = out.trajectory.as_ref().expect("a trajectory");
+        let slack = riskplan::app::WHOLE_PATH_SLACK_SHARE * riskplan::plan::rrt::delta_floor(&problem.delta);
+        let again = riskplan::verify::plan_whole_path_risk(
+            &kernel,
+            &traj.pieces,
+            riskplan::certify::path_risk::CellEffort::PLAN,
+            slack,
+            false,
+            &|| false,
+        )
+        .expect("not stopped");
+        assert!(again.is_some(), "seed {seed}: a bound");
+        assert_eq!(out.stats.whole_path_risk, again, "seed {seed}");
+    }
+}

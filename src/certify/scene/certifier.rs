@@ -412,16 +412,19 @@ impl SceneCertifier {
         let steps = (steps as usize).clamp(1, GUESS_MAX_SAMPLES);
         let dim = a.len();
         let mut xt = vec![0.0; dim + 1];
+        let mut point = vec![(0.0, 0.0); dim];
         for k in 0..=steps {
             let t = piece.t0 + (piece.t1 - piece.t0) * (k as f64 / steps as f64);
-            for (x, c) in xt.iter_mut().zip(&piece.coeffs) {
+            for ((x, p), c) in xt.iter_mut().zip(point.iter_mut()).zip(&piece.coeffs) {
                 *x = c.iter().rev().fold(0.0, |acc, &k| acc * t + k);
+                *p = (*x, *x);
             }
             xt[dim] = t;
             let Some((cell, always)) = index.point_candidates(&xt[..dim]) else { return false };
+            // (an obstacle whose covers leave the point out has E[P] < 0 there)
             let inside = |&i: &u32| {
                 let o = &self.scene.obstacles[i as usize];
-                o.pedestrian.is_none() && o.contour.mean_f64(&xt) >= 0.0
+                o.pedestrian.is_none() && !index.point_cleared(i as usize, &point, t) && o.contour.mean_f64(&xt) >= 0.0
             };
             if cell.iter().any(inside) || always.iter().any(inside) {
                 return true;

@@ -409,7 +409,19 @@ pub(crate) fn piece_passes_verify_path(
             }
             // a long or curved piece: its parts' boxes (they cover the piece)
             if let Some(parts) = parts.get_or_init(|| sub_hulls(pr, FINAL_CHECK_PARTS)) {
-                if parts.iter().all(|(h, t)| n.clears(h, *t, g1)) {
+                // every part must be cleared; the nearest to the obstacle's point first, as
+                // the one most likely not to be (most obstacles that reach this test are
+                // decided by the restriction below: their test ends at its first part)
+                let gap = |h: &[Interval]| {
+                    h.iter().zip(n.center()).map(|(s, &c)| (s.lo - c).max(c - s.hi).max(0.0).powi(2)).sum::<f64>()
+                };
+                let mut order: [(f64, usize); FINAL_CHECK_PARTS] = [(0.0, 0); FINAL_CHECK_PARTS];
+                for (k, slot) in order.iter_mut().enumerate().take(parts.len()) {
+                    *slot = (gap(&parts[k].0), k);
+                }
+                let order = &mut order[..parts.len().min(FINAL_CHECK_PARTS)];
+                order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+                if parts.len() <= FINAL_CHECK_PARTS && order.iter().all(|&(_, k)| n.clears(&parts[k].0, parts[k].1, g1)) {
                     return true;
                 }
             }

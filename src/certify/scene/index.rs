@@ -412,6 +412,12 @@ impl SceneIndex {
         Some((g.cells[flat].as_slice(), g.always.as_slice()))
     }
 
+    /// Whether obstacle `i`'s covers leave the point `x` at time `t` out (the check then
+    /// proves the obstacle clear there: E\[P\] < 0 among the rest). For guesses.
+    pub fn point_cleared(&self, i: usize, x: &[(f64, f64)], t: f64) -> bool {
+        i < self.covers.len() && self.skippable(i, x, t, t)
+    }
+
     /// An empty set of this scene's obstacles, for [`Self::mark_candidates`].
     pub fn candidate_set(&self) -> CandidateSet {
         let words = self.covers.len().div_ceil(64);
