@@ -171,8 +171,10 @@ impl Beside {
                 std::thread::Builder::new()
                     .name("riskplan-beside".into())
                     .spawn(move || {
+                        // a job that panics is reported (the default hook) and the thread
+                        // goes on; its guard has freed the thread for the next bound
                         while let Ok(job) = rx.recv() {
-                            job();
+                            let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(job));
                         }
                     })
                     .ok()?;
@@ -195,20 +197,28 @@ impl Beside {
         use std::sync::atomic::Ordering;
         self.busy.compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed).ok()?;
         let (tx, rx) = std::sync::mpsc::channel();
-        let busy = self.busy.clone();
+        let free = Free(self.busy.clone());
         let job = move || {
+            // the thread is free again when the job ends, even by a panic
+            let _free = free;
             let started = std::time::Instant::now();
             let stop = || abandon.load(Ordering::Relaxed) || term.expired_by(FINAL_CHECK_GRACE);
             let effort = crate::certify::path_risk::CellEffort::PLAN;
             let wp = crate::verify::plan_whole_path_risk(&kernel, &pieces, effort, slack, envelopes, &stop);
-            busy.store(false, Ordering::Release);
             let _ = tx.send((wp, started.elapsed().as_secs_f64()));
         };
-        if self.jobs.send(Box::new(job)).is_err() {
-            self.busy.store(false, Ordering::Release);
-            return None;
-        }
+        // (a job the thread cannot take is dropped, and its guard frees the thread)
+        self.jobs.send(Box::new(job)).ok()?;
         Some(rx)
+    }
+}
+
+/// Marks [`Beside`] free when dropped (at the end of a job, or with a job never run).
+struct Free(Arc<AtomicBool>);
+
+impl Drop for Free {
+    fn drop(&mut self) {
+        self.0.store(false, std::sync::atomic::Ordering::Release);
     }
 }
 

@@ -304,7 +304,11 @@ impl RiskContour {
     /// bound (docs/design.md §5.14); the others are ignored.
     pub fn with_laws(mut self, laws: &[(Var, &crate::moments::Distribution)]) -> Self {
         self.laws = laws.iter().filter_map(|(v, d)| Some((*v, crate::moments::cdf::CdfLaw::of(d)?))).collect();
+        // what depends on the laws is made anew: the memo of their distribution functions,
+        // and the folded forms (ranges and outside mass) kept with the centred polynomials
+        // (a clone given other laws kept the old ranges: found by the review of session 25)
         self.cdf_memo = Default::default();
+        self.centred = Default::default();
         self
     }
 

@@ -949,6 +949,21 @@ mod tests {
         cells_path_risk(c, &refs, &Frame::centred(&[0.0; 3]), CellEffort::REPORT, &|| false).unwrap().bound
     }
 
+    /// A clone of a contour given other laws folds P over the new laws' ranges, not over
+    /// the ranges its original had cached (found by the adversarial review of session 25:
+    /// the cached folded form kept [−0.1, 0.1] for a law on [−1, 1], which would have
+    /// understated the reach and the bound).
+    #[test]
+    fn a_clone_with_other_laws_folds_over_their_ranges() {
+        let a = Distribution::Uniform { low: q("-0.1"), high: q("0.1") };
+        let b = Distribution::Uniform { low: q("-1"), high: q("1") };
+        let c1 = contour("1/4 - (x1 - d)^2 - x2^2", &[("d", a)]);
+        let _ = c1.folded_poly(&[0.0, 0.0, 0.5], &[0, 0, 0]).unwrap();
+        let c2 = c1.clone().with_laws(&[(3, &b)]);
+        let f = c2.folded_poly(&[0.0, 0.0, 0.5], &[0, 0, 0]).unwrap();
+        assert!(f.root[0].lo <= -1.0 && f.root[0].hi >= 1.0, "{:?}", f.root);
+    }
+
     /// The distance from the origin to the segment a → b, in closed form.
     fn d_min(a: [f64; 2], b: [f64; 2]) -> f64 {
         let (dx, dy) = (b[0] - a[0], b[1] - a[1]);

@@ -183,7 +183,8 @@ pub fn shortcut(
 ) -> Vec<Waypoint> {
     let mut w = path;
     // Some(the piece's whole-path bound, 0 without a budget) when the piece is accepted
-    let judge = |a: &Waypoint, b: &Waypoint| -> Option<f64> {
+    // (`guess`: a piece the checker guesses refused is not checked)
+    let judge_with = |a: &Waypoint, b: &Waypoint, guess: bool| -> Option<f64> {
         let piece = if timed {
             let piece = Piece::segment(&a.1, &b.1, a.0, b.0);
             if max_speed.is_some_and(|v| !within_speed(&piece, v)) {
@@ -193,15 +194,18 @@ pub fn shortcut(
         } else {
             Piece::segment(&a.1, &b.1, horizon.0, horizon.1)
         };
-        if checker.likely_rejected(&piece) || counter.check(checker, &piece) != Motion::Accepted {
+        if (guess && checker.likely_rejected(&piece)) || counter.check(checker, &piece) != Motion::Accepted {
             return None;
         }
         Some(if path_budget.is_some() { checker.path_risk(&piece, &|| term.should_stop()).unwrap_or(1.0) } else { 0.0 })
     };
+    let judge = |a: &Waypoint, b: &Waypoint| judge_with(a, b, true);
     // each piece's whole-path bound, and their sum (docs/design.md §5.14): a shortcut is
     // kept only when the path's new sum stays within the budget
     let mut risks: Vec<f64> = if path_budget.is_some() {
-        w.windows(2).map(|p| judge(&p[0], &p[1]).unwrap_or(1.0)).collect()
+        // (the path's own pieces, accepted already: checked, never guessed — a guess
+        // that misfired would count one as 1 and leave the path unshortened)
+        w.windows(2).map(|p| judge_with(&p[0], &p[1], false).unwrap_or(1.0)).collect()
     } else {
         vec![0.0; w.len().saturating_sub(1)]
     };
