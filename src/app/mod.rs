@@ -199,12 +199,14 @@ impl Beside {
         let (tx, rx) = std::sync::mpsc::channel();
         let free = Free(self.busy.clone());
         let job = move || {
-            // the thread is free again when the job ends, even by a panic
-            let _free = free;
+            // the thread is free again when the bound is done (before its answer is sent, so
+            // that the plan's next bound finds it free), or when the job panics
+            let free = free;
             let started = std::time::Instant::now();
             let stop = || abandon.load(Ordering::Relaxed) || term.expired_by(FINAL_CHECK_GRACE);
             let effort = crate::certify::path_risk::CellEffort::PLAN;
             let wp = crate::verify::plan_whole_path_risk(&kernel, &pieces, effort, slack, envelopes, &stop);
+            drop(free);
             let _ = tx.send((wp, started.elapsed().as_secs_f64()));
         };
         // (a job the thread cannot take is dropped, and its guard frees the thread)

@@ -200,9 +200,12 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
     let covers = value(&s, "riskplan_scene_cache_hits_total{cache=\"covers\"}")
         + value(&s, "riskplan_scene_cache_misses_total{cache=\"covers\"}");
     assert_eq!(covers, 2.0, "{s:#?}");
-    // the plan checked the scene's one obstacle on hundreds of edges: its cover was built
-    // (once: LAZY_COVER_CHECKS direct checks), and nothing else built any
-    assert_eq!(value(&s, "riskplan_covers_built_total"), 1.0, "{s:#?}");
+    // the plan checks the scene's one obstacle directly, and builds its cover once it has
+    // been checked LAZY_COVER_CHECKS times; since issue 21's smaller shortcut budget
+    // (session 25) the default plan here may stop short of that: at most that one cover,
+    // and nothing else built any
+    let built = value(&s, "riskplan_covers_built_total");
+    assert!(built == 0.0 || built == 1.0, "{s:#?}");
     assert_eq!(value(&s, "riskplan_scene_cache_hits_total{cache=\"body\"}"), 0.0);
     assert_eq!(value(&s, "riskplan_queue_depth"), 0.0);
     assert_eq!(value(&s, "riskplan_jobs_running"), 0.0);
