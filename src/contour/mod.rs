@@ -270,10 +270,11 @@ impl RiskContour {
                 (v, name(v), ms)
             })
             .collect();
+        let mean_f = mean.map_coeffs(rational_to_f64);
         Ok(RiskContour {
             layout,
-            mean_flat: FlatPoly::of(&mean.map_coeffs(rational_to_f64)),
-            mean_f: mean.map_coeffs(rational_to_f64),
+            mean_flat: FlatPoly::of(&mean_f),
+            mean_f,
             second_f: second.map_coeffs(rational_to_f64),
             mean_i: mean.map_coeffs(Interval::enclose_rational),
             second_i: second.map_coeffs(Interval::enclose_rational),

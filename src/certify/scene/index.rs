@@ -154,12 +154,12 @@ impl Grid {
     fn cell_range(&self, lower: &[f64], bbox: &[(f64, f64)]) -> Vec<(usize, usize)> {
         bbox.iter()
             .enumerate()
-            .map(|(d, &(lo, hi))| {
-                let a = ((lo - lower[d]) / self.size[d]).floor().max(0.0) as usize;
-                let b = ((hi - lower[d]) / self.size[d]).floor().max(0.0) as usize;
-                (a.min(self.n[d] - 1), b.min(self.n[d] - 1))
-            })
+            .map(|(d, &(lo, hi))| (self.axis_cell(lower, d, lo), self.axis_cell(lower, d, hi)))
             .collect()
+    }
+    /// The cell of coordinate `v` on axis `d` (clamped to the grid; NaN gives the first).
+    fn axis_cell(&self, lower: &[f64], d: usize, v: f64) -> usize {
+        (((v - lower[d]) / self.size[d]).floor().max(0.0) as usize).min(self.n[d] - 1)
     }
     fn for_each_cell(&self, range: &[(usize, usize)], mut f: impl FnMut(usize)) {
         let mut idx: Vec<usize> = range.iter().map(|r| r.0).collect();
@@ -401,14 +401,10 @@ impl SceneIndex {
         if x.len() != self.lower.len() {
             return None;
         }
-        let mut flat = 0;
-        for d in (0..x.len()).rev() {
-            let k = ((x[d] - self.lower[d]) / g.size[d]).floor();
-            if !k.is_finite() {
-                return None;
-            }
-            flat = flat * g.n[d] + (k.max(0.0) as usize).min(g.n[d] - 1);
+        if x.iter().any(|v| !v.is_finite()) {
+            return None;
         }
+        let flat = (0..x.len()).rev().fold(0, |flat, d| flat * g.n[d] + g.axis_cell(&self.lower, d, x[d]));
         Some((g.cells[flat].as_slice(), g.always.as_slice()))
     }
 
