@@ -12,7 +12,7 @@ use crate::plan::{
 };
 pub use crate::plan::{PlannerKind, RiskMode, UnknownName};
 use crate::scene::Scene;
-use crate::verify::{final_check, FinalFailure, Interrupted, Method, SceneCertifier, SceneKernel};
+use crate::verify::{final_check, FinalFailure, Interrupted, Method, SceneCertifier, SceneKernel, WholePathWork};
 use num_rational::BigRational;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -147,9 +147,6 @@ pub const FINAL_CHECK_GRACE: Duration = Duration::from_millis(50);
 /// microseconds and handing the bound over would cost more than it saves.
 pub const WHOLE_PATH_BESIDE_MIN_OBSTACLES: usize = 64;
 
-/// A whole-path bound computed by [`Beside`]: its answer and its own time, seconds.
-type WholePathAnswer = (Result<Option<f64>, Interrupted>, f64);
-
 /// The process's thread for whole-path bounds beside final checks: started on first use,
 /// parked on a channel between bounds (a parked thread wakes in about 50 µs on this
 /// machine; starting one per plan cost about 70 µs of the plan's own thread, and a new
@@ -183,35 +180,22 @@ impl Beside {
             .as_ref()
     }
 
-    /// Starts the whole-path bound of `pieces` at the plan's effort when the thread is
-    /// free; `abandon` (or `term`'s grace) stops it. `None` when it is busy or gone.
-    fn whole_path(
-        &self,
-        kernel: SceneKernel,
-        pieces: Vec<crate::scene::Piece>,
-        slack: f64,
-        envelopes: bool,
-        term: Termination,
-        abandon: Arc<AtomicBool>,
-    ) -> Option<std::sync::mpsc::Receiver<WholePathAnswer>> {
+    /// Starts on `work` (a plan's whole-path bound, which the plan joins after its check:
+    /// [`WholePathWork::finish`]) when the thread is free; `abandon` (or `term`'s grace)
+    /// stops it. `false` when it is busy or gone (the plan then bounds alone).
+    fn help(&self, work: Arc<WholePathWork>, term: Termination, abandon: Arc<AtomicBool>) -> bool {
         use std::sync::atomic::Ordering;
-        self.busy.compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed).ok()?;
-        let (tx, rx) = std::sync::mpsc::channel();
+        if self.busy.compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed).is_err() {
+            return false;
+        }
         let free = Free(self.busy.clone());
         let job = move || {
-            // the thread is free again when the bound is done (before its answer is sent, so
-            // that the plan's next bound finds it free), or when the job panics
-            let free = free;
-            let started = std::time::Instant::now();
-            let stop = || abandon.load(Ordering::Relaxed) || term.expired_by(FINAL_CHECK_GRACE);
-            let effort = crate::certify::path_risk::CellEffort::PLAN;
-            let wp = crate::verify::plan_whole_path_risk(&kernel, &pieces, effort, slack, envelopes, &stop);
-            drop(free);
-            let _ = tx.send((wp, started.elapsed().as_secs_f64()));
+            // the thread is free again when its share is done, or when the job panics
+            let _free = free;
+            work.run(&|| abandon.load(Ordering::Relaxed) || term.expired_by(FINAL_CHECK_GRACE));
         };
         // (a job the thread cannot take is dropped, and its guard frees the thread)
-        self.jobs.send(Box::new(job)).ok()?;
-        Some(rx)
+        self.jobs.send(Box::new(job)).is_ok()
     }
 }
 
@@ -253,9 +237,14 @@ impl PreparedPlan {
             // scenes), and is abandoned if the check refuses the plan
             let abandon = Arc::new(AtomicBool::new(false));
             let slack = WHOLE_PATH_SLACK_SHARE * delta;
-            let asked = (wants_whole && crowded).then(Beside::get).flatten().and_then(|b| {
-                b.whole_path(self.kernel.clone(), traj.pieces.clone(), slack, budgeted, term.clone(), abandon.clone())
+            let work = wants_whole.then(|| {
+                Arc::new(WholePathWork::new(self.kernel.clone(), traj.pieces.clone(), CellEffort::PLAN, slack, budgeted))
             });
+            if let (Some(w), true) = (&work, crowded) {
+                if let Some(b) = Beside::get() {
+                    b.help(w.clone(), term.clone(), abandon.clone());
+                }
+            }
             let check = match final_check(&self.kernel, traj, ends, t_start, &self.deltas, self.bounds, &stop) {
                 Ok(c) => c,
                 Err(Interrupted) => {
@@ -283,13 +272,12 @@ impl PreparedPlan {
                     let whole = |effort, slack| {
                         crate::verify::plan_whole_path_risk(&self.kernel, &traj.pieces, effort, slack, budgeted, &stop)
                     };
-                    // the plan's effort first (from the thread beside the check, which ran
-                    // it while the check did: its own time is counted, the wait here is in
-                    // the check's); in trajectory mode a bound above Δ is tried again with
+                    // the plan's effort first (begun beside the check on crowded scenes:
+                    // joined here); in trajectory mode a bound above Δ is tried again with
                     // the report's (ten times the boxes)
-                    let (mut wp, beside_seconds) = match asked.and_then(|rx| rx.recv().ok()) {
-                        Some((wp, seconds)) => (wp, seconds),
-                        None => (whole(CellEffort::PLAN, slack), 0.0),
+                    let mut wp = match &work {
+                        Some(w) => w.finish(&stop),
+                        None => whole(CellEffort::PLAN, slack),
                     };
                     if budgeted && wp.as_ref().is_ok_and(|b| b.is_some_and(|b| b > delta)) {
                         wp = whole(CellEffort::REPORT, 0.0);
@@ -301,7 +289,7 @@ impl PreparedPlan {
                         wp = wp.map(|b| Some(b.map_or(sum, |b| b.min(sum))));
                     }
                     let here = t_wp.elapsed().as_secs_f64();
-                    fc.whole_path_seconds = beside_seconds.max(here);
+                    fc.whole_path_seconds = work.as_ref().map_or(0.0, |w| w.seconds()).max(here);
                     fc.seconds += here;
                     match wp {
                         Ok(None) => {}

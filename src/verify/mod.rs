@@ -223,40 +223,196 @@ pub fn plan_whole_path_risk(
     envelopes: bool,
     stop: &dyn Fn() -> bool,
 ) -> Result<Option<f64>, Interrupted> {
-    use crate::certify::path_risk::{cells_path_risk_in, trajectory_path_risk, PieceBoxes};
-    let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
-    let mut total = 0.0f64;
-    // each obstacle in its own frame (§5.14)
-    let (frames, reaches, grid) = kernel.path_reaches(stop)?;
-    let boxes = PieceBoxes::new(&refs, kernel.scene().dim);
-    // the obstacles whose reach may not clear the pieces: from the grid of the reaches
-    // (every other one's reach clears them: its bound is its laws' outside mass), or all
-    let candidates = grid.and_then(|g| g.candidates(&boxes));
-    let examined = |i: usize| candidates.as_ref().is_none_or(|c| c[i]);
-    // those whose reach does not clear them share the slack (an obstacle without a reach
-    // counts among them)
-    let clears = |i: usize| !examined(i) || reaches[i].as_ref().is_some_and(|r| r.clears_all(&boxes));
-    let cleared: Vec<bool> = (0..reaches.len()).map(clears).collect();
-    let open = cleared.iter().filter(|&&c| !c).count();
-    let effort = effort.with_slack(slack / open.max(1) as f64);
-    for (i, (o, (frame, reach))) in kernel.scene().obstacles.iter().zip(frames.iter().zip(&reaches)).enumerate() {
-        let c = o.contour.get();
-        let b = match reach.as_ref().filter(|_| cleared[i]) {
-            Some(r) => r.cleared_bound(),
-            None => match cells_path_risk_in(c, &refs, &boxes, frame, reach.as_deref(), effort, stop) {
-                Some(b) => b.bound,
-                None if stop() => return Err(Interrupted),
-                None if !envelopes => return Ok(None),
-                None => trajectory_path_risk(c, &refs, frame, stop).ok_or(Interrupted)?.bound,
-            },
-        };
-        total = crate::certify::path_risk::add_up(total, b);
-        if total >= 1.0 {
-            return Ok(Some(1.0));
+    WholePathWork::new(kernel.clone(), pieces.to_vec(), effort, slack, envelopes).finish(stop)
+}
+
+/// [`plan_whole_path_risk`] as work two threads may share (docs/design.md §5.12, §5.14):
+/// the obstacles whose reach the pieces enter are bounded one at a time, each by the
+/// thread that claims it first ([`WholePathWork::run`]), and [`WholePathWork::finish`]
+/// adds the bounds up in the obstacles' order, as one thread alone does — the answer does
+/// not depend on which thread bounded what (each obstacle's partition depends only on its
+/// own inputs). A plan starts it on the thread beside its final check and joins in when
+/// its check is done: on 512 disks one or two obstacles the plan passes near take most of
+/// the bound (400 boxes each), and the check alone was shorter than the bound.
+pub struct WholePathWork {
+    kernel: SceneKernel,
+    pieces: Vec<crate::scene::Piece>,
+    effort: crate::certify::path_risk::CellEffort,
+    slack: f64,
+    envelopes: bool,
+    /// The obstacles' frames and reaches and the pieces' boxes, found by the first thread
+    /// that runs (`Err`: it was stopped first).
+    setup: std::sync::OnceLock<Result<WholePathSetup, Interrupted>>,
+    /// The next obstacle of `setup.open` to claim.
+    next: std::sync::atomic::AtomicUsize,
+    /// How many claimed obstacles are bounded, and its signal.
+    done: (std::sync::Mutex<usize>, std::sync::Condvar),
+    /// When the first thread started.
+    started: std::sync::OnceLock<std::time::Instant>,
+}
+
+/// What [`WholePathWork`] finds once.
+struct WholePathSetup {
+    frames: std::sync::Arc<Vec<crate::certify::fast::Frame>>,
+    reaches: Vec<Option<std::sync::Arc<crate::certify::path_risk::Reach>>>,
+    boxes: crate::certify::path_risk::PieceBoxes,
+    /// Per obstacle: its reach clears every piece (its bound is its laws' outside mass).
+    cleared: Vec<bool>,
+    /// The others, in increasing order, and each one's bound once found.
+    open: Vec<usize>,
+    bounds: Vec<std::sync::OnceLock<ObstacleBound>>,
+    /// `effort` with each open obstacle's share of the slack.
+    effort: crate::certify::path_risk::CellEffort,
+}
+
+/// One obstacle's part of a whole-path bound.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ObstacleBound {
+    Bound(f64),
+    /// Neither the partition nor (without envelopes) anything else applies.
+    None,
+    Interrupted,
+}
+
+impl WholePathWork {
+    /// The bound of `pieces` on `kernel`'s scene with `effort`, `slack` and `envelopes` as
+    /// in [`plan_whole_path_risk`]; nothing is computed until a thread runs it.
+    pub fn new(
+        kernel: SceneKernel,
+        pieces: Vec<crate::scene::Piece>,
+        effort: crate::certify::path_risk::CellEffort,
+        slack: f64,
+        envelopes: bool,
+    ) -> WholePathWork {
+        WholePathWork {
+            kernel,
+            pieces,
+            effort,
+            slack,
+            envelopes,
+            setup: Default::default(),
+            next: Default::default(),
+            done: Default::default(),
+            started: Default::default(),
         }
     }
-    Ok(Some(total))
+
+    fn refs(&self) -> Vec<PieceRef<'_>> {
+        self.pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect()
+    }
+
+    fn setup(&self, stop: &dyn Fn() -> bool) -> &Result<WholePathSetup, Interrupted> {
+        use crate::certify::path_risk::PieceBoxes;
+        self.setup.get_or_init(|| {
+            // each obstacle in its own frame (§5.14)
+            let (frames, reaches, grid) = self.kernel.path_reaches(stop)?;
+            let boxes = PieceBoxes::new(&self.refs(), self.kernel.scene().dim);
+            // the obstacles whose reach may not clear the pieces: from the grid of the
+            // reaches (every other one's reach clears them: its bound is its laws'
+            // outside mass), or all
+            let candidates = grid.and_then(|g| g.candidates(&boxes));
+            let examined = |i: usize| candidates.as_ref().is_none_or(|c| c[i]);
+            // those whose reach does not clear them share the slack (an obstacle without
+            // a reach counts among them: the grid never leaves one out)
+            let clears =
+                |i: usize| reaches[i].as_ref().is_some_and(|r| !examined(i) || r.clears_all(&boxes));
+            let cleared: Vec<bool> = (0..reaches.len()).map(clears).collect();
+            let open: Vec<usize> = (0..reaches.len()).filter(|&i| !cleared[i]).collect();
+            let effort = self.effort.with_slack(self.slack / open.len().max(1) as f64);
+            let bounds = open.iter().map(|_| std::sync::OnceLock::new()).collect();
+            Ok(WholePathSetup { frames, reaches, boxes, cleared, open, bounds, effort })
+        })
+    }
+
+    /// Bounds obstacles not claimed yet, one at a time, until none is left (or `stop`
+    /// says stop: the obstacle then counts as interrupted). Any number of threads may run
+    /// at once.
+    pub fn run(&self, stop: &dyn Fn() -> bool) {
+        use crate::certify::path_risk::{cells_path_risk_in, trajectory_path_risk};
+        use std::sync::atomic::Ordering;
+        self.started.get_or_init(std::time::Instant::now);
+        let Ok(setup) = self.setup(stop) else { return };
+        let refs = self.refs();
+        /// Marks a claimed obstacle done when dropped, interrupted unless bounded (a
+        /// panicking thread leaves no claim for the others to wait on).
+        struct Claim<'a>(&'a WholePathWork, &'a std::sync::OnceLock<ObstacleBound>);
+        impl Drop for Claim<'_> {
+            fn drop(&mut self) {
+                let _ = self.1.set(ObstacleBound::Interrupted);
+                let (count, signal) = &self.0.done;
+                // (a poisoned count is still a count)
+                *count.lock().unwrap_or_else(|e| e.into_inner()) += 1;
+                signal.notify_all();
+            }
+        }
+        loop {
+            let k = self.next.fetch_add(1, Ordering::Relaxed);
+            let (Some(&i), Some(slot)) = (setup.open.get(k), setup.bounds.get(k)) else { return };
+            let claim = Claim(self, slot);
+            let c = self.kernel.scene().obstacles[i].contour.get();
+            let (frame, reach) = (&setup.frames[i], setup.reaches[i].as_deref());
+            let b = match cells_path_risk_in(c, &refs, &setup.boxes, frame, reach, setup.effort, stop) {
+                Some(b) => ObstacleBound::Bound(b.bound),
+                None if stop() => ObstacleBound::Interrupted,
+                None if !self.envelopes => ObstacleBound::None,
+                None => trajectory_path_risk(c, &refs, frame, stop).map_or(ObstacleBound::Interrupted, |b| ObstacleBound::Bound(b.bound)),
+            };
+            let _ = claim.1.set(b);
+            drop(claim);
+        }
+    }
+
+    /// Helps with what is left ([`Self::run`]), waits for the obstacles other threads
+    /// claimed, and adds the bounds up in the obstacles' order: the bound, at most 1;
+    /// `Ok(None)` when an obstacle has none; `Err` when stopped (here, or an obstacle's
+    /// bound on another thread).
+    pub fn finish(&self, stop: &dyn Fn() -> bool) -> Result<Option<f64>, Interrupted> {
+        self.run(stop);
+        let setup = self.setup(stop).as_ref().map_err(|&e| e)?;
+        {
+            let (count, signal) = &self.done;
+            let mut n = count.lock().unwrap_or_else(|e| e.into_inner());
+            while *n < setup.open.len() {
+                if stop() {
+                    return Err(Interrupted);
+                }
+                // (the other thread checks the same deadline: it is not waited on for long)
+                n = signal.wait_timeout(n, WHOLE_PATH_WAIT_POLL).unwrap_or_else(|e| e.into_inner()).0;
+            }
+        }
+        let mut total = 0.0f64;
+        let mut open = setup.open.iter().zip(&setup.bounds).peekable();
+        for (i, reach) in setup.reaches.iter().enumerate() {
+            let b = match reach.as_ref().filter(|_| setup.cleared[i]) {
+                Some(r) => r.cleared_bound(),
+                None => {
+                    let slot = open.next_if(|&(&j, _)| j == i).map(|(_, b)| b);
+                    match slot.and_then(|b| b.get()) {
+                        Some(ObstacleBound::Bound(b)) => *b,
+                        Some(ObstacleBound::None) => return Ok(None),
+                        // (every obstacle not cleared is open: a missing bound is one that
+                        // was never found)
+                        Some(ObstacleBound::Interrupted) | None => return Err(Interrupted),
+                    }
+                }
+            };
+            total = crate::certify::path_risk::add_up(total, b);
+            if total >= 1.0 {
+                return Ok(Some(1.0));
+            }
+        }
+        Ok(Some(total))
+    }
+
+    /// Seconds since the first thread started on it (0 before).
+    pub fn seconds(&self) -> f64 {
+        self.started.get().map_or(0.0, |t| t.elapsed().as_secs_f64())
+    }
 }
+
+/// How often [`WholePathWork::finish`] looks at its deadline while it waits for an
+/// obstacle another thread bounds (which checks the same deadline itself).
+const WHOLE_PATH_WAIT_POLL: std::time::Duration = std::time::Duration::from_millis(1);
 
 fn method_report(v: &Verdict, piece: PieceRef<'_>) -> MethodReport {
     let h = piece.t1 - piece.t0;

@@ -325,3 +325,78 @@ fn the_whole_path_bound_computed_beside_the_check_is_the_plans_own() {
         assert_eq!(out.stats.whole_path_risk, again, "seed {seed}");
     }
 }
+
+/// The whole-path bound shared by two threads (`WholePathWork`: each obstacle bounded by
+/// the thread that claims it, the bounds added up in the obstacles' order) equals the
+/// bound one thread finds obstacle after obstacle, here written again from the public
+/// parts (reaches, their grid, one partition per obstacle; the slack shared by the
+/// obstacles whose reach the plan enters) — whichever thread bounds what: a helper
+/// started first, a helper that has finished before the plan joins, and none.
+#[test]
+fn a_whole_path_bound_shared_by_two_threads_is_the_one_found_alone() {
+    use rand::SeedableRng;
+    use riskplan::certify::path_risk::{add_up, cells_path_risk_in, CellEffort, PieceBoxes};
+    use riskplan::certify::PieceRef;
+    use riskplan::verify::WholePathWork;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(131);
+    let (s, _, _) = disks_128(&mut rng);
+    let kernel = riskplan::verify::SceneKernel::from(s.clone());
+    let alone = |pieces: &[Piece], slack: f64| -> Option<f64> {
+        let refs: Vec<PieceRef<'_>> =
+            pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
+        let (frames, reaches, grid) = kernel.path_reaches(&|| false).expect("not stopped");
+        let boxes = PieceBoxes::new(&refs, 2);
+        let marked = grid.and_then(|g| g.candidates(&boxes));
+        let cleared: Vec<bool> = (0..reaches.len())
+            .map(|i| {
+                reaches[i].as_ref().is_some_and(|r| marked.as_ref().is_some_and(|m| !m[i]) || r.clears_all(&boxes))
+            })
+            .collect();
+        let open = cleared.iter().filter(|&&c| !c).count();
+        let effort = CellEffort::PLAN.with_slack(slack / open.max(1) as f64);
+        let mut total = 0.0f64;
+        for (i, o) in s.obstacles.iter().enumerate() {
+            let b = if cleared[i] {
+                reaches[i].as_ref().unwrap().cleared_bound()
+            } else {
+                cells_path_risk_in(o.contour.get(), &refs, &boxes, &frames[i], reaches[i].as_deref(), effort, &|| {
+                    false
+                })?
+                .bound
+            };
+            total = add_up(total, b);
+            if total >= 1.0 {
+                return Some(1.0);
+            }
+        }
+        Some(total)
+    };
+    let mut compared = 0;
+    for seed in 1..=4 {
+        let req = riskplan::app::PlanRequest { seed, ..Default::default() };
+        let (problem, out) = req.run(&kernel, None).expect("plan");
+        let Some(traj) = out.trajectory.as_ref() else { continue };
+        let slack = riskplan::app::WHOLE_PATH_SLACK_SHARE * riskplan::plan::rrt::delta_floor(&problem.delta);
+        let truth = alone(&traj.pieces, slack);
+        assert!(truth.is_some(), "seed {seed}: a bound");
+        let new = || Arc::new(WholePathWork::new(kernel.clone(), traj.pieces.clone(), CellEffort::PLAN, slack, false));
+        // a helper started first, racing the plan's own thread
+        let work = new();
+        let helper = {
+            let w = work.clone();
+            std::thread::spawn(move || w.run(&|| false))
+        };
+        let shared = work.finish(&|| false).expect("not stopped");
+        helper.join().expect("the helper ends");
+        assert_eq!(shared, truth, "seed {seed}: two threads");
+        // a helper done before the plan joins (the plan only adds up)
+        let work = new();
+        let w = work.clone();
+        std::thread::spawn(move || w.run(&|| false)).join().expect("the helper ends");
+        assert_eq!(work.finish(&|| false).expect("not stopped"), truth, "seed {seed}: helper first");
+        // no helper
+        assert_eq!(new().finish(&|| false).expect("not stopped"), truth, "seed {seed}: alone");
+        compared += 1;
+    }
+    assert!(compared >= 3, "only {compared} plans compared");
+}

@@ -111,8 +111,9 @@ impl Coef {
 /// The monomial ranges of a box: entry β encloses the range of ω^β over the box, the
 /// product of the ranges of the powers of its sides (independent sides: the product of
 /// the ranges is the exact range, enclosed; `contour::bounds::power_range` per power).
-fn monomials(bx: &[Interval], betas: &[Beta]) -> Vec<Interval> {
-    betas.iter().map(|beta| beta.iter().fold(Interval::point(1.0), |acc, &(k, e)| acc * power_range(bx[k], e))).collect()
+fn monomials_into(bx: &[Interval], betas: &[Beta], out: &mut Vec<Interval>) {
+    out.clear();
+    out.extend(betas.iter().map(|beta| beta.iter().fold(Interval::point(1.0), |acc, &(k, e)| acc * power_range(bx[k], e))));
 }
 
 /// What a box is for a part (or for the whole trajectory).
@@ -848,11 +849,15 @@ pub fn cells_path_risk_in(
     // (0 only when a factor is exactly 0: a product that underflows counts as the least
     // positive float, never as an empty box)
     let mass = |ends: &[(Interval, Interval)]| -> f64 {
-        let factors: Vec<f64> = ends.iter().map(|(fa, fb)| mass_between(*fa, *fb)).collect();
-        if factors.contains(&0.0) {
-            return 0.0;
+        let mut product = 1.0f64;
+        for (fa, fb) in ends {
+            let f = mass_between(*fa, *fb);
+            if f == 0.0 {
+                return 0.0;
+            }
+            product *= f;
         }
-        factors.iter().fold(1.0f64, |acc, f| acc * f).next_up().min(1.0)
+        product.next_up().min(1.0)
     };
     // F at the ends of the boxes' sides, from the contour's memo (the same middles are
     // split plan after plan)
@@ -865,6 +870,8 @@ pub fn cells_path_risk_in(
     let mut pending = heap.peek().map_or(0.0, |c| c.mass);
     let mut hit = 0.0f64;
     let mut boxes = 0usize;
+    // (buffers of every box's evaluation)
+    let (mut score, mut mono) = (Vec::new(), Vec::new());
     while let Some(cell) = heap.pop() {
         if boxes >= effort.max_boxes || pending <= effort.abs_tol || pending <= effort.rel_tol * hit {
             heap.push(cell);
@@ -875,8 +882,10 @@ pub fn cells_path_risk_in(
         }
         boxes += 1;
         pending -= cell.mass;
-        let mut score = vec![0.0; cell.bx.len()];
-        let (state, open) = nets.state(&monomials(&cell.bx, &nets.betas), &cell.parts, &mut score)?;
+        score.clear();
+        score.resize(cell.bx.len(), 0.0);
+        monomials_into(&cell.bx, &nets.betas, &mut mono);
+        let (state, open) = nets.state(&mono, &cell.parts, &mut score)?;
         match state {
             State::Outside => {}
             State::Hit => hit = add_up(hit, cell.mass),
@@ -896,15 +905,20 @@ pub fn cells_path_risk_in(
                 };
                 let f_mid = cdf(k, mid);
                 let (f_lo, f_hi) = cell.ends[k];
-                for (lo, hi, ends_k) in [(cell.bx[k].lo, mid, (f_lo, f_mid)), (mid, cell.bx[k].hi, (f_mid, f_hi))] {
-                    let mut bx = cell.bx.clone();
-                    bx[k] = Interval::new(lo, hi);
-                    let mut ends = cell.ends.clone();
-                    ends[k] = ends_k;
+                // (the lower half a copy, the upper one the box itself)
+                let (hi_k, Cell { bx: mut upper_bx, ends: mut upper_ends, .. }) = (cell.bx[k].hi, cell);
+                let mut lower_bx = upper_bx.clone();
+                let mut lower_ends = upper_ends.clone();
+                lower_bx[k] = Interval::new(lower_bx[k].lo, mid);
+                lower_ends[k] = (f_lo, f_mid);
+                upper_bx[k] = Interval::new(mid, hi_k);
+                upper_ends[k] = (f_mid, f_hi);
+                let lower_parts = open.clone();
+                for (bx, ends, parts) in [(lower_bx, lower_ends, lower_parts), (upper_bx, upper_ends, open)] {
                     let m = mass(&ends);
                     if m > 0.0 {
                         pending += m;
-                        heap.push(Cell { mass: m, bx, ends, parts: open.clone() });
+                        heap.push(Cell { mass: m, bx, ends, parts });
                     }
                 }
             }
