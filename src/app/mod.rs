@@ -182,11 +182,11 @@ impl Beside {
 
     /// Starts on `work` (a plan's whole-path bound, which the plan joins after its check:
     /// [`WholePathWork::finish`]) when the thread is free; `abandon` (or `term`'s grace)
-    /// stops it. `false` when it is busy or gone (the plan then bounds alone).
-    fn help(&self, work: Arc<WholePathWork>, term: Termination, abandon: Arc<AtomicBool>) -> bool {
+    /// stops it. Nothing when it is busy or gone: the plan then bounds alone.
+    fn help(&self, work: Arc<WholePathWork>, term: Termination, abandon: Arc<AtomicBool>) {
         use std::sync::atomic::Ordering;
         if self.busy.compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed).is_err() {
-            return false;
+            return;
         }
         let free = Free(self.busy.clone());
         let job = move || {
@@ -195,7 +195,16 @@ impl Beside {
             work.run(&|| abandon.load(Ordering::Relaxed) || term.expired_by(FINAL_CHECK_GRACE));
         };
         // (a job the thread cannot take is dropped, and its guard frees the thread)
-        self.jobs.send(Box::new(job)).is_ok()
+        let _ = self.jobs.send(Box::new(job));
+    }
+}
+
+/// Sets its flag when dropped.
+struct SetOnDrop(Arc<AtomicBool>);
+
+impl Drop for SetOnDrop {
+    fn drop(&mut self) {
+        self.0.store(true, std::sync::atomic::Ordering::Relaxed);
     }
 }
 
@@ -236,6 +245,9 @@ impl PreparedPlan {
             // the whole-path bound at the plan's effort starts beside the check (crowded
             // scenes), and is abandoned if the check refuses the plan
             let abandon = Arc::new(AtomicBool::new(false));
+            // (and once this pass ends, however it ends — a panic included — nothing is
+            // left for it to do)
+            let _abandon_at_end = SetOnDrop(abandon.clone());
             let slack = WHOLE_PATH_SLACK_SHARE * delta;
             let work = wants_whole.then(|| {
                 Arc::new(WholePathWork::new(self.kernel.clone(), traj.pieces.clone(), CellEffort::PLAN, slack, budgeted))

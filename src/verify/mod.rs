@@ -247,8 +247,11 @@ pub struct WholePathWork {
     next: std::sync::atomic::AtomicUsize,
     /// How many claimed obstacles are bounded, and its signal.
     done: (std::sync::Mutex<usize>, std::sync::Condvar),
-    /// When the first thread started.
+    /// The sum is decided ([`Self::finish`] returned): nothing more is claimed.
+    decided: std::sync::atomic::AtomicBool,
+    /// When the first thread started, and the seconds from then to the sum.
     started: std::sync::OnceLock<std::time::Instant>,
+    finished: std::sync::OnceLock<f64>,
 }
 
 /// What [`WholePathWork`] finds once.
@@ -293,7 +296,9 @@ impl WholePathWork {
             setup: Default::default(),
             next: Default::default(),
             done: Default::default(),
+            decided: Default::default(),
             started: Default::default(),
+            finished: Default::default(),
         }
     }
 
@@ -324,15 +329,24 @@ impl WholePathWork {
         })
     }
 
-    /// Bounds obstacles not claimed yet, one at a time, until none is left (or `stop`
-    /// says stop: the obstacle then counts as interrupted). Any number of threads may run
-    /// at once.
-    pub fn run(&self, stop: &dyn Fn() -> bool) {
+    /// One obstacle's bound (`i`, open).
+    fn bound_one(&self, setup: &WholePathSetup, refs: &[PieceRef<'_>], i: usize, stop: &dyn Fn() -> bool) -> ObstacleBound {
         use crate::certify::path_risk::{cells_path_risk_in, trajectory_path_risk};
+        let c = self.kernel.scene().obstacles[i].contour.get();
+        let (frame, reach) = (&setup.frames[i], setup.reaches[i].as_deref());
+        match cells_path_risk_in(c, refs, &setup.boxes, frame, reach, setup.effort, stop) {
+            Some(b) => ObstacleBound::Bound(b.bound),
+            None if stop() => ObstacleBound::Interrupted,
+            None if !self.envelopes => ObstacleBound::None,
+            None => trajectory_path_risk(c, refs, frame, stop)
+                .map_or(ObstacleBound::Interrupted, |b| ObstacleBound::Bound(b.bound)),
+        }
+    }
+
+    /// Claims the next obstacle not claimed yet and bounds it; `false` when none is left
+    /// or the sum is decided.
+    fn claim_one(&self, setup: &WholePathSetup, refs: &[PieceRef<'_>], stop: &dyn Fn() -> bool) -> bool {
         use std::sync::atomic::Ordering;
-        self.started.get_or_init(std::time::Instant::now);
-        let Ok(setup) = self.setup(stop) else { return };
-        let refs = self.refs();
         /// Marks a claimed obstacle done when dropped, interrupted unless bounded (a
         /// panicking thread leaves no claim for the others to wait on).
         struct Claim<'a>(&'a WholePathWork, &'a std::sync::OnceLock<ObstacleBound>);
@@ -345,54 +359,89 @@ impl WholePathWork {
                 signal.notify_all();
             }
         }
-        loop {
-            let k = self.next.fetch_add(1, Ordering::Relaxed);
-            let (Some(&i), Some(slot)) = (setup.open.get(k), setup.bounds.get(k)) else { return };
-            let claim = Claim(self, slot);
-            let c = self.kernel.scene().obstacles[i].contour.get();
-            let (frame, reach) = (&setup.frames[i], setup.reaches[i].as_deref());
-            let b = match cells_path_risk_in(c, &refs, &setup.boxes, frame, reach, setup.effort, stop) {
-                Some(b) => ObstacleBound::Bound(b.bound),
-                None if stop() => ObstacleBound::Interrupted,
-                None if !self.envelopes => ObstacleBound::None,
-                None => trajectory_path_risk(c, &refs, frame, stop).map_or(ObstacleBound::Interrupted, |b| ObstacleBound::Bound(b.bound)),
-            };
-            let _ = claim.1.set(b);
-            drop(claim);
+        if self.decided.load(Ordering::Relaxed) {
+            return false;
         }
+        let k = self.next.fetch_add(1, Ordering::Relaxed);
+        let (Some(&i), Some(slot)) = (setup.open.get(k), setup.bounds.get(k)) else { return false };
+        let claim = Claim(self, slot);
+        let _ = claim.1.set(self.bound_one(setup, refs, i, stop));
+        true
     }
 
-    /// Helps with what is left ([`Self::run`]), waits for the obstacles other threads
-    /// claimed, and adds the bounds up in the obstacles' order: the bound, at most 1;
-    /// `Ok(None)` when an obstacle has none; `Err` when stopped (here, or an obstacle's
-    /// bound on another thread).
+    /// Bounds obstacles not claimed yet, one at a time, until none is left or the sum is
+    /// decided (or `stop` says stop: the obstacle then counts as interrupted, and
+    /// [`Self::finish`] bounds it again unless its own `stop` says stop too). Any number
+    /// of threads may run at once.
+    pub fn run(&self, stop: &dyn Fn() -> bool) {
+        self.started.get_or_init(std::time::Instant::now);
+        let Ok(setup) = self.setup(stop) else { return };
+        let refs = self.refs();
+        while self.claim_one(setup, &refs, stop) {}
+    }
+
+    /// Adds the bounds up in the obstacles' order, as one thread alone does — bounding
+    /// here each obstacle no thread has claimed yet when the sum reaches it, waiting for
+    /// one another thread is bounding, and bounding again one whose thread was stopped or
+    /// failed: the bound, at most 1 (ending, as alone, at a sum of 1); `Ok(None)` when an
+    /// obstacle has none; `Err` when `stop` says stop. The other threads claim nothing
+    /// after it returns.
     pub fn finish(&self, stop: &dyn Fn() -> bool) -> Result<Option<f64>, Interrupted> {
-        self.run(stop);
-        let setup = self.setup(stop).as_ref().map_err(|&e| e)?;
-        {
-            let (count, signal) = &self.done;
-            let mut n = count.lock().unwrap_or_else(|e| e.into_inner());
-            while *n < setup.open.len() {
-                if stop() {
-                    return Err(Interrupted);
-                }
-                // (the other thread checks the same deadline: it is not waited on for long)
-                n = signal.wait_timeout(n, WHOLE_PATH_WAIT_POLL).unwrap_or_else(|e| e.into_inner()).0;
-            }
-        }
+        let started = *self.started.get_or_init(std::time::Instant::now);
+        let answer = match self.setup(stop) {
+            Ok(setup) => self.add_up(setup, &self.refs(), stop),
+            Err(e) => Err(*e),
+        };
+        self.decided.store(true, std::sync::atomic::Ordering::Relaxed);
+        let _ = self.finished.set(started.elapsed().as_secs_f64());
+        answer
+    }
+
+    fn add_up(&self, setup: &WholePathSetup, refs: &[PieceRef<'_>], stop: &dyn Fn() -> bool) -> Result<Option<f64>, Interrupted> {
         let mut total = 0.0f64;
-        let mut open = setup.open.iter().zip(&setup.bounds).peekable();
+        let mut k = 0;
         for (i, reach) in setup.reaches.iter().enumerate() {
             let b = match reach.as_ref().filter(|_| setup.cleared[i]) {
                 Some(r) => r.cleared_bound(),
                 None => {
-                    let slot = open.next_if(|&(&j, _)| j == i).map(|(_, b)| b);
-                    match slot.and_then(|b| b.get()) {
-                        Some(ObstacleBound::Bound(b)) => *b,
-                        Some(ObstacleBound::None) => return Ok(None),
-                        // (every obstacle not cleared is open: a missing bound is one that
-                        // was never found)
-                        Some(ObstacleBound::Interrupted) | None => return Err(Interrupted),
+                    // (every obstacle not cleared is open, in order)
+                    let (Some(&j), Some(slot)) = (setup.open.get(k), setup.bounds.get(k)) else { return Err(Interrupted) };
+                    if j != i {
+                        return Err(Interrupted);
+                    }
+                    k += 1;
+                    let found = loop {
+                        if let Some(b) = slot.get() {
+                            break *b;
+                        }
+                        // not bounded yet: bound the next obstacle no thread has claimed
+                        // (this one, or one after it), else wait for the thread bounding it
+                        if self.claim_one(setup, refs, stop) {
+                            continue;
+                        }
+                        if stop() {
+                            return Err(Interrupted);
+                        }
+                        let (count, signal) = &self.done;
+                        let n = count.lock().unwrap_or_else(|e| e.into_inner());
+                        // (set before its thread takes the lock to signal: looked at again
+                        // under the lock, no signal is missed; the other thread checks the
+                        // same deadline, so it is not waited on for long)
+                        if slot.get().is_none() {
+                            let _ = signal.wait_timeout(n, WHOLE_PATH_WAIT_POLL);
+                        }
+                    };
+                    match found {
+                        ObstacleBound::Bound(b) => b,
+                        ObstacleBound::None => return Ok(None),
+                        ObstacleBound::Interrupted if stop() => return Err(Interrupted),
+                        // its thread was stopped (its own deadline) or failed: bounded again
+                        // here, from the same inputs (the same bound)
+                        ObstacleBound::Interrupted => match self.bound_one(setup, refs, i, stop) {
+                            ObstacleBound::Bound(b) => b,
+                            ObstacleBound::None => return Ok(None),
+                            ObstacleBound::Interrupted => return Err(Interrupted),
+                        },
                     }
                 }
             };
@@ -404,14 +453,19 @@ impl WholePathWork {
         Ok(Some(total))
     }
 
-    /// Seconds since the first thread started on it (0 before).
+    /// Seconds from the first thread's start to the sum (or to now, before it).
     pub fn seconds(&self) -> f64 {
-        self.started.get().map_or(0.0, |t| t.elapsed().as_secs_f64())
+        match (self.finished.get(), self.started.get()) {
+            (Some(&s), _) => s,
+            (None, Some(t)) => t.elapsed().as_secs_f64(),
+            (None, None) => 0.0,
+        }
     }
 }
 
 /// How often [`WholePathWork::finish`] looks at its deadline while it waits for an
-/// obstacle another thread bounds (which checks the same deadline itself).
+/// obstacle another thread bounds (which checks the same deadline itself; a bound stored
+/// signals at once).
 const WHOLE_PATH_WAIT_POLL: std::time::Duration = std::time::Duration::from_millis(1);
 
 fn method_report(v: &Verdict, piece: PieceRef<'_>) -> MethodReport {

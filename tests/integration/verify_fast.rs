@@ -330,8 +330,11 @@ fn the_whole_path_bound_computed_beside_the_check_is_the_plans_own() {
 /// the thread that claims it, the bounds added up in the obstacles' order) equals the
 /// bound one thread finds obstacle after obstacle, here written again from the public
 /// parts (reaches, their grid, one partition per obstacle; the slack shared by the
-/// obstacles whose reach the plan enters) — whichever thread bounds what: a helper
-/// started first, a helper that has finished before the plan joins, and none.
+/// obstacles whose reach the plan enters) — whichever thread bounds what: a helper racing
+/// the plan, a helper that has finished before the plan joins, a helper stopped at once, one
+/// that panics, and none; and a stopped plan gets an error, never a smaller bound. (The
+/// per-obstacle bounds themselves are tested against closed forms and Monte Carlo beside
+/// the partition, `certify::path_risk::cells`; this tests the sharing and the sum.)
 #[test]
 fn a_whole_path_bound_shared_by_two_threads_is_the_one_found_alone() {
     use rand::SeedableRng;
@@ -371,7 +374,7 @@ fn a_whole_path_bound_shared_by_two_threads_is_the_one_found_alone() {
         }
         Some(total)
     };
-    let mut compared = 0;
+    let (mut compared, mut failed) = (0, 0);
     for seed in 1..=4 {
         let req = riskplan::app::PlanRequest { seed, ..Default::default() };
         let (problem, out) = req.run(&kernel, None).expect("plan");
@@ -380,15 +383,42 @@ fn a_whole_path_bound_shared_by_two_threads_is_the_one_found_alone() {
         let truth = alone(&traj.pieces, slack);
         assert!(truth.is_some(), "seed {seed}: a bound");
         let new = || Arc::new(WholePathWork::new(kernel.clone(), traj.pieces.clone(), CellEffort::PLAN, slack, false));
-        // a helper started first, racing the plan's own thread
+        // a helper racing the plan's own thread; each waits (at most 2 s) in its first
+        // partition until the other has begun one, so both bound obstacles when there are
+        // two to bound
         let work = new();
+        let (to_plan, plan_hears) = std::sync::mpsc::channel::<()>();
+        let (to_helper, helper_hears) = std::sync::mpsc::channel::<()>();
+        let meet = |tell: std::sync::mpsc::Sender<()>, hear: std::sync::mpsc::Receiver<()>| {
+            let first = std::sync::atomic::AtomicBool::new(true);
+            move || {
+                if first.swap(false, std::sync::atomic::Ordering::Relaxed) {
+                    let _ = tell.send(());
+                    let _ = hear.recv_timeout(std::time::Duration::from_secs(2));
+                }
+                false
+            }
+        };
         let helper = {
             let w = work.clone();
-            std::thread::spawn(move || w.run(&|| false))
+            let stop = meet(to_plan, helper_hears);
+            std::thread::spawn(move || w.run(&stop))
         };
-        let shared = work.finish(&|| false).expect("not stopped");
+        let shared = work.finish(&meet(to_helper, plan_hears)).expect("not stopped");
         helper.join().expect("the helper ends");
         assert_eq!(shared, truth, "seed {seed}: two threads");
+        // a helper stopped at once, and one that fails: what they claimed is bounded again
+        let work = new();
+        let w = work.clone();
+        std::thread::spawn(move || w.run(&|| true)).join().expect("the helper ends");
+        assert_eq!(work.finish(&|| false).expect("not stopped"), truth, "seed {seed}: helper stopped");
+        let work = new();
+        let w = work.clone();
+        failed += usize::from(std::thread::spawn(move || w.run(&|| panic!("a failing helper"))).join().is_err());
+        assert_eq!(work.finish(&|| false).expect("not stopped"), truth, "seed {seed}: helper failed");
+        // the plan stopped: never a smaller bound
+        let stopped = new().finish(&|| true);
+        assert!(stopped.is_err() || stopped == Ok(truth), "seed {seed}: stopped gave {stopped:?}");
         // a helper done before the plan joins (the plan only adds up)
         let work = new();
         let w = work.clone();
@@ -399,4 +429,5 @@ fn a_whole_path_bound_shared_by_two_threads_is_the_one_found_alone() {
         compared += 1;
     }
     assert!(compared >= 3, "only {compared} plans compared");
+    assert!(failed >= 1, "no helper failed: the failing case was never tried");
 }
