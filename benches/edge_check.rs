@@ -120,9 +120,9 @@ fn bench(c: &mut Criterion) {
     }
     g.finish();
 
-    // time to the first certified plan on the same family (covers warm: built once per
-    // scene and Δ and kept by the scene's SceneKernel, as the service's registry entry
-    // keeps it); no smoothing
+    // time to the first certified plan on the same family (the scene's SceneKernel kept,
+    // as the service's registry entry keeps it: the covers built so far are kept, and an
+    // obstacle's are built when an edge first needs them); no smoothing
     let mut g = c.benchmark_group("first_plan");
     g.sample_size(10);
     // (per pass: warm, steady)
