@@ -245,8 +245,8 @@ pub struct WholePathWork {
     setup: std::sync::OnceLock<Result<WholePathSetup, Interrupted>>,
     /// The next obstacle of `setup.open` to claim.
     next: std::sync::atomic::AtomicUsize,
-    /// How many claimed obstacles are bounded, and its signal.
-    done: (std::sync::Mutex<usize>, std::sync::Condvar),
+    /// Signalled (under its lock) whenever a claimed obstacle's bound is stored.
+    stored: (std::sync::Mutex<()>, std::sync::Condvar),
     /// The sum is decided ([`Self::finish`] returned): nothing more is claimed.
     decided: std::sync::atomic::AtomicBool,
     /// When the first thread started, and the seconds from then to the sum.
@@ -295,7 +295,7 @@ impl WholePathWork {
             envelopes,
             setup: Default::default(),
             next: Default::default(),
-            done: Default::default(),
+            stored: Default::default(),
             decided: Default::default(),
             started: Default::default(),
             finished: Default::default(),
@@ -353,9 +353,9 @@ impl WholePathWork {
         impl Drop for Claim<'_> {
             fn drop(&mut self) {
                 let _ = self.1.set(ObstacleBound::Interrupted);
-                let (count, signal) = &self.0.done;
-                // (a poisoned count is still a count)
-                *count.lock().unwrap_or_else(|e| e.into_inner()) += 1;
+                let (lock, signal) = &self.0.stored;
+                // (a poisoned lock still orders the store before the signal)
+                let _held = lock.lock().unwrap_or_else(|e| e.into_inner());
                 signal.notify_all();
             }
         }
@@ -422,26 +422,25 @@ impl WholePathWork {
                         if stop() {
                             return Err(Interrupted);
                         }
-                        let (count, signal) = &self.done;
-                        let n = count.lock().unwrap_or_else(|e| e.into_inner());
+                        let (lock, signal) = &self.stored;
+                        let held = lock.lock().unwrap_or_else(|e| e.into_inner());
                         // (set before its thread takes the lock to signal: looked at again
                         // under the lock, no signal is missed; the other thread checks the
                         // same deadline, so it is not waited on for long)
                         if slot.get().is_none() {
-                            let _ = signal.wait_timeout(n, WHOLE_PATH_WAIT_POLL);
+                            let _ = signal.wait_timeout(held, WHOLE_PATH_WAIT_POLL);
                         }
+                    };
+                    // its thread stopped (its own deadline) or failed: bounded again here,
+                    // from the same inputs (the same bound), unless this deadline is past too
+                    let found = match found {
+                        ObstacleBound::Interrupted if !stop() => self.bound_one(setup, refs, i, stop),
+                        b => b,
                     };
                     match found {
                         ObstacleBound::Bound(b) => b,
                         ObstacleBound::None => return Ok(None),
-                        ObstacleBound::Interrupted if stop() => return Err(Interrupted),
-                        // its thread was stopped (its own deadline) or failed: bounded again
-                        // here, from the same inputs (the same bound)
-                        ObstacleBound::Interrupted => match self.bound_one(setup, refs, i, stop) {
-                            ObstacleBound::Bound(b) => b,
-                            ObstacleBound::None => return Ok(None),
-                            ObstacleBound::Interrupted => return Err(Interrupted),
-                        },
+                        ObstacleBound::Interrupted => return Err(Interrupted),
                     }
                 }
             };
