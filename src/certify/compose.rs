@@ -60,9 +60,12 @@ pub(super) fn substitutions<C: Ring>(
     subs
 }
 
-fn restrict<C: Ring>(mean: &Poly<C>, second: &Poly<C>, subs: &[UPoly<C>], one_minus_delta: &C) -> Restricted<C> {
-    let e1 = mean.compose_univariate(subs);
-    let e2 = second.compose_univariate(subs);
+/// Eq. (15)'s two constraints of E\[P\] `mean` and E\[P²\] `second` composed with the
+/// piece's substitutions `subs` (their powers formed once for both).
+pub(crate) fn restrict<C: Ring>(mean: &Poly<C>, second: &Poly<C>, subs: &[UPoly<C>], one_minus_delta: &C) -> Restricted<C> {
+    let mut powers = crate::poly::substitution_powers(subs);
+    let e1 = mean.compose_with_powers(&mut powers);
+    let e2 = second.compose_with_powers(&mut powers);
     Restricted { cantelli: e1.mul(&e1).sub(&e2.scale(one_minus_delta)), mean: e1.neg() }
 }
 

@@ -365,13 +365,13 @@ impl<C: Ring> Poly<C> {
     /// # Panics
     /// If a variable that occurs has no entry in `subs` (a caller bug).
     pub fn compose_univariate(&self, subs: &[UPoly<C>]) -> UPoly<C> {
-        let mut powers: Vec<Vec<UPoly<C>>> = subs.iter().map(|s| vec![UPoly::constant(C::one()), s.clone()]).collect();
-        self.compose_with_powers(&mut powers)
+        self.compose_with_powers(&mut substitution_powers(subs))
     }
 
     /// [`Self::compose_univariate`] with the powers of the substitutions formed so far
-    /// (`powers[v][e]` = `subs[v]^e`, at least the 0th and 1st), extended as needed.
-    fn compose_with_powers(&self, powers: &mut [Vec<UPoly<C>>]) -> UPoly<C> {
+    /// (`powers[v][e]` = `subs[v]^e`, at least the 0th and 1st: [`substitution_powers`]),
+    /// extended as needed — shared by compositions with the same substitutions.
+    pub(crate) fn compose_with_powers(&self, powers: &mut [Vec<UPoly<C>>]) -> UPoly<C> {
         // each term's product and the sum in reused buffers, with the operations of
         // `UPoly::mul` and `UPoly::add` in their order (the same enclosures), without a
         // polynomial allocated per factor
@@ -466,8 +466,13 @@ pub fn compose_univariate_all<'a, C: Ring + 'a>(
     polys: impl IntoIterator<Item = &'a Poly<C>>,
     subs: &[UPoly<C>],
 ) -> Vec<UPoly<C>> {
-    let mut powers: Vec<Vec<UPoly<C>>> = subs.iter().map(|s| vec![UPoly::constant(C::one()), s.clone()]).collect();
+    let mut powers = substitution_powers(subs);
     polys.into_iter().map(|p| p.compose_with_powers(&mut powers)).collect()
+}
+
+/// The 0th and 1st powers of each substitution, which [`Poly::compose_with_powers`] extends.
+pub(crate) fn substitution_powers<C: Ring>(subs: &[UPoly<C>]) -> Vec<Vec<UPoly<C>>> {
+    subs.iter().map(|s| vec![UPoly::constant(C::one()), s.clone()]).collect()
 }
 
 /// Formatting of coefficients in polynomial text that [`parse`] reads back.

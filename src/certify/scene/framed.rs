@@ -339,10 +339,8 @@ impl FramedContours {
             }
             None => o.contour.interval_polys(),
         };
-        // (the powers of the piece's coordinates formed once for both)
-        let [e1, e2]: [UPoly<Interval>; 2] =
-            crate::poly::compose_univariate_all([m, s], &subs).try_into().expect("two polynomials composed");
-        (e1.mul(&e1).sub(&e2.scale(&one_minus_delta)), e1.neg())
+        let r = crate::certify::compose::restrict(m, s, &subs, &one_minus_delta);
+        (r.cantelli, r.mean)
     }
 }
 
