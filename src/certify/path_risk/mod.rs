@@ -23,7 +23,7 @@
 
 mod cells;
 
-pub use cells::{cells_path_risk, cells_path_risk_in, CellEffort, CellsBound, PieceBoxes, Reach, ReachGrid, CELLS_MAX_DEPTH};
+pub use cells::{cells_path_risk, cells_path_risk_in, CellEffort, CellsBound, PieceBoxes, Reach, ReachGrid, CELLS_DEEPEST_DEPTH, CELLS_MAX_DEPTH, TIME_SPLIT_RATIO};
 
 use super::compose::PieceRef;
 use crate::contour::bounds::{exceedance_bound, support_negative};
