@@ -46,14 +46,30 @@ use std::collections::BinaryHeap;
 pub const CELLS_MAX_DEPTH: u32 = 6;
 
 /// Deepest halving of a part's time beyond [`CELLS_MAX_DEPTH`]: 2⁻²⁰ of a piece. Relative
-/// depth alone left a long piece's parts long next to a small obstacle: a straight piece
-/// across a 226-wide workspace has parts 2.5 long at depth 6, and beside a disk of radius 1
-/// at 1.2 from its centre the middle coefficient of q's net overshoots q's maximum by
-/// (2.5/2)² ≈ 1.6, so no box of the parameters decided it and the bound was the mass of
-/// every box: 0.98 where the event is impossible (issue 21, session 27). Beyond depth 6 a
-/// part is halved only as [`TIME_SPLIT_RATIO`] says; 20 bounds the work when the
-/// parameters' boxes have no width to spread (point masses).
+/// depth alone left a long piece's parts long next to a small obstacle: a straight shortcut
+/// 158 long (on 512 disks) has parts 2.5 long at depth 6, and beside a disk of radius 0.91
+/// at 1.22 from its centre the middle coefficient of q's net overshoots q's maximum by
+/// about (2.5/2)² ≈ 1.6, so no box of the parameters decided it and the bound was the mass
+/// of every box: 0.98 where the event is impossible (issue 21, session 27). Beyond depth 6
+/// a part is halved only as [`TIME_SPLIT_RATIO`] says, and at most
+/// [`CELLS_DEEP_SPLITS_PER_BOX`] times per box; 20 bounds the depth when the parameters'
+/// boxes have no width to spread (point masses).
 pub const CELLS_DEEPEST_DEPTH: u32 = 20;
+
+/// Most halvings beyond [`CELLS_MAX_DEPTH`] in one box's examination, and most deeper parts
+/// kept per obstacle and trajectory ([`CELLS_DEEP_PARTS_MAX`]): a bound on the work and
+/// memory of a box whose q is about 0 along a long stretch (the adversarial review of
+/// session 27: without it, every depth-6 part of a piece could be halved down to depth 20
+/// within one box, two million restrictions, between two polls of `stop`). The plans on
+/// 512 disks make 2–4 deeper parts per obstacle; beyond either limit a part stays open
+/// for the parameters' boxes, as before the rule (only the work is limited: any depth is
+/// sound).
+pub const CELLS_DEEP_SPLITS_PER_BOX: usize = 64;
+
+/// Deeper parts (beyond [`CELLS_MAX_DEPTH`]) kept per obstacle and trajectory after which no
+/// part is halved beyond depth 6 any more (the halves already pushed are still examined:
+/// at most 2·[`CELLS_DEEP_SPLITS_PER_BOX`] more); about a kilobyte each at degree 8.
+pub const CELLS_DEEP_PARTS_MAX: usize = 4096;
 
 /// Beyond [`CELLS_MAX_DEPTH`], an undecided part is halved in time (instead of left to the
 /// parameters' boxes) when, at the box's centre ω, its ends are below 0 but some
@@ -227,8 +243,9 @@ impl<'a> Nets<'a> {
     }
 
     /// The state of a box from its monomial ranges, from the parts still open for it
-    /// (`parts`: piece, depth, index); the parts left undecided at the deepest level are
-    /// returned for its halves, and their coefficients' spread per side added to `score`.
+    /// (`parts`: piece, depth, index); the parts left undecided (at depth 6 to 20: halved
+    /// no further for this box) are returned for its halves, and their coefficients'
+    /// spread per side added to `score`.
     fn state(
         &mut self,
         bx: &[Interval],
@@ -242,7 +259,9 @@ impl<'a> Nets<'a> {
         let mut stack: Vec<Part> = parts.to_vec();
         // the monomials at the box's centre, formed when first needed
         let mut centre_ready = false;
+        let mut deep_splits = 0usize;
         while let Some((p, d, i)) = stack.pop() {
+            let deep_room = self.deep.len() < CELLS_DEEP_PARTS_MAX;
             let coeffs = self.coeffs(p, d, i)?;
             let (Some(first), Some(last)) = (coeffs.first(), coeffs.last()) else { return None };
             // q's values at the part's ends: one ≥ 0 over the box is a hit (then not every
@@ -255,13 +274,19 @@ impl<'a> Nets<'a> {
                 continue;
             }
             let deeper = d < CELLS_MAX_DEPTH
-                || (d < CELLS_DEEPEST_DEPTH && {
-                    if !centre_ready {
-                        centre.fill(bx, &betas);
-                        centre_ready = true;
-                    }
-                    curvature_dominates(coeffs, mono, centre)
-                });
+                || (d < CELLS_DEEPEST_DEPTH
+                    && deep_splits < CELLS_DEEP_SPLITS_PER_BOX
+                    && deep_room
+                    && {
+                        if !centre_ready {
+                            centre.fill(bx, &betas);
+                            centre_ready = true;
+                        }
+                        curvature_dominates(coeffs, mono, centre)
+                    });
+            if deeper && d >= CELLS_MAX_DEPTH {
+                deep_splits += 1;
+            }
             if deeper {
                 stack.push((p, d + 1, 2 * i + 1));
                 stack.push((p, d + 1, 2 * i));
@@ -298,23 +323,36 @@ impl Centre {
 /// ([`TIME_SPLIT_RATIO`]): at the box's centre the part's ends are below 0 and some
 /// coefficient is not, by more than the ratio's share of the widest coefficient's spread
 /// over the box (`mono`: the box's monomial ranges). Estimated in plain floating point
-/// from the coefficients' midpoints: only a choice of work, never a decision (any depth
-/// is sound).
+/// from the coefficients' midpoints (a coefficient's spread as Σ |mid cᵦ|·width(ω^β),
+/// its terms' own widths left out): only a choice of work, never a decision (any depth
+/// is sound). A value that is not finite (an unbounded coefficient) means no.
 fn curvature_dominates(coeffs: &[Coef], mono: &[Interval], centre: &Centre) -> bool {
     let at = |c: &Coef| c.terms.iter().map(|&(b, a)| (0.5 * a.lo + 0.5 * a.hi) * centre.mono[b]).sum::<f64>();
     let (Some(first), Some(last)) = (coeffs.first(), coeffs.last()) else { return false };
-    let ends = at(first).max(at(last));
-    // (NaN from an unbounded coefficient: no deeper halving)
-    if ends.is_nan() || ends >= 0.0 {
+    let (a, b) = (at(first), at(last));
+    if !a.is_finite() || !b.is_finite() || a.max(b) >= 0.0 {
         return false;
     }
-    let top = coeffs.iter().fold(f64::NEG_INFINITY, |m, c| m.max(at(c)));
-    if top.is_nan() || top < 0.0 {
+    let ends = a.max(b);
+    let mut top = f64::NEG_INFINITY;
+    for c in coeffs {
+        let v = at(c);
+        if !v.is_finite() {
+            return false;
+        }
+        top = top.max(v);
+    }
+    if top < 0.0 {
         return false;
     }
-    let widest = coeffs.iter().fold(0.0f64, |w, c| {
-        w.max(c.terms.iter().map(|&(b, a)| (0.5 * a.lo + 0.5 * a.hi).abs() * (mono[b].hi - mono[b].lo)).sum::<f64>())
-    });
+    let mut widest = 0.0f64;
+    for c in coeffs {
+        let w: f64 = c.terms.iter().map(|&(b, a)| (0.5 * a.lo + 0.5 * a.hi).abs() * (mono[b].hi - mono[b].lo)).sum();
+        if w.is_nan() {
+            return false;
+        }
+        widest = widest.max(w);
+    }
     TIME_SPLIT_RATIO * (top - ends) > widest
 }
 
@@ -1104,11 +1142,11 @@ mod tests {
         #![proptest_config(ProptestConfig::with_cases(48))]
         /// A long straight piece beside a small disk (issue 21, session 27): a disk of radius
         /// s ~ U[0.9, 1.1] whose centre is offset along x₁ by d ~ N(0, 0.05), and a piece
-        /// along x₁ at height h, 10 to 2000 radii long, covering the centre's range: the
+        /// along x₁ at height h, 4 to 2000 radii long, covering the centre's range: the
         /// offset slides the disk along the piece, so the event is s ≥ h, P = (1.1 − h)/0.2
         /// clamped — a closed form sharing no code with the bound. At least the truth, and
         /// within 0.02 of it. With parts no finer than 2⁻⁶ of the piece (before the
-        /// curvature rule) a piece 200 long beside the disk at h = 1.2 got 0.98 where the
+        /// curvature rule) a piece 98 long beside the disk at h = 1.18 got 0.76 where the
         /// event is impossible.
         #[test]
         fn a_long_piece_beside_a_small_disk_gets_the_closed_form(
