@@ -1164,6 +1164,49 @@ mod tests {
         }
     }
 
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(16))]
+        /// The same disk beside a long *curved* piece (a parabola x₂ = h + k·x₁², degree 2 in
+        /// time, up to 2000 radii long), where the deeper halving of the time also runs: at
+        /// least a Monte Carlo estimate sharing no code with the bound (one (s, d) per
+        /// scenario, the curve sampled every 10⁻³ where |x₁| ≤ 2 — elsewhere it is farther than
+        /// 1.5 from every centre the laws allow), minus 3.3 σ; and within 0.05 of it.
+        #[test]
+        fn a_long_curved_piece_beside_a_small_disk_covers_a_monte_carlo_audit(
+            h in 0.85f64..1.25, k in -0.002f64..0.002, before in 2.0f64..1000.0, after in 2.0f64..1000.0, seed in 0u64..1000,
+        ) {
+            let c = contour(
+                "s^2 - (x1 - d)^2 - x2^2",
+                &[("s", Distribution::Uniform { low: q("0.9"), high: q("1.1") }), ("d", Distribution::Normal { mean: q("0"), std: q("0.05") })],
+            );
+            let (a0, a1) = (-before, before + after);
+            let piece = crate::scene::Piece {
+                t0: 0.0,
+                t1: 1.0,
+                coeffs: vec![vec![a0, a1], vec![h + k * a0 * a0, 2.0 * k * a0 * a1, k * a1 * a1]],
+            };
+            let v = bound(&c, std::slice::from_ref(&piece));
+            // the curve where |x₁| ≤ 2, every 10⁻³ in x₁
+            let curve: Vec<(f64, f64)> = (0..=4000).map(|j| {
+                let x1 = -2.0 + j as f64 * 1e-3;
+                (x1, h + k * x1 * x1)
+            }).collect();
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let normal = rand_distr::Normal::new(0.0, 0.05).unwrap();
+            let n = 4000;
+            let mut hits = 0;
+            for _ in 0..n {
+                let s: f64 = rand::Rng::random_range(&mut rng, 0.9..1.1);
+                let d: f64 = normal.sample(&mut rng);
+                hits += curve.iter().any(|&(x1, x2)| (x1 - d).powi(2) + x2 * x2 <= s * s) as usize;
+            }
+            let p = hits as f64 / n as f64;
+            let margin = 3.3 * (p * (1.0 - p) / n as f64).sqrt() + 2.0 / n as f64;
+            prop_assert!(v >= p - margin, "bound {v} below the audit {p} (h {h}, k {k}, {before} before, {after} after)");
+            prop_assert!(v <= p + margin + 0.05, "bound {v} loose against the audit {p} (h {h}, k {k}, {before} before, {after} after)");
+        }
+    }
+
     /// Gaussian centres (σ = 1/32, about example-d1's) and a Monte Carlo oracle sharing no
     /// code with the bound: one centre per scenario, the closed-form distance from the
     /// segment. The bound is at least the estimate's lower 99.9 % end and, where the event is
