@@ -1138,6 +1138,15 @@ mod tests {
         }
     }
 
+    /// A disk of radius s ~ U[0.9, 1.1] at the origin whose centre is offset along x₁ by
+    /// d ~ N(0, 0.05) (the long-piece tests).
+    fn sliding_disk() -> RiskContour {
+        contour(
+            "s^2 - (x1 - d)^2 - x2^2",
+            &[("s", Distribution::Uniform { low: q("0.9"), high: q("1.1") }), ("d", Distribution::Normal { mean: q("0"), std: q("0.05") })],
+        )
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
         /// A long straight piece beside a small disk (issue 21, session 27): a disk of radius
@@ -1152,10 +1161,7 @@ mod tests {
         fn a_long_piece_beside_a_small_disk_gets_the_closed_form(
             h in 0.85f64..1.25, before in 2.0f64..1000.0, after in 2.0f64..1000.0, t1 in 0.01f64..100.0,
         ) {
-            let c = contour(
-                "s^2 - (x1 - d)^2 - x2^2",
-                &[("s", Distribution::Uniform { low: q("0.9"), high: q("1.1") }), ("d", Distribution::Normal { mean: q("0"), std: q("0.05") })],
-            );
+            let c = sliding_disk();
             let truth = ((1.1 - h) / 0.2).clamp(0.0, 1.0);
             let piece = crate::scene::Piece::segment(&[-before, h], &[after, h], 0.0, t1);
             let v = bound(&c, &[piece]);
@@ -1175,10 +1181,7 @@ mod tests {
         fn a_long_curved_piece_beside_a_small_disk_covers_a_monte_carlo_audit(
             h in 0.85f64..1.25, k in -0.002f64..0.002, before in 2.0f64..1000.0, after in 2.0f64..1000.0, seed in 0u64..1000,
         ) {
-            let c = contour(
-                "s^2 - (x1 - d)^2 - x2^2",
-                &[("s", Distribution::Uniform { low: q("0.9"), high: q("1.1") }), ("d", Distribution::Normal { mean: q("0"), std: q("0.05") })],
-            );
+            let c = sliding_disk();
             let (a0, a1) = (-before, before + after);
             let piece = crate::scene::Piece {
                 t0: 0.0,
