@@ -301,21 +301,18 @@ impl<'a> Nets<'a> {
     }
 }
 
-/// A box's centre point and its monomials there, in plain floating point (buffers kept
-/// between boxes): they only choose which halving to make ([`curvature_dominates`]).
+/// The monomials at a box's centre point, in plain floating point (a buffer kept between
+/// boxes): they only choose which halving to make ([`curvature_dominates`]).
 #[derive(Default)]
 struct Centre {
-    point: Vec<f64>,
     mono: Vec<f64>,
 }
 
 impl Centre {
     fn fill(&mut self, bx: &[Interval], betas: &[Beta]) {
-        self.point.clear();
-        self.point.extend(bx.iter().map(|r| 0.5 * r.lo + 0.5 * r.hi));
+        let mid = |k: usize| 0.5 * bx[k].lo + 0.5 * bx[k].hi;
         self.mono.clear();
-        let point = &self.point;
-        self.mono.extend(betas.iter().map(|beta| beta.iter().fold(1.0, |acc, &(k, e)| acc * point[k].powi(e as i32))));
+        self.mono.extend(betas.iter().map(|beta| beta.iter().fold(1.0, |acc, &(k, e)| acc * mid(k).powi(e as i32))));
     }
 }
 
