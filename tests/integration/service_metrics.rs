@@ -163,11 +163,14 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
         c.close().await;
     });
     // the put is applied by the put worker, which counts it just after the scene is in:
-    // wait for both in the scrapes (the scene count alone raced with the counter in CI)
+    // wait for all three in the scrapes. A scrape is not one atomic snapshot: the counter
+    // family is written before the histograms, so a put recorded between the two shows in
+    // the histogram only (CI saw exactly that; the scene count alone raced too).
     let t = Instant::now();
     let s = loop {
         let s = samples(&scrape(addr));
-        let put_counted = s.get(r#"riskplan_request_duration_seconds_count{kind="put"}"#) == Some(&1.0);
+        let put_counted = s.get(r#"riskplan_request_duration_seconds_count{kind="put"}"#) == Some(&1.0)
+            && s.get(r#"riskplan_requests_total{kind="put",outcome="ok"}"#) == Some(&1.0);
         if s.get("riskplan_scenes") == Some(&2.0) && put_counted {
             break s;
         }
