@@ -83,10 +83,15 @@ def test_counts_follow_the_requests(metered, unique):
     assert after[f'riskplan_scene_revision{{scene="{name}"}}'] == rev
     assert after["riskplan_scenes"] == before["riskplan_scenes"] + 1
     assert after["riskplan_queue_depth"] == 0 and after["riskplan_jobs_running"] == 0
-    # a put has no reply: it shows in the metrics once applied
+    # a put has no reply: it shows in the metrics once applied. The put worker counts it
+    # just after the scene is in, and a scrape is not one atomic snapshot (the counters
+    # are written before the histograms): wait for the revision, the counter and the
+    # histogram, each in the same scrape
     def put_applied():
         s = scrape(url)
-        return s if s[f'riskplan_scene_revision{{scene="{name}"}}'] == rev + 1 else None
+        counted = (requests_of(s, "put", "ok") - requests_of(after, "put", "ok") >= 1
+                   and samples_of(s, "put") - samples_of(after, "put") >= 1)
+        return s if s[f'riskplan_scene_revision{{scene="{name}"}}'] == rev + 1 and counted else None
 
     with metered.client() as c:
         c.update_obstacle(name, "far", "0.01 - (x1 - 0.9)^2 - (x2 + 0.9)^2")
