@@ -26,21 +26,22 @@ pub struct Entry {
     pub kernel: SceneKernel,
     /// Revision (increases with every update).
     pub revision: u64,
-    /// The scene file as JSON.
-    pub json: serde_json::Value,
+    /// The scene file as JSON (shared: every request takes an `Entry`, and a deep copy of a
+    /// 512-obstacle scene's JSON cost about 0.3 ms of each plan's round trip; session 28).
+    pub json: Arc<serde_json::Value>,
 }
 
 impl Entry {
     fn new(scene: Scene, revision: u64, json: serde_json::Value) -> Entry {
         let scene = Arc::new(scene);
-        Entry { kernel: SceneKernel::new(scene.clone()), scene, revision, json }
+        Entry { kernel: SceneKernel::new(scene.clone()), scene, revision, json: Arc::new(json) }
     }
 
     /// The next revision of a scene whose kernel was `previous`: what it built for
     /// unchanged obstacles is taken over.
     fn successor(previous: &SceneKernel, scene: Scene, revision: u64, json: serde_json::Value) -> Entry {
         let scene = Arc::new(scene);
-        Entry { kernel: previous.successor(scene.clone()), scene, revision, json }
+        Entry { kernel: previous.successor(scene.clone()), scene, revision, json: Arc::new(json) }
     }
 }
 
@@ -394,7 +395,7 @@ impl Registry {
         edit: impl FnOnce(Option<&serde_json::Value>) -> Result<serde_json::Value, ServiceError>,
     ) -> Result<u64, ServiceError> {
         let current = self.scenes.read().map_err(internal)?.get(name).cloned();
-        let mut json = edit(current.as_ref().map(|e| &e.json))?;
+        let mut json = edit(current.as_ref().map(|e| e.json.as_ref()))?;
         if let Some(o) = json.as_object_mut() {
             o.insert("name".into(), serde_json::Value::String(name.to_string()));
         }
@@ -491,7 +492,7 @@ impl Registry {
         check_name(name)?;
         self.with_write_lock(name, || {
             if let Some(e) = self.scenes.read().map_err(internal)?.get(name) {
-                return Ok(Some(Commit { name: name.to_string(), revision: e.revision, json: Some(e.json.clone()) }));
+                return Ok(Some(Commit { name: name.to_string(), revision: e.revision, json: Some(e.json.as_ref().clone()) }));
             }
             let h = self.history.lock().map_err(internal)?.get(name).copied();
             Ok(h.filter(|&(_, deleted)| deleted).map(|(revision, _)| Commit {
