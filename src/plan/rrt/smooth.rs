@@ -237,8 +237,11 @@ pub fn shortcut(
         // a → b first, as it is the one most likely refused (the other two lie along
         // pieces already certified, up to the rounding of a and b)
         let Some(rab) = judge(&a, &b) else { continue };
-        let Some(ria) = judge(&w[i], &a) else { continue };
-        let Some(rbj) = judge(&b, &w[j + 1]) else { continue };
+        // (not guessed: they lie along certified pieces, where E[P] < 0 for every obstacle
+        // — the mean constraint of eq. (15) — so the guess, which looks for E[P] ≥ 0 at
+        // samples, could only spend its samples on them: about half its time, session 28)
+        let Some(ria) = judge_with(&w[i], &a, false) else { continue };
+        let Some(rbj) = judge_with(&b, &w[j + 1], false) else { continue };
         let mut next: Vec<Waypoint> = w[..=i].to_vec();
         let mut next_r: Vec<f64> = risks[..i].to_vec();
         let mut pending = ria;
