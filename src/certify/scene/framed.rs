@@ -35,12 +35,40 @@ pub struct FramedContours {
     /// obstacles without a composition (`None` for an obstacle whose point is not
     /// finite). Built by the first final check that needs it, asking its `stop`.
     near: OnceLock<Option<Vec<Option<Near>>>>,
+    /// What the previous revision of the scene had built of `near` and of the framed
+    /// polynomials, per obstacle of this revision whose contour it shares
+    /// ([`FramedContours::reusing`]): taken when `near` is built (the box test of an
+    /// unchanged obstacle is the same), then dropped.
+    carried: std::sync::Mutex<Option<Vec<Option<Carried>>>>,
     /// The grids of the last few risk allocations ([`NearGrid`], crowded scenes only).
     grids: std::sync::Mutex<Vec<GridEntry>>,
+    /// The previous revision's grids and, per obstacle of this one, its index there when
+    /// the two share its contour ([`FramedContours::reusing`]): a grid built here takes
+    /// over an unchanged obstacle's cells at an unchanged Δᵢ ([`NearGrid::build`]).
+    grids_carried: Option<GridsCarried>,
 }
+
+/// What [`FramedContours::reusing`] keeps of the previous revision's grids.
+#[derive(Debug)]
+pub(crate) struct GridsCarried {
+    /// Per obstacle, its index in the previous revision (shared contour), if any.
+    index: Vec<Option<usize>>,
+    /// The previous revision's grids, with their risk levels.
+    grids: Vec<(Vec<RiskLevel>, std::sync::Arc<NearGrid>)>,
+}
+
+/// One obstacle's box test from the previous revision ([`FramedContours::reusing`]):
+/// `None` inside when it had none.
+type Carried = Option<Near>;
 
 /// A grid (`None`: not worth building) at a list of per-obstacle risk levels.
 type GridEntry = (Vec<RiskLevel>, Option<std::sync::Arc<NearGrid>>);
+
+/// How often a thread that needs the box tests while another thread builds them looks
+/// again (and asks its own `stop`): a build takes from a millisecond (an update's few
+/// obstacles) to a few tenths of a second (a new scene of hundreds), and the waiting plan's
+/// own deadline must still be kept.
+pub const NEAR_WAIT_POLL: std::time::Duration = std::time::Duration::from_millis(1);
 
 /// Grids kept per scene (one per list of per-obstacle risk levels), as the covers are.
 pub const GRIDS_PER_SCENE: usize = 4;
@@ -50,7 +78,7 @@ type FramedPair = OnceLock<(crate::poly::Poly<Interval>, crate::poly::Poly<Inter
 /// One obstacle's contour polynomials around a point of its own (`y = x − c`), with
 /// interval coefficients: evaluated over a piece's bounding box they bound E\[P\] and
 /// E\[P²\] there.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(crate) struct Near {
     center: Vec<f64>,
     mean: crate::poly::Poly<Interval>,
@@ -58,7 +86,7 @@ pub(crate) struct Near {
 }
 
 /// What the box tests of one obstacle at one Δ evaluate ([`Near::cantelli`]).
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(crate) struct NearBound {
     /// g₁ = E\[P\]² − (1−Δ)·E\[P²\], expanded.
     g1: crate::poly::Poly<Interval>,
@@ -198,40 +226,133 @@ impl FramedContours {
         if let Some(n) = self.near.get() {
             return Ok(n.as_deref());
         }
-        if scene.obstacles.len() <= Self::NEAR_MIN_OBSTACLES || scene.dim > Self::NEAR_MAX_DIM {
+        if !Self::has_near(scene) {
             return Ok(self.near.get_or_init(|| None).as_deref());
         }
-        let ws = &scene.workspace;
-        let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
-        region.push(scene.horizon);
+        // one build at a time (the final check and the whole-path bound beside it both
+        // ask, and plans on other workers): another thread waits for it instead of
+        // building the same again — polling, so that its own `stop` still ends the wait
+        let mut carried = loop {
+            match self.carried.try_lock() {
+                Ok(g) => break g,
+                Err(std::sync::TryLockError::Poisoned(e)) => break e.into_inner(),
+                Err(std::sync::TryLockError::WouldBlock) => {
+                    if let Some(n) = self.near.get() {
+                        return Ok(n.as_deref());
+                    }
+                    if stop() {
+                        return Err(Interrupted);
+                    }
+                    std::thread::sleep(NEAR_WAIT_POLL);
+                }
+            }
+        };
+        if let Some(n) = self.near.get() {
+            return Ok(n.as_deref());
+        }
+        let region = Self::near_region(scene);
+        // (what the previous revision built, looked at, not taken: a stopped build keeps it)
+        let kept = carried.as_ref().filter(|c| c.len() == scene.obstacles.len());
         let mut near = Vec::with_capacity(scene.obstacles.len());
-        for o in &scene.obstacles {
+        for (i, o) in scene.obstacles.iter().enumerate() {
+            if let Some(Some(k)) = kept.map(|c| &c[i]) {
+                near.push(k.clone());
+                continue;
+            }
             if stop() {
                 return Err(Interrupted);
             }
-            if o.pedestrian.is_some() {
-                // decided by its tail bound (or, with `cantelli`, by the composition)
-                near.push(None);
-                continue;
-            }
-            let center = super::index::obstacle_center(&o.contour, &region);
-            // the same exact values substituted and subtracted; a point that is not a
-            // finite float gets no box test
-            let Some(exact) = center.iter().map(|&c| BigRational::from_float(c)).collect::<Option<Vec<_>>>() else {
-                near.push(None);
-                continue;
-            };
-            let subs: Vec<crate::poly::QPoly> = exact
-                .into_iter()
-                .enumerate()
-                .map(|(v, c)| crate::poly::Poly::var(v as crate::poly::Var).add(&crate::poly::Poly::constant(c)))
-                .collect();
-            let around = |p: &crate::poly::QPoly| {
-                p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational)
-            };
-            near.push(Some(Near { mean: around(&o.contour.mean), second: around(&o.contour.second), center }));
+            near.push(Self::near_of(o, &region));
         }
+        *carried = None;
         Ok(self.near.get_or_init(|| Some(near)).as_deref())
+    }
+
+    /// How many obstacles' box tests were taken over from the previous revision and wait
+    /// for [`Self::near`] (`None`: none are waiting).
+    #[cfg(test)]
+    pub(crate) fn carried_count(&self) -> Option<usize> {
+        let c = self.carried.lock().ok()?;
+        Some(c.as_ref()?.iter().filter(|e| e.is_some()).count())
+    }
+
+    /// Whether a scene's obstacles get box tests at all ([`Self::near`]).
+    pub(crate) fn has_near(scene: &Scene) -> bool {
+        scene.obstacles.len() > Self::NEAR_MIN_OBSTACLES && scene.dim <= Self::NEAR_MAX_DIM
+    }
+
+    /// The workspace × the horizon, where the box tests' points are looked for.
+    fn near_region(scene: &Scene) -> Vec<(f64, f64)> {
+        let ws = &scene.workspace;
+        let mut region: Vec<(f64, f64)> = ws.lower.iter().copied().zip(ws.upper.iter().copied()).collect();
+        region.push(scene.horizon);
+        region
+    }
+
+    /// One obstacle's box test in `region` ([`Self::near_region`]): `None` for a
+    /// pedestrian (decided by its tail bound or, with `cantelli`, by the composition) and
+    /// for a point that is not a finite float.
+    fn near_of(o: &Obstacle, region: &[(f64, f64)]) -> Option<Near> {
+        if o.pedestrian.is_some() {
+            return None;
+        }
+        let center = super::index::obstacle_center(&o.contour, region);
+        // the same exact values substituted and subtracted
+        let exact = center.iter().map(|&c| BigRational::from_float(c)).collect::<Option<Vec<_>>>()?;
+        let subs: Vec<crate::poly::QPoly> = exact
+            .into_iter()
+            .enumerate()
+            .map(|(v, c)| crate::poly::Poly::var(v as crate::poly::Var).add(&crate::poly::Poly::constant(c)))
+            .collect();
+        let around =
+            |p: &crate::poly::QPoly| p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational);
+        Some(Near { mean: around(&o.contour.mean), second: around(&o.contour.second), center })
+    }
+
+    /// The contours of `scene`, a later revision of `old_scene` whose framed contours
+    /// were `old`, taking over what `old` built for the obstacles whose contour the two
+    /// revisions share (the same cached contour: the same polynomial and laws): their box
+    /// tests and framed polynomials are the same when the frame and the region are
+    /// (issue 21, session 28: on 512 disks a one-obstacle update made the next plan's
+    /// final check rebuild every obstacle's box test, about 0.3 s). Nothing is built
+    /// here: the box tests of the other obstacles are made by the first final check, as
+    /// for a new scene.
+    pub fn reusing(scene: &Scene, old: &FramedContours, old_scene: &Scene) -> Self {
+        let mut new = FramedContours::new(scene);
+        let same_frame = new.center == old.center && new.inv_scale == old.inv_scale;
+        if !same_frame || Self::near_region(scene) != Self::near_region(old_scene) {
+            return new;
+        }
+        let by_key: std::collections::HashMap<usize, usize> =
+            old_scene.obstacles.iter().enumerate().map(|(j, o)| (o.contour.key(), j)).collect();
+        let previous = |o: &Obstacle| {
+            by_key.get(&o.contour.key()).copied().filter(|&j| old_scene.obstacles[j].pedestrian.is_none() && o.pedestrian.is_none())
+        };
+        // the framed polynomials (exact substitutions into the frame)
+        if let (Some((_, new_p)), Some((_, old_p))) = (&new.polys, &old.polys) {
+            for (o, slot) in scene.obstacles.iter().zip(new_p) {
+                if let Some(pair) = previous(o).and_then(|j| old_p.get(j)?.get()) {
+                    let _ = slot.set(pair.clone());
+                }
+            }
+        }
+        // the box tests, if the old revision had built them, and its grids
+        if let Some(Some(old_near)) = old.near.get() {
+            let kept = scene.obstacles.iter().map(|o| previous(o).and_then(|j| old_near.get(j).cloned())).collect();
+            if let Ok(mut c) = new.carried.lock() {
+                *c = Some(kept);
+            }
+            let grids: Vec<_> = old
+                .grids
+                .lock()
+                .map(|v| v.iter().filter_map(|(d, g)| Some((d.clone(), g.clone()?))).collect())
+                .unwrap_or_default();
+            if !grids.is_empty() {
+                let index = scene.obstacles.iter().map(previous).collect();
+                new.grids_carried = Some(GridsCarried { index, grids });
+            }
+        }
+        new
     }
 
     /// The grid of the box tests at `deltas` ([`NearGrid`]) on a scene of at least
@@ -250,7 +371,7 @@ impl FramedContours {
         if let Some(g) = self.grids.lock().ok().and_then(|v| v.iter().find(|(d, _)| d == deltas).map(|e| e.1.clone())) {
             return Ok(g);
         }
-        let g = NearGrid::build(scene, near, deltas, stop)?.map(std::sync::Arc::new);
+        let g = NearGrid::build(scene, near, deltas, self.grids_carried.as_ref(), stop)?.map(std::sync::Arc::new);
         if let Ok(mut v) = self.grids.lock() {
             if v.len() >= GRIDS_PER_SCENE {
                 v.remove(0);
@@ -288,7 +409,15 @@ impl FramedContours {
         }
         if center.iter().all(|&c| c == 0.0) && exps.iter().all(|&e| e == 0) {
             let n = center.len();
-            return FramedContours { center, inv_scale: vec![1.0; n], polys: None, near: OnceLock::new(), grids: Default::default() };
+            return FramedContours {
+                center,
+                inv_scale: vec![1.0; n],
+                polys: None,
+                near: OnceLock::new(),
+                carried: Default::default(),
+                grids: Default::default(),
+                grids_carried: None,
+            };
         }
         let two = BigRational::from_integer(2.into());
         let subs: Vec<crate::poly::QPoly> = center
@@ -304,7 +433,15 @@ impl FramedContours {
             .collect();
         let polys = scene.obstacles.iter().map(|_| OnceLock::new()).collect();
         let inv_scale = exps.iter().map(|&e| crate::certify::fast::pow2(-e)).collect();
-        FramedContours { center, inv_scale, polys: Some((subs, polys)), near: OnceLock::new(), grids: Default::default() }
+        FramedContours {
+            center,
+            inv_scale,
+            polys: Some((subs, polys)),
+            near: OnceLock::new(),
+            carried: Default::default(),
+            grids: Default::default(),
+            grids_carried: None,
+        }
     }
 
     /// The constraints of obstacle `o` (the scene's `i`-th) restricted to a piece, in
@@ -537,6 +674,18 @@ pub(crate) struct NearGrid {
     /// build for the obstacles it tests, on first use for the others; the final checks at
     /// these risk levels use them too.
     pub(crate) bounds: Vec<OnceLock<NearBound>>,
+    /// Per obstacle, what the build's box tests found (`None`: not tested — no box test,
+    /// or moving), for the next revision's grid ([`GridsCarried`]).
+    tested: Vec<Option<Tested>>,
+}
+
+/// What [`NearGrid::build`] found for one obstacle it tested.
+#[derive(Clone, Debug)]
+enum Tested {
+    /// The cells its box test did not clear.
+    Cells(Vec<usize>),
+    /// It used up [`GRID_MAX_TESTS_PER_OBSTACLE`]: examined on every piece.
+    GaveUp,
 }
 
 /// Fewest obstacles for which the final check builds its grid ([`NearGrid`]): with fewer,
@@ -580,6 +729,7 @@ impl NearGrid {
         scene: &Scene,
         near: &[Option<Near>],
         deltas: &[RiskLevel],
+        carried: Option<&GridsCarried>,
         stop: &dyn Fn() -> bool,
     ) -> Result<Option<NearGrid>, Interrupted> {
         let dim = scene.dim;
@@ -613,6 +763,20 @@ impl NearGrid {
             always: Vec::new(),
             obstacles: near.len(),
             bounds: near.iter().map(|_| OnceLock::new()).collect(),
+            tested: vec![None; near.len()],
+        };
+        // the previous revision's grids of the same cells: an unchanged obstacle (the same
+        // box test) at the same Δᵢ has the same cells there (the same tests, the same
+        // horizon: FramedContours::reusing compared the region)
+        let same_cells = |g: &NearGrid| g.per_axis == grid.per_axis && g.edges == grid.edges && g.tested.len() == g.obstacles;
+        let old_grids: Vec<&(Vec<RiskLevel>, std::sync::Arc<NearGrid>)> =
+            carried.map(|c| c.grids.iter().filter(|(_, g)| same_cells(g)).collect()).unwrap_or_default();
+        let take_over = |i: usize| -> Option<(Tested, Option<NearBound>)> {
+            let j = (*carried?.index.get(i)?)?;
+            old_grids.iter().find_map(|(d, g)| {
+                (d.get(j)? == deltas.get(i)?).then_some(())?;
+                Some((g.tested.get(j)?.clone()?, g.bounds.get(j)?.get().cloned()))
+            })
         };
         let horizon = Interval::new(scene.horizon.0, scene.horizon.1);
         let (mut tested, mut gave_up_on) = (0usize, 0usize);
@@ -628,6 +792,24 @@ impl NearGrid {
                 continue;
             };
             tested += 1;
+            if let Some((found, bound)) = take_over(i) {
+                if let Some(b) = bound {
+                    let _ = grid.bounds[i].set(b);
+                }
+                match &found {
+                    Tested::Cells(cells) => {
+                        for &c in cells {
+                            grid.cells[c].push(i as u32);
+                        }
+                    }
+                    Tested::GaveUp => {
+                        gave_up_on += 1;
+                        grid.always.push(i as u32);
+                    }
+                }
+                grid.tested[i] = Some(found);
+                continue;
+            }
             let g1 = grid.bounds[i].get_or_init(|| n.cantelli(one_minus_enclosed(d)));
             let mut marked = Vec::new();
             let mut tests = 0usize;
@@ -660,10 +842,12 @@ impl NearGrid {
             if gave_up {
                 gave_up_on += 1;
                 grid.always.push(i as u32);
+                grid.tested[i] = Some(Tested::GaveUp);
             } else {
-                for c in marked {
+                for &c in &marked {
                     grid.cells[c].push(i as u32);
                 }
+                grid.tested[i] = Some(Tested::Cells(marked));
             }
         }
         // a grid that examines most obstacles on every piece anyway saves nothing
@@ -804,7 +988,7 @@ mod tests {
             let framed = FramedContours::new(&scene);
             let near = framed.near(&scene, &|| false).unwrap().expect("box tests on 96 disks");
             let deltas = vec![scene.risk.clone(); n];
-            let grid = NearGrid::build(&scene, near, &deltas, &|| false).unwrap().expect("a grid worth building");
+            let grid = NearGrid::build(&scene, near, &deltas, None, &|| false).unwrap().expect("a grid worth building");
             (scene, grid, centres)
         })
     }

@@ -35,6 +35,10 @@ struct Inner {
     framed: OnceLock<Arc<FramedContours>>,
     /// Per obstacle, the frame of its whole-path partition ([`SceneKernel::path_frames`]).
     path_frames: OnceLock<Arc<Vec<Frame>>>,
+    /// Per obstacle, its path frame in the previous revision when the two revisions share
+    /// its contour, the scene's frame and the region (the same inputs: the same frame),
+    /// for [`SceneKernel::path_frames`]; empty when nothing was carried.
+    frames_carried: Vec<Option<Frame>>,
     /// Per obstacle, where in the workspace × horizon it may be met ([`SceneKernel::path_reach`]).
     path_reach: Vec<OnceLock<Option<Arc<Reach>>>>,
     /// The reaches in a grid ([`SceneKernel::path_reach_grid`]).
@@ -90,6 +94,7 @@ impl SceneKernel {
                 compiled: OnceLock::new(),
                 framed: OnceLock::new(),
                 path_frames: OnceLock::new(),
+                frames_carried: Vec::new(),
                 path_reach,
                 path_reach_grid: OnceLock::new(),
                 indexes: Mutex::new(Vec::new()),
@@ -114,13 +119,46 @@ impl SceneKernel {
         if previous.is_empty() {
             previous = self.inner.previous.clone();
         }
-        let path_reach = (0..scene.obstacles.len()).map(|_| OnceLock::new()).collect();
+        let path_reach: Vec<OnceLock<Option<Arc<Reach>>>> = (0..scene.obstacles.len()).map(|_| OnceLock::new()).collect();
+        // the verify path's contours: what the old revision built for unchanged obstacles
+        let framed = OnceLock::new();
+        if let Some(old) = self.inner.framed.get() {
+            let _ = framed.set(Arc::new(FramedContours::reusing(&scene, old, &self.inner.scene)));
+        }
+        // the whole-path partition's frames and reaches of unchanged obstacles: the same
+        // when the scene's frame and region are (a path frame depends on nothing else but
+        // the obstacle's contour; a reach on its frame and the region)
+        let old_scene = &self.inner.scene;
+        // (and the same use of box tests: a path frame is moved to its obstacle only with one)
+        let same_region = super::scene_frame(&scene) == super::scene_frame(old_scene)
+            && scene.workspace == old_scene.workspace
+            && scene.horizon == old_scene.horizon
+            && FramedContours::has_near(&scene) == FramedContours::has_near(old_scene);
+        let mut frames_carried = Vec::new();
+        if let (true, Some(old_frames)) = (same_region, self.inner.path_frames.get()) {
+            let by_key: std::collections::HashMap<usize, usize> =
+                old_scene.obstacles.iter().enumerate().map(|(j, o)| (o.contour.key(), j)).collect();
+            frames_carried = scene
+                .obstacles
+                .iter()
+                .enumerate()
+                .map(|(i, o)| {
+                    let j = *by_key.get(&o.contour.key())?;
+                    let frame = old_frames.get(j)?.clone();
+                    if let Some(Some(r)) = self.inner.path_reach.get(j).and_then(|s| s.get()) {
+                        let _ = path_reach[i].set(Some(r.clone()));
+                    }
+                    Some(frame)
+                })
+                .collect();
+        }
         SceneKernel {
             inner: Arc::new(Inner {
                 scene,
                 compiled,
-                framed: OnceLock::new(),
+                framed,
                 path_frames: OnceLock::new(),
+                frames_carried,
                 path_reach,
                 path_reach_grid: OnceLock::new(),
                 indexes: Mutex::new(Vec::new()),
@@ -168,6 +206,10 @@ impl SceneKernel {
         region.push(scene.horizon);
         let mut frames = Vec::with_capacity(scene.obstacles.len());
         for (i, o) in scene.obstacles.iter().enumerate() {
+            if let Some(Some(kept)) = self.inner.frames_carried.get(i) {
+                frames.push(kept.clone());
+                continue;
+            }
             if stop() {
                 return Err(Interrupted);
             }
@@ -275,5 +317,85 @@ impl SceneKernel {
             v.push((deltas.to_vec(), made.clone()));
         }
         made
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{ContourCache, SceneFile};
+
+    /// `n` static disks of uncertain radius and offset (the growth family of the benches,
+    /// placed by a fixed sequence) in a square of side 10·√n, with disk `moved` shifted by
+    /// `shift` along x₂.
+    fn disks(n: usize, moved: usize, shift: f64) -> SceneFile {
+        let side = 10.0 * (n as f64).sqrt();
+        let mut params = serde_json::Map::new();
+        let mut obstacles = Vec::new();
+        for k in 0..n {
+            let u = |a: u64| ((k as u64 * a + 7) % 1000) as f64 / 1000.0;
+            let (cx, cy, r) = (5.0 + u(377) * (side - 10.0), 5.0 + u(613) * (side - 10.0), 0.8 + 0.8 * u(271));
+            let cy = if k == moved { cy + shift } else { cy };
+            params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
+            params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
+            obstacles.push(serde_json::json!({"id": format!("disk{k}"),
+                "poly": format!("({r:.2}*s{k})^2 - (x1 - {cx:.2} - d{k})^2 - (x2 - {cy:.2})^2")}));
+        }
+        serde_json::from_value(serde_json::json!({"format": "riskplan-scene/1", "name": "disks", "dim": 2,
+            "workspace": {"lower": [0, 0], "upper": [side, side]}, "horizon": [0, 1], "risk": 0.05,
+            "params": params, "obstacles": obstacles}))
+        .unwrap()
+    }
+
+    /// Everything the final check and the whole-path bound build for a scene, as text (the
+    /// floats' `Debug` forms are exact).
+    fn built(k: &SceneKernel, deltas: &[RiskLevel]) -> Vec<String> {
+        let scene = k.scene().clone();
+        let framed = k.framed();
+        let near = framed.near(&scene, &|| false).unwrap();
+        let grid = framed.grid(&scene, deltas, &|| false).unwrap();
+        assert!(grid.is_some(), "no grid on {} obstacles", scene.obstacles.len());
+        let (frames, reaches, reach_grid) = k.path_reaches(&|| false).unwrap();
+        vec![
+            format!("{near:?}"),
+            format!("{grid:?}"),
+            format!("{frames:?}"),
+            format!("{reaches:?}"),
+            format!("{reach_grid:?}"),
+        ]
+    }
+
+    /// After an update of one obstacle of 80, the next revision's kernel takes over what
+    /// the old one built for the others (box tests, their grid, path frames and reaches:
+    /// issue 21, session 28) and holds exactly what a kernel built afresh for the new
+    /// revision holds — and has rebuilt the moved obstacle's own.
+    #[test]
+    fn a_successor_holds_what_a_fresh_kernel_builds() {
+        let n = 80;
+        let cache = ContourCache::default();
+        let s1 = Arc::new(Scene::from_file_cached(disks(n, 10, 0.0), &cache).unwrap());
+        let deltas = vec![RiskLevel::from_f64(0.05).unwrap(); n];
+        let k1 = SceneKernel::new(s1.clone());
+        let old = built(&k1, &deltas);
+        let s2 = Arc::new(Scene::from_file_reusing(disks(n, 10, 3.0), &cache, Some(&s1)).unwrap());
+        // the new revision's contours (the moved one's built with its own parameters'
+        // moments alone) are those of the same scene built afresh
+        let afresh = Scene::from_file(disks(n, 10, 3.0)).unwrap();
+        for (a, b) in s2.obstacles.iter().zip(&afresh.obstacles) {
+            let (a, b) = (a.contour.get(), b.contour.get());
+            assert_eq!((&a.mean, &a.second), (&b.mean, &b.second));
+        }
+        let k2 = k1.successor(s2.clone());
+        // taken over before anything is asked of the new kernel: all but the moved one
+        let carried = k2.inner.framed.get().and_then(|f| f.carried_count()).unwrap_or(0);
+        assert_eq!(carried, n - 1);
+        assert_eq!(k2.inner.frames_carried.iter().filter(|f| f.is_some()).count(), n - 1);
+        let fresh = SceneKernel::new(s2);
+        let (a, b) = (built(&k2, &deltas), built(&fresh, &deltas));
+        for (what, (x, y)) in ["box tests", "grid", "path frames", "reaches", "reach grid"].iter().zip(a.iter().zip(&b)) {
+            assert!(x == y, "{what}: the successor's differs from a fresh build");
+        }
+        // the moved obstacle's box test is its own, not the old one's
+        assert_ne!(old[0], a[0]);
     }
 }
