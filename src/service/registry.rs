@@ -421,11 +421,13 @@ impl Registry {
         self.store.save(name, revision, &json).map_err(|e| internal(format!("cannot persist scene '{name}': {e}")))?;
         self.notify(name, revision, Some(&json));
         self.history.lock().map_err(internal)?.remove(name);
-        let mut m = self.scenes.write().map_err(internal)?;
+        // (the new kernel, taking over the old one's work, made before the registry's lock:
+        // every request's `get` waits for that lock)
         let entry = match previous {
             Some(k) => Entry::successor(k, scene, revision, json),
             None => Entry::new(scene, revision, json),
         };
+        let mut m = self.scenes.write().map_err(internal)?;
         let old = m.insert(name.to_string(), entry);
         self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
         drop(m);

@@ -57,8 +57,9 @@ pub(crate) struct GridsCarried {
     grids: Vec<(Vec<RiskLevel>, std::sync::Arc<NearGrid>)>,
 }
 
-/// One obstacle's box test from the previous revision ([`FramedContours::reusing`]):
-/// `None` inside when it had none.
+/// One obstacle's box test known before [`FramedContours::near`] builds the others: taken
+/// over from the previous revision ([`FramedContours::reusing`]) or built by a call that
+/// was stopped (`None`: it has none).
 type Carried = Option<Near>;
 
 /// A grid (`None`: not worth building) at a list of per-obstacle risk levels.
@@ -220,8 +221,9 @@ impl FramedContours {
     const NEAR_MAX_DIM: usize = 3;
 
     /// The box tests of every obstacle (`None` when the scene has too few obstacles or
-    /// too many dimensions), built on first use; `Err` when `stop` says stop first
-    /// (nothing is kept then).
+    /// too many dimensions), built on first use; `Err` when `stop` says stop first (the
+    /// tests built so far are kept for the next call, with those taken over from the
+    /// previous revision).
     pub(crate) fn near(&self, scene: &Scene, stop: &dyn Fn() -> bool) -> Result<Option<&[Option<Near>]>, Interrupted> {
         if let Some(n) = self.near.get() {
             return Ok(n.as_deref());
@@ -251,20 +253,22 @@ impl FramedContours {
             return Ok(n.as_deref());
         }
         let region = Self::near_region(scene);
-        // (what the previous revision built, looked at, not taken: a stopped build keeps it)
-        let kept = carried.as_ref().filter(|c| c.len() == scene.obstacles.len());
-        let mut near = Vec::with_capacity(scene.obstacles.len());
-        for (i, o) in scene.obstacles.iter().enumerate() {
-            if let Some(Some(k)) = kept.map(|c| &c[i]) {
-                near.push(k.clone());
+        // what the previous revision (or a stopped build) left, taken: `Some(test)` per
+        // obstacle whose test is known (`Some(None)`: known to have none)
+        let n = scene.obstacles.len();
+        let mut known: Vec<Option<Carried>> = carried.take().filter(|c| c.len() == n).unwrap_or_else(|| vec![None; n]);
+        for (o, slot) in scene.obstacles.iter().zip(known.iter_mut()) {
+            if slot.is_some() {
                 continue;
             }
             if stop() {
+                // the tests built so far stay for the next call
+                *carried = Some(known);
                 return Err(Interrupted);
             }
-            near.push(Self::near_of(o, &region));
+            *slot = Some(Self::near_of(o, &region));
         }
-        *carried = None;
+        let near: Vec<Option<Near>> = known.into_iter().map(Option::flatten).collect();
         Ok(self.near.get_or_init(|| Some(near)).as_deref())
     }
 
@@ -336,22 +340,35 @@ impl FramedContours {
                 }
             }
         }
-        // the box tests, if the old revision had built them, and its grids
-        if let Some(Some(old_near)) = old.near.get() {
-            let kept = scene.obstacles.iter().map(|o| previous(o).and_then(|j| old_near.get(j).cloned())).collect();
+        // the box tests the old revision had built — or, when it built none, those it had
+        // itself taken over (a revision no plan used passes them on)
+        let old_tests: Option<Vec<Option<Carried>>> = match old.near.get() {
+            Some(Some(built)) => Some(built.iter().cloned().map(Some).collect()),
+            Some(None) => None,
+            None => old.carried.lock().ok().and_then(|c| c.clone()),
+        };
+        if let Some(tests) = old_tests.filter(|t| t.len() == old_scene.obstacles.len()) {
+            let kept = scene.obstacles.iter().map(|o| previous(o).and_then(|j| tests[j].clone())).collect();
             if let Ok(mut c) = new.carried.lock() {
                 *c = Some(kept);
             }
-            let grids: Vec<_> = old
-                .grids
-                .lock()
-                .map(|v| v.iter().filter_map(|(d, g)| Some((d.clone(), g.clone()?))).collect())
-                .unwrap_or_default();
-            if !grids.is_empty() {
-                let index = scene.obstacles.iter().map(previous).collect();
-                new.grids_carried = Some(GridsCarried { index, grids });
-            }
         }
+        // the grids: the old revision's own, or those it had taken over (their obstacles
+        // mapped through it)
+        let grids: Vec<_> = old
+            .grids
+            .lock()
+            .map(|v| v.iter().filter_map(|(d, g)| Some((d.clone(), g.clone()?))).collect())
+            .unwrap_or_default();
+        let index: Vec<Option<usize>> = scene.obstacles.iter().map(previous).collect();
+        new.grids_carried = if !grids.is_empty() {
+            Some(GridsCarried { index, grids })
+        } else {
+            old.grids_carried.as_ref().map(|c| GridsCarried {
+                index: index.iter().map(|j| c.index.get((*j)?).copied().flatten()).collect(),
+                grids: c.grids.clone(),
+            })
+        };
         new
     }
 

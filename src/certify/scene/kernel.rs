@@ -134,8 +134,14 @@ impl SceneKernel {
             && scene.workspace == old_scene.workspace
             && scene.horizon == old_scene.horizon
             && FramedContours::has_near(&scene) == FramedContours::has_near(old_scene);
+        // (the old revision's frames, or those it had taken over itself: a revision no plan
+        // used passes them on)
+        let old_frames: Option<Vec<Option<Frame>>> = match self.inner.path_frames.get() {
+            Some(f) => Some(f.iter().cloned().map(Some).collect()),
+            None => (!self.inner.frames_carried.is_empty()).then(|| self.inner.frames_carried.clone()),
+        };
         let mut frames_carried = Vec::new();
-        if let (true, Some(old_frames)) = (same_region, self.inner.path_frames.get()) {
+        if let (true, Some(old_frames)) = (same_region, old_frames.filter(|f| f.len() == old_scene.obstacles.len())) {
             let by_key: std::collections::HashMap<usize, usize> =
                 old_scene.obstacles.iter().enumerate().map(|(j, o)| (o.contour.key(), j)).collect();
             frames_carried = scene
@@ -144,7 +150,7 @@ impl SceneKernel {
                 .enumerate()
                 .map(|(i, o)| {
                     let j = *by_key.get(&o.contour.key())?;
-                    let frame = old_frames.get(j)?.clone();
+                    let frame = old_frames[j].clone()?;
                     if let Some(Some(r)) = self.inner.path_reach.get(j).and_then(|s| s.get()) {
                         let _ = path_reach[i].set(Some(r.clone()));
                     }
@@ -397,5 +403,47 @@ mod tests {
         }
         // the moved obstacle's box test is its own, not the old one's
         assert_ne!(old[0], a[0]);
+    }
+
+    /// The same through reordered and removed obstacles, another Δ for one unchanged
+    /// obstacle, a revision no plan used (it passes on what it took over), and a build of
+    /// the box tests stopped half-way (what it built is kept): the review of session 28.
+    #[test]
+    fn a_chain_of_successors_holds_what_a_fresh_kernel_builds() {
+        let n = 80;
+        let cache = ContourCache::default();
+        let s1 = Arc::new(Scene::from_file_cached(disks(n, 10, 0.0), &cache).unwrap());
+        let d1 = vec![RiskLevel::from_f64(0.05).unwrap(); n];
+        let k1 = SceneKernel::new(s1.clone());
+        let _ = built(&k1, &d1);
+        // revision 2: obstacle 10 moved, the list rotated, one obstacle removed; no plan
+        let mut f2 = disks(n, 10, 3.0);
+        f2.obstacles.rotate_left(7);
+        f2.obstacles.remove(5);
+        let s2 = Arc::new(Scene::from_file_reusing(f2.clone(), &cache, Some(&s1)).unwrap());
+        let k2 = k1.successor(s2.clone());
+        // revision 3: obstacle 20 moved too
+        let mut f3 = disks(n, 10, 3.0);
+        let moved = disks(n, 20, 2.0);
+        f3.obstacles[20] = moved.obstacles[20].clone();
+        f3.obstacles.rotate_left(7);
+        f3.obstacles.remove(5);
+        let s3 = Arc::new(Scene::from_file_reusing(f3, &cache, Some(&s2)).unwrap());
+        let k3 = k2.successor(s3.clone());
+        let m = n - 1;
+        assert_eq!(k3.inner.framed.get().and_then(|f| f.carried_count()), Some(m - 2));
+        assert_eq!(k3.inner.frames_carried.iter().filter(|f| f.is_some()).count(), m - 2);
+        // one unchanged obstacle at another Δ
+        let mut d3 = vec![RiskLevel::from_f64(0.05).unwrap(); m];
+        d3[40] = RiskLevel::from_f64(0.01).unwrap();
+        // a build of the box tests stopped after a few obstacles: kept, then finished
+        let asked = std::sync::atomic::AtomicUsize::new(0);
+        let few = || asked.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= 1;
+        assert!(k3.framed().near(&s3, &few).is_err());
+        let fresh = SceneKernel::new(s3);
+        let (a, b) = (built(&k3, &d3), built(&fresh, &d3));
+        for (what, (x, y)) in ["box tests", "grid", "path frames", "reaches", "reach grid"].iter().zip(a.iter().zip(&b)) {
+            assert!(x == y, "{what}: the successor's differs from a fresh build");
+        }
     }
 }
