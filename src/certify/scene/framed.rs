@@ -345,7 +345,8 @@ impl FramedContours {
         let old_tests: Option<Vec<Option<Carried>>> = match old.near.get() {
             Some(Some(built)) => Some(built.iter().cloned().map(Some).collect()),
             Some(None) => None,
-            None => old.carried.lock().ok().and_then(|c| c.clone()),
+            // (never waiting: a plan may be building them right now — then nothing passes)
+            None => old.carried.try_lock().ok().and_then(|c| c.clone()),
         };
         if let Some(tests) = old_tests.filter(|t| t.len() == old_scene.obstacles.len()) {
             let kept = scene.obstacles.iter().map(|o| previous(o).and_then(|j| tests[j].clone())).collect();
