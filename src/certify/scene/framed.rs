@@ -321,21 +321,22 @@ impl FramedContours {
     /// final check rebuild every obstacle's box test, about 0.3 s). Nothing is built
     /// here: the box tests of the other obstacles are made by the first final check, as
     /// for a new scene.
-    pub fn reusing(scene: &Scene, old: &FramedContours, old_scene: &Scene) -> Self {
+    /// `index[i]`: obstacle `i`'s index in `old_scene` when the two share its contour
+    /// ([`super::SceneKernel::successor`] finds it once for everything it takes over).
+    pub fn reusing(scene: &Scene, old: &FramedContours, old_scene: &Scene, index: &[Option<usize>]) -> Self {
         let mut new = FramedContours::new(scene);
         let same_frame = new.center == old.center && new.inv_scale == old.inv_scale;
-        if !same_frame || Self::near_region(scene) != Self::near_region(old_scene) {
+        if !same_frame || Self::near_region(scene) != Self::near_region(old_scene) || index.len() != scene.obstacles.len() {
             return new;
         }
-        let by_key: std::collections::HashMap<usize, usize> =
-            old_scene.obstacles.iter().enumerate().map(|(j, o)| (o.contour.key(), j)).collect();
-        let previous = |o: &Obstacle| {
-            by_key.get(&o.contour.key()).copied().filter(|&j| old_scene.obstacles[j].pedestrian.is_none() && o.pedestrian.is_none())
+        // (pedestrians have no box test and no framed polynomials taken over)
+        let previous = |i: usize| {
+            index[i].filter(|&j| old_scene.obstacles[j].pedestrian.is_none() && scene.obstacles[i].pedestrian.is_none())
         };
         // the framed polynomials (exact substitutions into the frame)
         if let (Some((_, new_p)), Some((_, old_p))) = (&new.polys, &old.polys) {
-            for (o, slot) in scene.obstacles.iter().zip(new_p) {
-                if let Some(pair) = previous(o).and_then(|j| old_p.get(j)?.get()) {
+            for (i, slot) in new_p.iter().enumerate() {
+                if let Some(pair) = previous(i).and_then(|j| old_p.get(j)?.get()) {
                     let _ = slot.set(pair.clone());
                 }
             }
@@ -349,7 +350,7 @@ impl FramedContours {
             None => old.carried.try_lock().ok().and_then(|c| c.clone()),
         };
         if let Some(tests) = old_tests.filter(|t| t.len() == old_scene.obstacles.len()) {
-            let kept = scene.obstacles.iter().map(|o| previous(o).and_then(|j| tests[j].clone())).collect();
+            let kept = (0..scene.obstacles.len()).map(|i| previous(i).and_then(|j| tests[j].clone())).collect();
             if let Ok(mut c) = new.carried.lock() {
                 *c = Some(kept);
             }
@@ -361,7 +362,7 @@ impl FramedContours {
             .lock()
             .map(|v| v.iter().filter_map(|(d, g)| Some((d.clone(), g.clone()?))).collect())
             .unwrap_or_default();
-        let index: Vec<Option<usize>> = scene.obstacles.iter().map(previous).collect();
+        let index: Vec<Option<usize>> = (0..scene.obstacles.len()).map(previous).collect();
         new.grids_carried = if !grids.is_empty() {
             Some(GridsCarried { index, grids })
         } else {

@@ -120,15 +120,20 @@ impl SceneKernel {
             previous = self.inner.previous.clone();
         }
         let path_reach: Vec<OnceLock<Option<Arc<Reach>>>> = (0..scene.obstacles.len()).map(|_| OnceLock::new()).collect();
+        // each obstacle's index in the old revision, when the two share its contour (the
+        // same cached contour: the same polynomial, laws and body)
+        let old_scene = &self.inner.scene;
+        let by_key: std::collections::HashMap<usize, usize> =
+            old_scene.obstacles.iter().enumerate().map(|(j, o)| (o.contour.key(), j)).collect();
+        let index: Vec<Option<usize>> = scene.obstacles.iter().map(|o| by_key.get(&o.contour.key()).copied()).collect();
         // the verify path's contours: what the old revision built for unchanged obstacles
         let framed = OnceLock::new();
         if let Some(old) = self.inner.framed.get() {
-            let _ = framed.set(Arc::new(FramedContours::reusing(&scene, old, &self.inner.scene)));
+            let _ = framed.set(Arc::new(FramedContours::reusing(&scene, old, old_scene, &index)));
         }
         // the whole-path partition's frames and reaches of unchanged obstacles: the same
         // when the scene's frame and region are (a path frame depends on nothing else but
         // the obstacle's contour; a reach on its frame and the region)
-        let old_scene = &self.inner.scene;
         // (and the same use of box tests: a path frame is moved to its obstacle only with one)
         let same_region = super::scene_frame(&scene) == super::scene_frame(old_scene)
             && scene.workspace == old_scene.workspace
@@ -142,14 +147,11 @@ impl SceneKernel {
         };
         let mut frames_carried = Vec::new();
         if let (true, Some(old_frames)) = (same_region, old_frames.filter(|f| f.len() == old_scene.obstacles.len())) {
-            let by_key: std::collections::HashMap<usize, usize> =
-                old_scene.obstacles.iter().enumerate().map(|(j, o)| (o.contour.key(), j)).collect();
-            frames_carried = scene
-                .obstacles
+            frames_carried = index
                 .iter()
                 .enumerate()
-                .map(|(i, o)| {
-                    let j = *by_key.get(&o.contour.key())?;
+                .map(|(i, &j)| {
+                    let j = j?;
                     let frame = old_frames[j].clone()?;
                     if let Some(Some(r)) = self.inner.path_reach.get(j).and_then(|s| s.get()) {
                         let _ = path_reach[i].set(Some(r.clone()));
@@ -371,6 +373,17 @@ mod tests {
         ]
     }
 
+    /// The first revision of the tests' scene (80 disks, disk 10 in place), its cache, its
+    /// risk levels and its kernel with everything of [`built`] built.
+    fn first_revision(n: usize) -> (ContourCache, Arc<Scene>, Vec<RiskLevel>, SceneKernel, Vec<String>) {
+        let cache = ContourCache::default();
+        let s1 = Arc::new(Scene::from_file_cached(disks(n, 10, 0.0), &cache).unwrap());
+        let deltas = vec![RiskLevel::from_f64(0.05).unwrap(); n];
+        let k1 = SceneKernel::new(s1.clone());
+        let old = built(&k1, &deltas);
+        (cache, s1, deltas, k1, old)
+    }
+
     /// After an update of one obstacle of 80, the next revision's kernel takes over what
     /// the old one built for the others (box tests, their grid, path frames and reaches:
     /// issue 21, session 28) and holds exactly what a kernel built afresh for the new
@@ -378,11 +391,7 @@ mod tests {
     #[test]
     fn a_successor_holds_what_a_fresh_kernel_builds() {
         let n = 80;
-        let cache = ContourCache::default();
-        let s1 = Arc::new(Scene::from_file_cached(disks(n, 10, 0.0), &cache).unwrap());
-        let deltas = vec![RiskLevel::from_f64(0.05).unwrap(); n];
-        let k1 = SceneKernel::new(s1.clone());
-        let old = built(&k1, &deltas);
+        let (cache, s1, deltas, k1, old) = first_revision(n);
         let s2 = Arc::new(Scene::from_file_reusing(disks(n, 10, 3.0), &cache, Some(&s1)).unwrap());
         // the new revision's contours (the moved one's built with its own parameters'
         // moments alone) are those of the same scene built afresh
@@ -411,11 +420,7 @@ mod tests {
     #[test]
     fn a_chain_of_successors_holds_what_a_fresh_kernel_builds() {
         let n = 80;
-        let cache = ContourCache::default();
-        let s1 = Arc::new(Scene::from_file_cached(disks(n, 10, 0.0), &cache).unwrap());
-        let d1 = vec![RiskLevel::from_f64(0.05).unwrap(); n];
-        let k1 = SceneKernel::new(s1.clone());
-        let _ = built(&k1, &d1);
+        let (cache, s1, _, k1, _) = first_revision(n);
         // revision 2: obstacle 10 moved, the list rotated, one obstacle removed; no plan
         let mut f2 = disks(n, 10, 3.0);
         f2.obstacles.rotate_left(7);
