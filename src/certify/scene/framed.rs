@@ -485,18 +485,32 @@ impl FramedContours {
         subs.push(
             UPoly::linear(t0 - Interval::point(self.center[n - 1]), h).scale(&Interval::point(self.inv_scale[n - 1])),
         );
-        let (m, s) = match &self.polys {
-            Some((subs, p)) => {
-                let frame = |p: &crate::poly::QPoly| {
-                    p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational)
-                };
-                let pair = p[i].get_or_init(|| (frame(&o.contour.mean), frame(&o.contour.second)));
-                (&pair.0, &pair.1)
-            }
+        let (m, s) = match self.framed_pair(i, o) {
+            Some(pair) => (&pair.0, &pair.1),
             None => o.contour.interval_polys(),
         };
         let r = crate::certify::compose::restrict(m, s, &subs, &one_minus_delta);
         (r.cantelli, r.mean)
+    }
+
+    /// E\[P\] and E\[P²\] of obstacle `o` (the scene's `i`-th) in the frame, substituted
+    /// exactly on first use (or taken over from the previous revision,
+    /// [`FramedContours::reusing`]) and enclosed; `None` in the scene's own coordinates.
+    fn framed_pair(&self, i: usize, o: &Obstacle) -> Option<&(crate::poly::Poly<Interval>, crate::poly::Poly<Interval>)> {
+        let (subs, p) = self.polys.as_ref()?;
+        let frame =
+            |p: &crate::poly::QPoly| p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational);
+        Some(p[i].get_or_init(|| (frame(&o.contour.mean), frame(&o.contour.second))))
+    }
+
+    /// For tests: how many obstacles' framed polynomials are made (or taken over) so far,
+    /// and then every obstacle's, made where missing (`Debug` forms: exact for floats);
+    /// `None` in the scene's own coordinates.
+    #[cfg(test)]
+    pub(crate) fn framed_pairs_for_test(&self, scene: &Scene) -> Option<(usize, Vec<String>)> {
+        let made = self.polys.as_ref()?.1.iter().filter(|p| p.get().is_some()).count();
+        let all = scene.obstacles.iter().enumerate().map(|(i, o)| format!("{:?}", self.framed_pair(i, o))).collect();
+        Some((made, all))
     }
 }
 

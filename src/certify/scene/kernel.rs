@@ -337,12 +337,18 @@ mod tests {
     /// placed by a fixed sequence) in a square of side 10·√n, with disk `moved` shifted by
     /// `shift` along x₂.
     fn disks(n: usize, moved: usize, shift: f64) -> SceneFile {
+        disks_at(n, moved, shift, 0.0)
+    }
+
+    /// [`disks`] with the square's corner at (`origin`, `origin`).
+    fn disks_at(n: usize, moved: usize, shift: f64, origin: f64) -> SceneFile {
         let side = 10.0 * (n as f64).sqrt();
         let mut params = serde_json::Map::new();
         let mut obstacles = Vec::new();
         for k in 0..n {
             let u = |a: u64| ((k as u64 * a + 7) % 1000) as f64 / 1000.0;
-            let (cx, cy, r) = (5.0 + u(377) * (side - 10.0), 5.0 + u(613) * (side - 10.0), 0.8 + 0.8 * u(271));
+            let (cx, cy, r) =
+                (origin + 5.0 + u(377) * (side - 10.0), origin + 5.0 + u(613) * (side - 10.0), 0.8 + 0.8 * u(271));
             let cy = if k == moved { cy + shift } else { cy };
             params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
             params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
@@ -350,7 +356,7 @@ mod tests {
                 "poly": format!("({r:.2}*s{k})^2 - (x1 - {cx:.2} - d{k})^2 - (x2 - {cy:.2})^2")}));
         }
         serde_json::from_value(serde_json::json!({"format": "riskplan-scene/1", "name": "disks", "dim": 2,
-            "workspace": {"lower": [0, 0], "upper": [side, side]}, "horizon": [0, 1], "risk": 0.05,
+            "workspace": {"lower": [origin, origin], "upper": [origin + side, origin + side]}, "horizon": [0, 1], "risk": 0.05,
             "params": params, "obstacles": obstacles}))
         .unwrap()
     }
@@ -447,6 +453,37 @@ mod tests {
         assert!(k3.framed().near(&s3, &few).is_err());
         let fresh = SceneKernel::new(s3);
         let (a, b) = (built(&k3, &d3), built(&fresh, &d3));
+        for (what, (x, y)) in ["box tests", "grid", "path frames", "reaches", "reach grid"].iter().zip(a.iter().zip(&b)) {
+            assert!(x == y, "{what}: the successor's differs from a fresh build");
+        }
+    }
+
+    /// Far from the origin the verify path works in a frame of its own, with each
+    /// obstacle's polynomials substituted exactly into it (docs/design.md §5.12): after an
+    /// update of one obstacle, the successor takes over the others' substitutions, and
+    /// they — with the box tests, the grid, the frames and the reaches — are those a fresh
+    /// kernel makes; the moved obstacle's is made anew.
+    #[test]
+    fn a_successor_far_from_the_origin_holds_what_a_fresh_kernel_builds() {
+        let (n, origin) = (80, 4.0e6);
+        let cache = ContourCache::default();
+        let s1 = Arc::new(Scene::from_file_cached(disks_at(n, 10, 0.0, origin), &cache).unwrap());
+        let deltas = vec![RiskLevel::from_f64(0.05).unwrap(); n];
+        let k1 = SceneKernel::new(s1.clone());
+        let _ = built(&k1, &deltas);
+        let (_, old_pairs) = k1.framed().framed_pairs_for_test(&s1).expect("a frame of its own far from the origin");
+        let s2 = Arc::new(Scene::from_file_reusing(disks_at(n, 10, 3.0, origin), &cache, Some(&s1)).unwrap());
+        let k2 = k1.successor(s2.clone());
+        let fresh = SceneKernel::new(s2.clone());
+        let (carried, pairs) = k2.framed().framed_pairs_for_test(&s2).unwrap();
+        assert_eq!(carried, n - 1, "taken over: all but the moved obstacle's");
+        let (made, fresh_pairs) = fresh.framed().framed_pairs_for_test(&s2).unwrap();
+        assert_eq!(made, 0);
+        for (i, (a, b)) in pairs.iter().zip(&fresh_pairs).enumerate() {
+            assert!(a == b, "obstacle {i}: the successor's framed polynomials differ from a fresh build");
+        }
+        assert_ne!(old_pairs[10], pairs[10], "the moved obstacle's are its own");
+        let (a, b) = (built(&k2, &deltas), built(&fresh, &deltas));
         for (what, (x, y)) in ["box tests", "grid", "path frames", "reaches", "reach grid"].iter().zip(a.iter().zip(&b)) {
             assert!(x == y, "{what}: the successor's differs from a fresh build");
         }
