@@ -136,9 +136,11 @@ fn bench(c: &mut Criterion) {
         let smoothed = riskplan::app::PlanRequest::default().run(&kernel, None).expect("plan").1;
         // the whole default plan, warm (issue 21: ≤ 3× its first path; its edges' cost
         // ≤ 5× that on 8 disks), seeds 1–8, medians; then the same eight plans again
-        // ("steady": every cover their searches need is built by then — covers are built
-        // lazily, per obstacle, where edges go, so a first pass's first paths include
-        // building some; a service answering the same robots reaches this state)
+        // ("steady": what their searches build on first use is built by then — on a small
+        // scene the covers, built per obstacle where edges go; from 64 obstacles every
+        // cover is built by the first plan, and a first pass still compiles each obstacle's
+        // contour and moment bounds when an edge first comes near it, 0.8–2.2 ms of some
+        // first paths on 512 disks; a service answering the same robots reaches this state)
         let median = |v: &mut Vec<f64>| {
             v.sort_by(f64::total_cmp);
             0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2])
