@@ -379,6 +379,16 @@ mod tests {
         ]
     }
 
+    /// Asserts that `successor` holds everything of [`built`] that `fresh` (a kernel made
+    /// afresh for the same revision) holds; the successor's, as text.
+    fn same_as_fresh(successor: &SceneKernel, fresh: &SceneKernel, deltas: &[RiskLevel]) -> Vec<String> {
+        let (a, b) = (built(successor, deltas), built(fresh, deltas));
+        for (what, (x, y)) in ["box tests", "grid", "path frames", "reaches", "reach grid"].iter().zip(a.iter().zip(&b)) {
+            assert!(x == y, "{what}: the successor's differs from a fresh build");
+        }
+        a
+    }
+
     /// The first revision of the tests' scene (80 disks, disk 10 in place), its cache, its
     /// risk levels and its kernel with everything of [`built`] built.
     fn first_revision(n: usize) -> (ContourCache, Arc<Scene>, Vec<RiskLevel>, SceneKernel, Vec<String>) {
@@ -412,10 +422,7 @@ mod tests {
         assert_eq!(carried, n - 1);
         assert_eq!(k2.inner.frames_carried.iter().filter(|f| f.is_some()).count(), n - 1);
         let fresh = SceneKernel::new(s2);
-        let (a, b) = (built(&k2, &deltas), built(&fresh, &deltas));
-        for (what, (x, y)) in ["box tests", "grid", "path frames", "reaches", "reach grid"].iter().zip(a.iter().zip(&b)) {
-            assert!(x == y, "{what}: the successor's differs from a fresh build");
-        }
+        let a = same_as_fresh(&k2, &fresh, &deltas);
         // the moved obstacle's box test is its own, not the old one's
         assert_ne!(old[0], a[0]);
     }
@@ -452,10 +459,7 @@ mod tests {
         let few = || asked.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= 1;
         assert!(k3.framed().near(&s3, &few).is_err());
         let fresh = SceneKernel::new(s3);
-        let (a, b) = (built(&k3, &d3), built(&fresh, &d3));
-        for (what, (x, y)) in ["box tests", "grid", "path frames", "reaches", "reach grid"].iter().zip(a.iter().zip(&b)) {
-            assert!(x == y, "{what}: the successor's differs from a fresh build");
-        }
+        same_as_fresh(&k3, &fresh, &d3);
     }
 
     /// Far from the origin the verify path works in a frame of its own, with each
@@ -483,9 +487,6 @@ mod tests {
             assert!(a == b, "obstacle {i}: the successor's framed polynomials differ from a fresh build");
         }
         assert_ne!(old_pairs[10], pairs[10], "the moved obstacle's are its own");
-        let (a, b) = (built(&k2, &deltas), built(&fresh, &deltas));
-        for (what, (x, y)) in ["box tests", "grid", "path frames", "reaches", "reach grid"].iter().zip(a.iter().zip(&b)) {
-            assert!(x == y, "{what}: the successor's differs from a fresh build");
-        }
+        same_as_fresh(&k2, &fresh, &deltas);
     }
 }
