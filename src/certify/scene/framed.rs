@@ -825,66 +825,64 @@ impl NearGrid {
                 continue;
             };
             tested += 1;
-            if let Some((found, bound)) = take_over(i) {
-                if let Some(b) = bound {
-                    let _ = grid.bounds[i].set(b);
-                }
-                match &found {
-                    Tested::Cells(cells) => {
-                        for &c in cells {
-                            grid.cells[c].push(i as u32);
-                        }
+            // an unchanged obstacle's cells from the previous revision's grid, else its own
+            let found = match take_over(i) {
+                Some((found, bound)) => {
+                    if let Some(b) = bound {
+                        let _ = grid.bounds[i].set(b);
                     }
-                    Tested::GaveUp => {
-                        gave_up_on += 1;
-                        grid.always.push(i as u32);
-                    }
+                    found
                 }
-                grid.tested[i] = Some(found);
-                continue;
+                None => {
+                    let g1 = grid.bounds[i].get_or_init(|| n.cantelli(one_minus_enclosed(d)));
+                    grid.cells_of(n, g1, horizon)
+                }
+            };
+            match &found {
+                Tested::Cells(cells) => cells.iter().for_each(|&c| grid.cells[c].push(i as u32)),
+                Tested::GaveUp => {
+                    gave_up_on += 1;
+                    grid.always.push(i as u32);
+                }
             }
-            let g1 = grid.bounds[i].get_or_init(|| n.cantelli(one_minus_enclosed(d)));
-            let mut marked = Vec::new();
-            let mut tests = 0usize;
-            let mut stack = vec![(vec![0usize; dim], vec![per_axis; dim])];
-            let mut gave_up = false;
-            while let Some((lo, hi)) = stack.pop() {
-                tests += 1;
-                if tests > GRID_MAX_TESTS_PER_OBSTACLE {
-                    gave_up = true;
-                    break;
-                }
-                let cell_box: Vec<Interval> =
-                    (0..dim).map(|a| Interval::new(grid.edges[a][lo[a]], grid.edges[a][hi[a]])).collect();
-                if n.clears(&cell_box, horizon, g1) {
-                    continue;
-                }
-                // the widest axis of the block, halved; a single cell is marked
-                let (axis, width) = (0..dim).map(|a| (a, hi[a] - lo[a])).max_by_key(|&(_, w)| w).unwrap_or((0, 1));
-                if width <= 1 {
-                    marked.push(grid.cell_index(&lo));
-                    continue;
-                }
-                let mid = lo[axis] + width / 2;
-                let (mut lo2, mut hi1) = (lo.clone(), hi.clone());
-                lo2[axis] = mid;
-                hi1[axis] = mid;
-                stack.push((lo2, hi));
-                stack.push((lo, hi1));
-            }
-            if gave_up {
-                gave_up_on += 1;
-                grid.always.push(i as u32);
-                grid.tested[i] = Some(Tested::GaveUp);
-            } else {
-                for &c in &marked {
-                    grid.cells[c].push(i as u32);
-                }
-                grid.tested[i] = Some(Tested::Cells(marked));
-            }
+            grid.tested[i] = Some(found);
         }
         // a grid that examines most obstacles on every piece anyway saves nothing
         Ok((2 * grid.always.len() <= grid.obstacles).then_some(grid))
+    }
+
+    /// The cells a static obstacle's box test (`g1` its Cantelli polynomial at its Δᵢ)
+    /// does not clear over the whole horizon, by dyadic subdivision of the cell blocks;
+    /// [`Tested::GaveUp`] past [`GRID_MAX_TESTS_PER_OBSTACLE`] tests.
+    fn cells_of(&self, n: &Near, g1: &NearBound, horizon: Interval) -> Tested {
+        let dim = self.edges.len();
+        let mut marked = Vec::new();
+        let mut tests = 0usize;
+        let mut stack = vec![(vec![0usize; dim], vec![self.per_axis; dim])];
+        while let Some((lo, hi)) = stack.pop() {
+            tests += 1;
+            if tests > GRID_MAX_TESTS_PER_OBSTACLE {
+                return Tested::GaveUp;
+            }
+            let cell_box: Vec<Interval> =
+                (0..dim).map(|a| Interval::new(self.edges[a][lo[a]], self.edges[a][hi[a]])).collect();
+            if n.clears(&cell_box, horizon, g1) {
+                continue;
+            }
+            // the widest axis of the block, halved; a single cell is marked
+            let (axis, width) = (0..dim).map(|a| (a, hi[a] - lo[a])).max_by_key(|&(_, w)| w).unwrap_or((0, 1));
+            if width <= 1 {
+                marked.push(self.cell_index(&lo));
+                continue;
+            }
+            let mid = lo[axis] + width / 2;
+            let (mut lo2, mut hi1) = (lo.clone(), hi.clone());
+            lo2[axis] = mid;
+            hi1[axis] = mid;
+            stack.push((lo2, hi));
+            stack.push((lo, hi1));
+        }
+        Tested::Cells(marked)
     }
 
     fn cell_index(&self, k: &[usize]) -> usize {
