@@ -392,8 +392,13 @@ mod tests {
     /// The first revision of the tests' scene (80 disks, disk 10 in place), its cache, its
     /// risk levels and its kernel with everything of [`built`] built.
     fn first_revision(n: usize) -> (ContourCache, Arc<Scene>, Vec<RiskLevel>, SceneKernel, Vec<String>) {
+        first_revision_at(n, 0.0)
+    }
+
+    /// [`first_revision`] of [`disks_at`] `origin`.
+    fn first_revision_at(n: usize, origin: f64) -> (ContourCache, Arc<Scene>, Vec<RiskLevel>, SceneKernel, Vec<String>) {
         let cache = ContourCache::default();
-        let s1 = Arc::new(Scene::from_file_cached(disks(n, 10, 0.0), &cache).unwrap());
+        let s1 = Arc::new(Scene::from_file_cached(disks_at(n, 10, 0.0, origin), &cache).unwrap());
         let deltas = vec![RiskLevel::from_f64(0.05).unwrap(); n];
         let k1 = SceneKernel::new(s1.clone());
         let old = built(&k1, &deltas);
@@ -470,11 +475,7 @@ mod tests {
     #[test]
     fn a_successor_far_from_the_origin_holds_what_a_fresh_kernel_builds() {
         let (n, origin) = (80, 4.0e6);
-        let cache = ContourCache::default();
-        let s1 = Arc::new(Scene::from_file_cached(disks_at(n, 10, 0.0, origin), &cache).unwrap());
-        let deltas = vec![RiskLevel::from_f64(0.05).unwrap(); n];
-        let k1 = SceneKernel::new(s1.clone());
-        let _ = built(&k1, &deltas);
+        let (cache, s1, deltas, k1, _) = first_revision_at(n, origin);
         let (_, old_pairs) = k1.framed().framed_pairs_for_test(&s1).expect("a frame of its own far from the origin");
         let s2 = Arc::new(Scene::from_file_reusing(disks_at(n, 10, 3.0, origin), &cache, Some(&s1)).unwrap());
         let k2 = k1.successor(s2.clone());
