@@ -16,6 +16,8 @@ scene built but what the apply builds), one pass of seeds 1..S (warm: the pass t
 calls warm), and `--passes - 1` more passes of the same requests (steady: a server answering
 the same robots). For every plan the client's round trip is timed, and the reply's own
 `stats` give the time to the first certified path and the whole plan inside the server.
+`--pause S` waits S seconds between the apply and the cold plan (the server's background
+warm-up, docs/design.md §7.9, has then had S seconds).
 Prints a Markdown table and one JSON line.
 """
 import argparse
@@ -75,6 +77,9 @@ def main():
     ap.add_argument("--passes", type=int, default=3, help="passes of seeds 1..S after the cold plan (≥ 1)")
     ap.add_argument("--time-limit", type=float, default=10.0)
     ap.add_argument("--endpoint", default="tcp/127.0.0.1:7447")
+    ap.add_argument("--pause", type=float, default=0.0,
+                    help="seconds between the apply's reply and the cold plan (a robot that sends its map and "
+                         "plans later: the server warms the scene meanwhile unless `serve --no-warm-up`)")
     a = ap.parse_args()
     if a.passes < 1 or a.seeds < 1:
         ap.error("--passes and --seeds must be at least 1")
@@ -84,10 +89,11 @@ def main():
         began = time.perf_counter()
         c.apply(name, scene=scene)
         apply_ms = (time.perf_counter() - began) * 1e3
+        time.sleep(a.pause)
         cold = plan_once(c, name, 1, a.time_limit)
         passes = [[plan_once(c, name, seed, a.time_limit) for seed in range(1, a.seeds + 1)] for _ in range(a.passes)]
     warm, steady = passes[0], [r for p in passes[1:] for r in p]
-    out = {"scene": name, "obstacles": len(scene["obstacles"]), "apply_ms": round(apply_ms, 1),
+    out = {"scene": name, "obstacles": len(scene["obstacles"]), "apply_ms": round(apply_ms, 1), "pause_s": a.pause,
            "cold": {k: round(v, 3) if isinstance(v, float) else v for k, v in cold.items()},
            "warm": summary(warm), "steady": summary(steady) if steady else None}
     print("| pass | plans | round trip (ms) | whole plan in the server (ms) | first path (ms) | whole ÷ first | round trip ÷ first | round trip − whole (ms) |")

@@ -49,6 +49,14 @@ pub struct ServeArgs {
     /// `deadline_ms`), in seconds from arrival, queue time included.
     #[arg(long, default_value_t = 60.0)]
     max_job_seconds: f64,
+    /// Do not warm scenes in the background. By default, after each commit of a scene of 16
+    /// obstacles or more, most of them new (a first upload or a replaced scene, not an update
+    /// of a few obstacles), and after the stored scenes are loaded, a worker idle at that
+    /// moment builds its proven covers, the final check's box tests and the whole-path
+    /// reaches (on 512 obstacles about 0.8 s), which the first plan would otherwise build
+    /// before answering; it takes no worker from the requests.
+    #[arg(long)]
+    no_warm_up: bool,
     /// Log as JSON lines instead of human-readable text.
     #[arg(long)]
     log_json: bool,
@@ -187,6 +195,7 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
         queue: a.queue,
         max_plan_seconds: a.max_plan_seconds,
         max_job_seconds: a.max_job_seconds,
+        warm_up: !a.no_warm_up,
         listen,
         replica: a.replica,
         server_id: a.server_id,

@@ -264,6 +264,19 @@ impl Collector for StateCollector {
             "Obstacles' proven covers (the scene index's, at a job's risk levels) built and kept by the \
              process.",
             &ConstCounter::new(k.covers_built),
+        )?;
+        write_labelled(
+            e,
+            "scene_warm_ups",
+            "Background warm-ups of committed scenes (serve --no-warm-up turns them off): everything built \
+             (done), stopped by the job deadline or shutdown (stopped), not started because another was \
+             running, no worker was idle or the scene had a newer revision (skipped).",
+            "outcome",
+            &[
+                ("done", ConstCounter::new(k.warm_ups_done)),
+                ("stopped", ConstCounter::new(k.warm_ups_stopped)),
+                ("skipped", ConstCounter::new(k.warm_ups_skipped)),
+            ],
         )
     }
 }
@@ -462,6 +475,9 @@ mod tests {
                 covers_built: 1,
                 body_hits: 3,
                 body_misses: 1,
+                warm_ups_done: 4,
+                warm_ups_stopped: 5,
+                warm_ups_skipped: 6,
             },
         };
         let shared = Arc::new(std::sync::Mutex::new(snap));
@@ -485,6 +501,9 @@ mod tests {
         assert_eq!(v(&text, r#"riskplan_scene_cache_misses_total{cache="body"}"#), 1.0);
         assert_eq!(v(&text, "riskplan_contour_cache_entries"), 5.0);
         assert_eq!(v(&text, "riskplan_covers_built_total"), 1.0);
+        assert_eq!(v(&text, r#"riskplan_scene_warm_ups_total{outcome="done"}"#), 4.0);
+        assert_eq!(v(&text, r#"riskplan_scene_warm_ups_total{outcome="stopped"}"#), 5.0);
+        assert_eq!(v(&text, r#"riskplan_scene_warm_ups_total{outcome="skipped"}"#), 6.0);
         assert!(text.contains(r#"role="replica",server_id="r-1"} 1"#), "{text}");
         // a scene deleted is gone at the next scrape
         if let Ok(mut s) = shared.lock() {

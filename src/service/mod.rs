@@ -38,6 +38,8 @@ mod replication;
 mod startup;
 #[cfg(feature = "service")]
 mod state;
+#[cfg(feature = "service")]
+mod warm;
 
 #[cfg(feature = "service")]
 pub use client::{Client, ClientError};

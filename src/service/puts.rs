@@ -46,12 +46,22 @@ pub(crate) fn spawn_put_worker(
 /// `riskplan/scenes/<scene>` and `.../obstacles/<id>` puts and deletes (a replica:
 /// `riskplan/_replication/scenes/<scene>` puts), logged and counted (the metrics: from
 /// `arrived`, queue time included).
-fn handle_put(state: &State, key: &str, kind: SampleKind, bytes: &[u8], arrived: Instant) {
+fn handle_put(state: &Arc<State>, key: &str, kind: SampleKind, bytes: &[u8], arrived: Instant) {
     let route = Route::parse(key);
     let span = tracing::info_span!("put", key = %key);
     let _g = span.enter();
     match apply_put(state, key, route, kind, bytes) {
         Ok(rev) => {
+            // (a commit: its scene warmed in the background, `warm::after_commit`)
+            let name = match Route::parse(key) {
+                Ok(Route::Scene { name } | Route::ReplicationScene { name } | Route::Obstacle { scene: name, .. }) => {
+                    Some(name)
+                }
+                _ => None,
+            };
+            if let (Some(name), Some(rev)) = (name, rev) {
+                super::warm::after_commit(state, &name, rev);
+            }
             state.count("put", true);
             state.record(metrics::PUT, metrics::OK, arrived.elapsed());
             info!(revision = ?rev, "applied");

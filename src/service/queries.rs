@@ -220,6 +220,7 @@ async fn dispatch(
                 .jobs
                 .run_write(deadline(req.deadline_ms), move || handlers::apply(&st.registry, &name, req))
                 .await?;
+            super::warm::after_commit(state, scene, rev);
             Ok((codec.encode(&ApplyReply { scene: scene.to_string(), revision: rev }), Some(rev)))
         }
         Some(Route::Plan { scene }) => {

@@ -117,6 +117,20 @@ pub struct KernelStats {
     covers_misses: AtomicU64,
     body_hits: AtomicU64,
     body_misses: AtomicU64,
+    /// Warm-ups by outcome: done, stopped, skipped (`service::warm`).
+    warm_ups: [AtomicU64; 3],
+}
+
+/// How a background warm-up of a committed scene ended (`service::warm`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WarmUpOutcome {
+    /// Everything a default plan builds first was built.
+    Done,
+    /// Stopped by its deadline or shutdown (what was finished is kept).
+    Stopped,
+    /// Not started: another warm-up was running, no worker was idle, or the scene had a
+    /// newer revision by then.
+    Skipped,
 }
 
 /// The counts of [`KernelStats`] at one moment.
@@ -138,6 +152,12 @@ pub struct KernelCounts {
     /// Requests with a robot body other than the scene's whose grown kernel was not
     /// kept: built (or refused, when the body does not fit the scene).
     pub body_misses: u64,
+    /// Background warm-ups of committed scenes (`service::warm`) that built everything.
+    pub warm_ups_done: u64,
+    /// ... that their deadline or shutdown stopped.
+    pub warm_ups_stopped: u64,
+    /// ... not started (another one running, no idle worker, or superseded).
+    pub warm_ups_skipped: u64,
 }
 
 impl KernelStats {
@@ -163,7 +183,20 @@ impl KernelStats {
             covers_built: crate::certify::scene::covers_built_total(),
             body_hits: get(&self.body_hits),
             body_misses: get(&self.body_misses),
+            warm_ups_done: get(&self.warm_ups[0]),
+            warm_ups_stopped: get(&self.warm_ups[1]),
+            warm_ups_skipped: get(&self.warm_ups[2]),
         }
+    }
+
+    /// Counts a warm-up's outcome.
+    pub fn warm_up(&self, outcome: WarmUpOutcome) {
+        let k = match outcome {
+            WarmUpOutcome::Done => 0,
+            WarmUpOutcome::Stopped => 1,
+            WarmUpOutcome::Skipped => 2,
+        };
+        self.warm_ups[k].fetch_add(1, Ordering::Relaxed);
     }
 }
 

@@ -161,7 +161,12 @@ async fn sync_once(state: &Arc<State>, session: &zenoh::Session) -> Result<usize
             .await
             .map_err(|e| e.to_string())?;
         match r {
-            Ok(true) => installed += 1,
+            Ok(true) => {
+                installed += 1;
+                if let Ok(e) = state.registry.get(&name) {
+                    super::warm::after_commit(state, &name, e.revision);
+                }
+            }
             Ok(false) => {}
             Err(e) => warn!(scene = %name, "cannot install the primary's scene: {e}"),
         }

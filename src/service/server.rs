@@ -55,6 +55,10 @@ pub struct ServerConfig {
     /// Serve Prometheus metrics over HTTP on this address (`GET /metrics`; proto/README.md
     /// "Metrics"); `None`: no metrics, no listener.
     pub metrics: Option<SocketAddr>,
+    /// Build a committed scene's covers, final-check box tests and whole-path reaches in
+    /// the background when a worker is idle (docs/design.md §3.11, "Warm-ups"); `false`: each is built
+    /// by the first request that needs it.
+    pub warm_up: bool,
 }
 
 /// Runs the server until SIGINT or SIGTERM.
@@ -90,6 +94,8 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         server_id,
         revision_waiters: std::sync::atomic::AtomicUsize::new(0),
         metrics: metrics.clone(),
+        warm_up: cfg.warm_up,
+        warming: AtomicBool::new(false),
     });
     // Scrapes read the state through a weak reference (the state holds the metrics),
     // on their own tasks: the loops below never wait for them.
@@ -140,6 +146,8 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
             if !replica {
                 st.ready.store(true, Ordering::SeqCst);
             }
+            // (on its own thread: the put worker waits for this task)
+            super::warm::after_load(&st);
         })
     };
     let puts = spawn_put_worker(state.clone(), loading);

@@ -45,6 +45,10 @@ pub(crate) struct State {
     pub(crate) revision_waiters: std::sync::atomic::AtomicUsize,
     /// The Prometheus metrics, when `serve --metrics` asked for them.
     pub(crate) metrics: Option<Arc<Metrics>>,
+    /// Warm committed scenes in the background (`serve --no-warm-up` turns it off).
+    pub(crate) warm_up: bool,
+    /// Set while a warm-up runs (one at a time: `warm::after_commit`).
+    pub(crate) warming: AtomicBool,
 }
 
 impl State {

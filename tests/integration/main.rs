@@ -30,6 +30,8 @@ mod service_failover;
 mod service_metrics;
 #[cfg(all(feature = "service", feature = "cli"))]
 mod service_shutdown;
+#[cfg(all(feature = "service", feature = "cli"))]
+mod service_warm_up;
 mod smooth_limits;
 mod tight_bounds;
 mod trajectory_mode;

@@ -47,6 +47,8 @@ struct Inner {
     /// The indexes of the scene's previous revision, whose covers of unchanged obstacles
     /// the indexes built here take over.
     previous: Vec<Arc<SceneIndex>>,
+    /// Obstacles whose contour the previous revision shared ([`SceneKernel::unchanged`]).
+    unchanged: usize,
 }
 
 impl std::fmt::Debug for SceneKernel {
@@ -99,6 +101,7 @@ impl SceneKernel {
                 path_reach_grid: OnceLock::new(),
                 indexes: Mutex::new(Vec::new()),
                 previous: Vec::new(),
+                unchanged: 0,
             }),
         }
     }
@@ -126,6 +129,7 @@ impl SceneKernel {
         let by_key: std::collections::HashMap<usize, usize> =
             old_scene.obstacles.iter().enumerate().map(|(j, o)| (o.contour.key(), j)).collect();
         let index: Vec<Option<usize>> = scene.obstacles.iter().map(|o| by_key.get(&o.contour.key()).copied()).collect();
+        let unchanged = index.iter().filter(|j| j.is_some()).count();
         // the verify path's contours: what the old revision built for unchanged obstacles
         let framed = OnceLock::new();
         if let Some(old) = self.inner.framed.get() {
@@ -171,8 +175,18 @@ impl SceneKernel {
                 path_reach_grid: OnceLock::new(),
                 indexes: Mutex::new(Vec::new()),
                 previous,
+                unchanged,
             }),
         }
+    }
+
+    /// How many of the scene's obstacles have the contour they had in the revision this
+    /// kernel succeeds ([`SceneKernel::successor`]: what was built for them there may be
+    /// taken over); 0 for a kernel made with [`SceneKernel::new`]. The service warms a
+    /// kernel in the background only when most of its scene is new (docs/design.md §3.11,
+    /// "Warm-ups").
+    pub fn unchanged(&self) -> usize {
+        self.inner.unchanged
     }
 
     /// The scene.
@@ -425,6 +439,8 @@ mod tests {
         // taken over before anything is asked of the new kernel: all but the moved one
         let carried = k2.inner.framed.get().and_then(|f| f.carried_count()).unwrap_or(0);
         assert_eq!(carried, n - 1);
+        // (what the service's warm-ups go by: a fresh kernel has nothing unchanged)
+        assert_eq!((k1.unchanged(), k2.unchanged()), (0, n - 1));
         assert_eq!(k2.inner.frames_carried.iter().filter(|f| f.is_some()).count(), n - 1);
         let fresh = SceneKernel::new(s2);
         let a = same_as_fresh(&k2, &fresh, &deltas);

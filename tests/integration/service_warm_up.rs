@@ -1,0 +1,140 @@
+//! `riskplan serve` warms scenes of many obstacles in the background (docs/design.md
+//! §3.11, "Warm-ups"): a preloaded scene of 64 uncertain disks once loaded, another once applied; the
+//! metrics count each warm-up done, and the first plan on each finds the scene index
+//! complete at its risk levels (a covers hit). With `--no-warm-up` nothing is warmed and
+//! the same first plans build the index themselves (covers misses). The plans are the same
+//! either way. Loopback only.
+
+use crate::common::server::{free_port, serve};
+use riskplan::service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
+use riskplan::service::Client;
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::time::{Duration, Instant};
+
+/// `n` uncertain disks (radius scaled by U(0.9, 1.1), centre shifted by N(0, 0.05)) at
+/// constant density in a square 10·√n wide, start and goal in opposite corners.
+fn disks(n: usize, seed: u64) -> serde_json::Value {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let side = 10.0 * (n as f64).sqrt();
+    let mut params = serde_json::Map::new();
+    let mut obstacles = Vec::new();
+    while obstacles.len() < n {
+        let (cx, cy, r): (f64, f64, f64) =
+            (rng.random_range(0.0..side), rng.random_range(0.0..side), rng.random_range(0.8..1.6));
+        let clear = |x: f64, y: f64| ((cx - x).powi(2) + (cy - y).powi(2)).sqrt() >= r + 3.0;
+        if !clear(0.5, 0.5) || !clear(side - 0.5, side - 0.5) {
+            continue;
+        }
+        let k = obstacles.len();
+        params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
+        params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
+        obstacles.push(serde_json::json!({
+            "id": format!("disk{k}"),
+            "poly": format!("({r:.2}*s{k})^2 - (x1 - {cx:.2} - d{k})^2 - (x2 - {cy:.2})^2"),
+        }));
+    }
+    serde_json::json!({
+        "format": "riskplan-scene/1",
+        "name": "disks",
+        "dim": 2,
+        "workspace": {"lower": [0, 0], "upper": [side, side]},
+        "horizon": [0, 1],
+        "risk": 0.05,
+        "params": params,
+        "obstacles": obstacles,
+        "start": [0.5, 0.5],
+        "goal": [side - 0.5, side - 0.5],
+    })
+}
+
+/// The samples of `GET /metrics` as series → value.
+fn scrape(addr: &str) -> std::collections::BTreeMap<String, f64> {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(15))).unwrap();
+    s.write_all(b"GET /metrics HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n").unwrap();
+    let mut reply = String::new();
+    s.read_to_string(&mut reply).unwrap();
+    let (_, body) = reply.split_once("\r\n\r\n").expect("a head");
+    body.lines()
+        .filter(|l| !l.starts_with('#'))
+        .filter_map(|l| l.rsplit_once(' ').map(|(k, v)| (k.to_string(), v.parse().unwrap())))
+        .collect()
+}
+
+/// Waits until the metrics count `done` warm-ups done (none stopped or skipped): a bounded
+/// wait for work that runs after the replies, not a timing.
+fn wait_for_warm_ups(metrics: &str, done: f64) {
+    let t = Instant::now();
+    loop {
+        let s = scrape(metrics);
+        let count = |outcome: &str| s.get(&format!("riskplan_scene_warm_ups_total{{outcome=\"{outcome}\"}}")).copied();
+        if count("done") == Some(done) {
+            return;
+        }
+        assert_eq!((count("stopped"), count("skipped")), (Some(0.0), Some(0.0)), "{s:#?}");
+        assert!(t.elapsed() < Duration::from_secs(120), "{done} warm-ups never done: {s:#?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn scenes_of_many_obstacles_are_warm_before_their_first_plans_unless_turned_off() {
+    let (preloaded, applied) = (disks(64, 5), disks(48, 6));
+    let mut lengths = Vec::new();
+    for warm in [true, false] {
+        let metrics = format!("127.0.0.1:{}", free_port());
+        let announced = format!("riskplan: metrics on http://{metrics}/metrics");
+        let mut args = vec!["--workers", "1", "--metrics", &metrics];
+        if !warm {
+            args.push("--no-warm-up");
+        }
+        let server = serve(&[("pre", preloaded.to_string())], &args, &[&announced, "riskplan: ready"]);
+        if warm {
+            wait_for_warm_ups(&metrics, 1.0);
+        }
+        let rt = tokio::runtime::Runtime::new().unwrap();
+        let c = rt.block_on(Client::connect(&server.endpoint, Duration::from_secs(60), Codec::Bincode)).unwrap();
+        let request = ApplyRequest { scene: Some(EmbeddedJson(applied.clone())), ..Default::default() };
+        assert_eq!(rt.block_on(c.apply("disks", &request)).expect("an apply").revision, 1);
+        if warm {
+            wait_for_warm_ups(&metrics, 2.0);
+        }
+        for scene in ["pre", "disks"] {
+            let plan = rt.block_on(c.plan(scene, &PlanRequest::default())).expect("a plan");
+            assert!(plan.certified, "{scene}");
+            lengths.push((warm, scene, plan.stats.path_length));
+        }
+        // an update of one obstacle takes over what was built for the others: not warmed
+        let moved = Change {
+            op: "put".into(),
+            id: "disk0".into(),
+            poly: Some(applied["obstacles"][0]["poly"].as_str().unwrap().replace("(x2 - ", "(x2 - 0.5 - ")),
+            params: None,
+            pedestrian: None,
+        };
+        let request = ApplyRequest { changes: Some(vec![moved]), ..Default::default() };
+        assert_eq!(rt.block_on(c.apply("disks", &request)).expect("an apply").revision, 2);
+        assert!(rt.block_on(c.plan("disks", &PlanRequest::default())).expect("a plan").certified);
+        let s = scrape(&metrics);
+        let covers = |which: &str| s.get(&format!("riskplan_scene_cache_{which}_total{{cache=\"covers\"}}")).copied();
+        let warm_ups =
+            |outcome: &str| s.get(&format!("riskplan_scene_warm_ups_total{{outcome=\"{outcome}\"}}")).copied();
+        if warm {
+            // (the plan after the update: its kernel took over the covers of 47 obstacles
+            // and builds the moved one's)
+            assert_eq!((covers("hits"), covers("misses")), (Some(2.0), Some(1.0)), "{s:#?}");
+            assert_eq!((warm_ups("done"), warm_ups("skipped")), (Some(2.0), Some(0.0)), "{s:#?}");
+        } else {
+            assert_eq!((covers("hits"), covers("misses")), (Some(0.0), Some(3.0)), "{s:#?}");
+            for outcome in ["done", "stopped", "skipped"] {
+                assert_eq!(warm_ups(outcome), Some(0.0), "{outcome}: {s:#?}");
+            }
+        }
+        rt.block_on(c.close());
+    }
+    // what was built before a plan changes its cost, never its answer
+    assert_eq!(lengths[0].2, lengths[2].2, "{lengths:?}");
+    assert_eq!(lengths[1].2, lengths[3].2, "{lengths:?}");
+}
