@@ -486,37 +486,46 @@ impl PlanRequest {
 /// What [`warm_up`] built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum WarmUp {
-    /// Everything a default plan's checker and final check build on a cold scene.
+    /// Everything a default plan's checker and final check build on a cold scene
+    /// ([`SceneKernel::is_warm`] at the scene's Δ).
     Done,
-    /// `term` stopped it first: what was finished is kept, the rest is built on first use.
+    /// `stop` said stop first: what was finished is kept, the rest is built on first use.
     Stopped,
 }
 
 /// Builds ahead of any request what a default plan (per-obstacle risk at the scene's Δ)
-/// builds on first use on a new scene (docs/design.md §3.11, §5.10): the checker's proven
-/// covers and their grid (the scene index), the final check's box tests and their grid
-/// (§5.12), and the whole-path bound's frames and reaches (§5.14) — on 512 disks about
-/// 0.7 s that a cold plan would otherwise spend before its answer. Every part is cached
-/// by `kernel`, so the plans that follow (and a plan running meanwhile, which waits for
-/// or takes over the same builds) find them; nothing about a plan's outcome depends on
-/// whether they were built before it. The compiled contours stay per obstacle on first
-/// use (a fraction of a millisecond each, where edges go).
-pub fn warm_up(kernel: &SceneKernel, term: &Termination) -> WarmUp {
+/// builds on first use on a new scene (docs/design.md §3.11 "Warm-ups", §5.10): the final
+/// check's box tests and their grid (§5.12), the whole-path bound's frames and reaches
+/// (§5.14), and the checker's proven covers and their grid (the scene index) — on 512
+/// disks about 0.8 s that a cold plan would otherwise spend before its answer. Every part
+/// is cached by `kernel`, so the plans that follow find them, and a plan running meanwhile
+/// shares them: the covers are built here from the last obstacle down, so that a plan
+/// building them from the first up meets this warm-up halfway instead of building the same
+/// ones beside it. Nothing about a plan's outcome depends on whether they were built before
+/// it. The compiled contours stay per obstacle on first use (a fraction of a millisecond
+/// each, where edges go). `stop` is asked between obstacles.
+pub fn warm_up(kernel: &SceneKernel, stop: &dyn Fn() -> bool) -> WarmUp {
     let scene = kernel.scene();
     let deltas = vec![scene.risk.clone(); scene.obstacles.len()];
-    let stop = || term.should_stop();
-    let checker = SceneCertifier::with_deltas(kernel, deltas.clone(), Method::Exact);
-    // (each step stops between obstacles when `term` says so, keeping what it built; the
-    // final check's and the whole-path bound's parts first: a plan that arrives meanwhile
-    // builds the covers its search needs first, and finds the others built)
-    if kernel.framed().grid(scene, &deltas, &stop).is_err() || kernel.path_reaches(&stop).is_err() {
+    // (the final check's and the whole-path parts first: a plan that arrives meanwhile
+    // builds the covers its search needs, and finds these built or being built)
+    if kernel.framed().grid(scene, &deltas, stop).is_err() || kernel.path_reaches(stop).is_err() {
         return WarmUp::Stopped;
     }
-    checker.prepare(term);
-    if stop() {
-        return WarmUp::Stopped;
+    let index = kernel.lazy_index(&deltas);
+    for i in (0..scene.obstacles.len()).rev() {
+        if stop() {
+            return WarmUp::Stopped;
+        }
+        index.ensure(scene, i, stop);
     }
-    WarmUp::Done
+    // (every cover built or tried: the grid over them)
+    let _ = kernel.index(&deltas, stop);
+    if kernel.is_warm(&deltas) {
+        WarmUp::Done
+    } else {
+        WarmUp::Stopped
+    }
 }
 
 /// Why an outcome has no trajectory, in one line (for replies and messages).
@@ -662,6 +671,50 @@ mod tests {
         let names: Vec<&str> = PlannerKind::ALL.iter().map(|k| k.as_str()).collect();
         assert_eq!(e.to_string(), format!("unknown planner 'rrt' ({})", names.join(", ")));
         assert!(e.to_string().contains("tv-sos"), "{e}");
+    }
+
+    /// `n` uncertain disks (radius scaled by U(0.9, 1.1), centre shifted by N(0, 0.05)) on
+    /// a lattice-like spread in a square 10·√n wide, start and goal in opposite corners.
+    fn disks(n: usize) -> Arc<Scene> {
+        let side = 10.0 * (n as f64).sqrt();
+        let mut params = serde_json::Map::new();
+        let mut obstacles = Vec::new();
+        for k in 0..n {
+            let u = |a: u64| ((k as u64 * a + 7) % 1000) as f64 / 1000.0;
+            let (cx, cy, r) = (5.0 + u(377) * (side - 10.0), 5.0 + u(613) * (side - 10.0), 0.8 + 0.8 * u(271));
+            params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
+            params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
+            obstacles.push(serde_json::json!({"id": format!("disk{k}"),
+                "poly": format!("({r:.2}*s{k})^2 - (x1 - {cx:.2} - d{k})^2 - (x2 - {cy:.2})^2")}));
+        }
+        let json = serde_json::json!({"format": "riskplan-scene/1", "name": "disks", "dim": 2,
+            "workspace": {"lower": [0, 0], "upper": [side, side]}, "horizon": [0, 1], "risk": 0.05,
+            "params": params, "obstacles": obstacles, "start": [0.5, 0.5], "goal": [side - 0.5, side - 0.5]});
+        Arc::new(Scene::from_json(&json.to_string()).unwrap())
+    }
+
+    #[test]
+    fn a_warm_up_builds_what_a_plan_would() {
+        let scene = disks(24);
+        let deltas = vec![scene.risk.clone(); scene.obstacles.len()];
+        // the oracle: what a default plan on a fresh kernel leaves built
+        let planned = SceneKernel::new(scene.clone());
+        assert!(!planned.is_warm(&deltas));
+        let (_, cold) = PlanRequest::default().run(&planned, None).unwrap();
+        assert!(cold.certified);
+        assert!(planned.is_warm(&deltas), "a plan builds all of it: the oracle must hold");
+        // a warm-up stopped at once builds none of it, and says so
+        let stopped = SceneKernel::new(scene.clone());
+        assert_eq!(warm_up(&stopped, &|| true), WarmUp::Stopped);
+        assert!(!stopped.is_warm(&deltas));
+        // a warm-up builds all of it, and the plan on the warm kernel is the same plan
+        let warmed = SceneKernel::new(scene.clone());
+        assert_eq!(warm_up(&warmed, &|| false), WarmUp::Done);
+        assert!(warmed.is_warm(&deltas));
+        let (_, warm) = PlanRequest::default().run(&warmed, None).unwrap();
+        let pieces = |o: &PlanOutcome| o.trajectory.as_ref().map(|t| t.pieces.clone());
+        assert_eq!(pieces(&warm), pieces(&cold));
+        assert_eq!(warm.stats.whole_path_risk, cold.stats.whole_path_risk);
     }
 
     #[test]

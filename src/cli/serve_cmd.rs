@@ -51,10 +51,10 @@ pub struct ServeArgs {
     max_job_seconds: f64,
     /// Do not warm scenes in the background. By default, after each commit of a scene of 16
     /// obstacles or more, most of them new (a first upload or a replaced scene, not an update
-    /// of a few obstacles), and after the stored scenes are loaded, a worker idle at that
-    /// moment builds its proven covers, the final check's box tests and the whole-path
-    /// reaches (on 512 obstacles about 0.8 s), which the first plan would otherwise build
-    /// before answering; it takes no worker from the requests.
+    /// of a few obstacles), and after the stored scenes are loaded, a thread of its own
+    /// (started when a worker is idle) builds its proven covers, the final check's box
+    /// tests and the whole-path reaches (on 512 obstacles about 0.8 s), which the first plan
+    /// would otherwise build before answering; it takes no worker from the requests.
     #[arg(long)]
     no_warm_up: bool,
     /// Log as JSON lines instead of human-readable text.

@@ -269,8 +269,8 @@ impl Collector for StateCollector {
             e,
             "scene_warm_ups",
             "Background warm-ups of committed scenes (serve --no-warm-up turns them off): everything built \
-             (done), stopped by the job deadline or shutdown (stopped), not started because another was \
-             running, no worker was idle or the scene had a newer revision (skipped).",
+             (done), stopped by the job deadline or shutdown (stopped), not started because no worker was \
+             idle, or abandoned for a newer revision of the scene (skipped).",
             "outcome",
             &[
                 ("done", ConstCounter::new(k.warm_ups_done)),

@@ -128,8 +128,8 @@ pub enum WarmUpOutcome {
     Done,
     /// Stopped by its deadline or shutdown (what was finished is kept).
     Stopped,
-    /// Not started: another warm-up was running, no worker was idle, or the scene had a
-    /// newer revision by then.
+    /// Not started (no worker was idle when it was asked for) or abandoned (the scene had a
+    /// newer revision by then, which is warmed instead when it is wanted).
     Skipped,
 }
 
@@ -156,7 +156,7 @@ pub struct KernelCounts {
     pub warm_ups_done: u64,
     /// ... that their deadline or shutdown stopped.
     pub warm_ups_stopped: u64,
-    /// ... not started (another one running, no idle worker, or superseded).
+    /// ... not started (no idle worker) or abandoned for a newer revision.
     pub warm_ups_skipped: u64,
 }
 

@@ -96,6 +96,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         metrics: metrics.clone(),
         warm_up: cfg.warm_up,
         warming: AtomicBool::new(false),
+        warm_queue: Mutex::new(Vec::new()),
     });
     // Scrapes read the state through a weak reference (the state holds the metrics),
     // on their own tasks: the loops below never wait for them.

@@ -47,8 +47,10 @@ pub(crate) struct State {
     pub(crate) metrics: Option<Arc<Metrics>>,
     /// Warm committed scenes in the background (`serve --no-warm-up` turns it off).
     pub(crate) warm_up: bool,
-    /// Set while a warm-up runs (one at a time: `warm::after_commit`).
+    /// Set while the warm-up thread runs (one at a time: `warm`).
     pub(crate) warming: AtomicBool,
+    /// Scenes (name, revision) waiting for the warm-up thread.
+    pub(crate) warm_queue: Mutex<Vec<(String, u64)>>,
 }
 
 impl State {

@@ -400,6 +400,17 @@ impl FramedContours {
         Ok(g)
     }
 
+    /// Whether the box tests are built, and on a scene of at least [`GRID_MIN_OBSTACLES`]
+    /// obstacles their grid at `deltas`: what [`Self::grid`] would otherwise build.
+    pub(crate) fn built(&self, scene: &Scene, deltas: &[RiskLevel]) -> bool {
+        // (a scene without box tests has no grid either)
+        self.near.get().is_some_and(|n| {
+            n.is_none()
+                || scene.obstacles.len() < GRID_MIN_OBSTACLES
+                || self.grids.lock().is_ok_and(|v| v.iter().any(|(d, _)| d == deltas))
+        })
+    }
+
     /// The scene's contours in the verify path's frame (exact substitution, then enclosed).
     pub fn new(scene: &Scene) -> Self {
         let ws = &scene.workspace;

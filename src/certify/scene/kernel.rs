@@ -129,7 +129,16 @@ impl SceneKernel {
         let by_key: std::collections::HashMap<usize, usize> =
             old_scene.obstacles.iter().enumerate().map(|(j, o)| (o.contour.key(), j)).collect();
         let index: Vec<Option<usize>> = scene.obstacles.iter().map(|o| by_key.get(&o.contour.key()).copied()).collect();
-        let unchanged = index.iter().filter(|j| j.is_some()).count();
+        // (counted only when what is built for them can be taken over: the same Δ, region
+        // and frame, and a previous index complete at that Δ — else the new revision is as
+        // cold as a new scene, whatever its contours)
+        let old_deltas = vec![old_scene.risk.clone(); old_scene.obstacles.len()];
+        let takes_over = scene.risk == old_scene.risk
+            && scene.workspace == old_scene.workspace
+            && scene.horizon == old_scene.horizon
+            && super::scene_frame(&scene) == super::scene_frame(old_scene)
+            && self.peek_index(&old_deltas).is_some_and(|i| i.complete());
+        let unchanged = if takes_over { index.iter().filter(|j| j.is_some()).count() } else { 0 };
         // the verify path's contours: what the old revision built for unchanged obstacles
         let framed = OnceLock::new();
         if let Some(old) = self.inner.framed.get() {
@@ -181,12 +190,25 @@ impl SceneKernel {
     }
 
     /// How many of the scene's obstacles have the contour they had in the revision this
-    /// kernel succeeds ([`SceneKernel::successor`]: what was built for them there may be
-    /// taken over); 0 for a kernel made with [`SceneKernel::new`]. The service warms a
-    /// kernel in the background only when most of its scene is new (docs/design.md §3.11,
-    /// "Warm-ups").
+    /// kernel succeeds ([`SceneKernel::successor`]), when what was built for them there can
+    /// be taken over: the same Δ, workspace, horizon and frame, and the previous revision's
+    /// index complete at its Δ; 0 otherwise, and for a kernel made with
+    /// [`SceneKernel::new`]. The service warms a kernel in the background only when most of
+    /// its scene is new in this sense (docs/design.md §3.11, "Warm-ups").
     pub fn unchanged(&self) -> usize {
         self.inner.unchanged
+    }
+
+    /// Whether everything a warm-up (`app::warm_up`) builds at `deltas` is built:
+    /// the index complete, the final check's box tests (and their grid), the whole-path
+    /// frames, reaches and their grid.
+    pub fn is_warm(&self, deltas: &[RiskLevel]) -> bool {
+        let scene = &self.inner.scene;
+        self.peek_index(deltas).is_some_and(|i| i.complete())
+            && self.inner.framed.get().is_some_and(|f| f.built(scene, deltas))
+            && self.inner.path_frames.get().is_some()
+            && self.inner.path_reach.iter().all(|r| r.get().is_some())
+            && self.inner.path_reach_grid.get().is_some()
     }
 
     /// The scene.
@@ -419,6 +441,29 @@ mod tests {
         (cache, s1, deltas, k1, old)
     }
 
+    /// `SceneKernel::unchanged` (what the service's warm-ups go by): the obstacles whose
+    /// contour the previous revision shared, counted only when what was built for them can
+    /// be taken over — the previous index complete at the scene's own Δ, and the same Δ.
+    #[test]
+    fn unchanged_counts_what_a_successor_can_take_over() {
+        let n = 40;
+        let cache = ContourCache::default();
+        let s1 = Arc::new(Scene::from_file_cached(disks(n, 10, 0.0), &cache).unwrap());
+        let own = vec![s1.risk.clone(); n];
+        let k1 = SceneKernel::new(s1.clone());
+        let moved = || Arc::new(Scene::from_file_reusing(disks(n, 10, 3.0), &cache, Some(&s1)).unwrap());
+        // nothing built at the scene's Δ yet: as cold as a new scene
+        assert_eq!(k1.successor(moved()).unchanged(), 0);
+        let _ = k1.index(&own, &|| false);
+        assert_eq!(k1.unchanged(), 0, "a fresh kernel");
+        assert_eq!(k1.successor(moved()).unchanged(), n - 1, "all but the moved disk");
+        // the same disks at another Δ: their covers are not the old ones
+        let mut other = serde_json::to_value(disks(n, 10, 3.0)).unwrap();
+        other["risk"] = serde_json::json!(0.01);
+        let s3 = Arc::new(Scene::from_file_reusing(serde_json::from_value(other).unwrap(), &cache, Some(&s1)).unwrap());
+        assert_eq!(k1.successor(s3).unchanged(), 0);
+    }
+
     /// After an update of one obstacle of 80, the next revision's kernel takes over what
     /// the old one built for the others (box tests, their grid, path frames and reaches:
     /// issue 21, session 28) and holds exactly what a kernel built afresh for the new
@@ -439,8 +484,6 @@ mod tests {
         // taken over before anything is asked of the new kernel: all but the moved one
         let carried = k2.inner.framed.get().and_then(|f| f.carried_count()).unwrap_or(0);
         assert_eq!(carried, n - 1);
-        // (what the service's warm-ups go by: a fresh kernel has nothing unchanged)
-        assert_eq!((k1.unchanged(), k2.unchanged()), (0, n - 1));
         assert_eq!(k2.inner.frames_carried.iter().filter(|f| f.is_some()).count(), n - 1);
         let fresh = SceneKernel::new(s2);
         let a = same_as_fresh(&k2, &fresh, &deltas);
