@@ -52,11 +52,10 @@ fn handle_put(state: &Arc<State>, key: &str, kind: SampleKind, bytes: &[u8], arr
     let _g = span.enter();
     match apply_put(state, key, route, kind, bytes) {
         Ok(rev) => {
-            // (a commit: its scene warmed in the background, `warm::after_commit`)
+            // (a whole scene committed: warmed in the background, `warm::after_commit`; an
+            // obstacle's put or delete is an update of a few obstacles, never warmed)
             let name = match Route::parse(key) {
-                Ok(Route::Scene { name } | Route::ReplicationScene { name } | Route::Obstacle { scene: name, .. }) => {
-                    Some(name)
-                }
+                Ok(Route::Scene { name } | Route::ReplicationScene { name }) => Some(name),
                 _ => None,
             };
             if let (Some(name), Some(rev)) = (name, rev) {

@@ -216,11 +216,16 @@ async fn dispatch(
             let req: ApplyRequest = codec.decode(&bytes).map_err(malformed)?;
             let st = state.clone();
             let name = scene.to_string();
+            // (a whole scene is warmed in the background; obstacle changes — a crowd's
+            // stream of updates — never are: `warm::after_commit`)
+            let whole = req.scene.is_some();
             let rev = state
                 .jobs
                 .run_write(deadline(req.deadline_ms), move || handlers::apply(&st.registry, &name, req))
                 .await?;
-            super::warm::after_commit(state, scene, rev);
+            if whole {
+                super::warm::after_commit(state, scene, rev);
+            }
             Ok((codec.encode(&ApplyReply { scene: scene.to_string(), revision: rev }), Some(rev)))
         }
         Some(Route::Plan { scene }) => {

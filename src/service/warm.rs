@@ -25,7 +25,9 @@ pub const WARM_MIN_OBSTACLES: usize = 16;
 /// often; a warm-up of 512 disks takes about 0.8 s.
 pub const SUPERSEDED_POLL: std::time::Duration = std::time::Duration::from_millis(10);
 
-/// After `name` was committed at `revision`: warms it ([`start`]).
+/// After `name` was committed whole at `revision` (an `apply` or a put of the scene, a
+/// replica's install; not an update of obstacles, which the callers leave out): warms it
+/// ([`start`]).
 pub(crate) fn after_commit(state: &Arc<State>, name: &str, revision: u64) {
     start(state, vec![(name.to_string(), revision)]);
 }
