@@ -6,47 +6,21 @@
 //! either way. Loopback only.
 
 use crate::common::server::{free_port, serve};
+#[allow(dead_code)]
+#[path = "../../benches/common/mod.rs"]
+mod growth;
 use riskplan::service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
 use riskplan::service::Client;
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
-/// `n` uncertain disks (radius scaled by U(0.9, 1.1), centre shifted by N(0, 0.05)) at
-/// constant density in a square 10·√n wide, start and goal in opposite corners.
-fn disks(n: usize, seed: u64) -> serde_json::Value {
-    use rand::{Rng, SeedableRng};
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let side = 10.0 * (n as f64).sqrt();
-    let mut params = serde_json::Map::new();
-    let mut obstacles = Vec::new();
-    while obstacles.len() < n {
-        let (cx, cy, r): (f64, f64, f64) =
-            (rng.random_range(0.0..side), rng.random_range(0.0..side), rng.random_range(0.8..1.6));
-        let clear = |x: f64, y: f64| ((cx - x).powi(2) + (cy - y).powi(2)).sqrt() >= r + 3.0;
-        if !clear(0.5, 0.5) || !clear(side - 0.5, side - 0.5) {
-            continue;
-        }
-        let k = obstacles.len();
-        params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
-        params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
-        obstacles.push(serde_json::json!({
-            "id": format!("disk{k}"),
-            "poly": format!("({r:.2}*s{k})^2 - (x1 - {cx:.2} - d{k})^2 - (x2 - {cy:.2})^2"),
-        }));
-    }
-    serde_json::json!({
-        "format": "riskplan-scene/1",
-        "name": "disks",
-        "dim": 2,
-        "workspace": {"lower": [0, 0], "upper": [side, side]},
-        "horizon": [0, 1],
-        "risk": 0.05,
-        "params": params,
-        "obstacles": obstacles,
-        "start": [0.5, 0.5],
-        "goal": [side - 0.5, side - 0.5],
-    })
+/// The growth family of the benches (`disks_scene`: `n` uncertain disks at constant
+/// density, start and goal in opposite corners), named `name`.
+fn disks(n: usize, seed: u64, name: &str) -> serde_json::Value {
+    let mut json: serde_json::Value = serde_json::from_str(&growth::disks_scene(n, seed)).unwrap();
+    json["name"] = name.into();
+    json
 }
 
 /// The samples of `GET /metrics` as series → value.
@@ -81,7 +55,7 @@ fn wait_for_warm_ups(metrics: &str, done: f64) {
 
 #[test]
 fn scenes_of_many_obstacles_are_warm_before_their_first_plans_unless_turned_off() {
-    let (preloaded, applied) = (disks(64, 5), disks(48, 6));
+    let (preloaded, applied) = (disks(64, 5, "pre"), disks(48, 6, "disks"));
     let mut lengths = Vec::new();
     for warm in [true, false] {
         let metrics = format!("127.0.0.1:{}", free_port());
@@ -109,7 +83,7 @@ fn scenes_of_many_obstacles_are_warm_before_their_first_plans_unless_turned_off(
         // an update of one obstacle takes over what was built for the others: not warmed
         let moved = Change {
             op: "put".into(),
-            id: "disk0".into(),
+            id: applied["obstacles"][0]["id"].as_str().unwrap().into(),
             poly: Some(applied["obstacles"][0]["poly"].as_str().unwrap().replace("(x2 - ", "(x2 - 0.5 - ")),
             params: None,
             pedestrian: None,
