@@ -497,13 +497,15 @@ pub enum WarmUp {
 /// builds on first use on a new scene (docs/design.md §3.11 "Warm-ups", §5.10): the final
 /// check's box tests and their grid (§5.12), the whole-path bound's frames and reaches
 /// (§5.14), and the checker's proven covers and their grid (the scene index) — on 512
-/// disks about 0.8 s that a cold plan would otherwise spend before its answer. Every part
-/// is cached by `kernel`, so the plans that follow find them, and a plan running meanwhile
-/// shares them: the covers are built here from the last obstacle down, so that a plan
-/// building them from the first up meets this warm-up halfway instead of building the same
-/// ones beside it. Nothing about a plan's outcome depends on whether they were built before
-/// it. The compiled contours stay per obstacle on first use (a fraction of a millisecond
-/// each, where edges go). `stop` is asked between obstacles.
+/// disks about 0.8 s that a cold plan would otherwise spend before its answer — and last
+/// what plans build per obstacle where their edges go ([`SceneKernel::build_obstacle`]: the
+/// compiled contour and bounds, the verify path's framed contours; without them a first pass
+/// of plans on 512 disks took twice a steady plan's time). Every part is cached by `kernel`,
+/// so the plans that follow find them, and a plan running meanwhile shares them: the covers
+/// are built here from the last obstacle down, so that a plan building them from the first
+/// up meets this warm-up halfway instead of building the same ones beside it. Nothing about
+/// a plan's outcome depends on whether they were built before it. `stop` is asked between
+/// obstacles.
 pub fn warm_up(kernel: &SceneKernel, stop: &dyn Fn() -> bool) -> WarmUp {
     let scene = kernel.scene();
     let deltas = vec![scene.risk.clone(); scene.obstacles.len()];
@@ -521,6 +523,16 @@ pub fn warm_up(kernel: &SceneKernel, stop: &dyn Fn() -> bool) -> WarmUp {
     }
     // (every cover built or tried: the grid over them)
     let _ = kernel.index(&deltas, stop);
+    // then what a first pass of plans still builds per obstacle where its edges go: on 512
+    // disks a plan on a kernel warmed without them took about twice a steady plan's time
+    // (docs/benchmarks.md, issue 21 part 3, session 31)
+    let beyond = PlanRequest::default().bound_on(scene).beyond_cantelli();
+    for i in (0..scene.obstacles.len()).rev() {
+        if stop() {
+            return WarmUp::Stopped;
+        }
+        kernel.build_obstacle(i, beyond);
+    }
     if kernel.is_warm(&deltas) {
         WarmUp::Done
     } else {
@@ -711,6 +723,12 @@ mod tests {
         let warmed = SceneKernel::new(scene.clone());
         assert_eq!(warm_up(&warmed, &|| false), WarmUp::Done);
         assert!(warmed.is_warm(&deltas));
+        // ... and what plans build per obstacle where their edges go, for every obstacle
+        // (the cold plan built it for some only)
+        let n = scene.obstacles.len();
+        let some = planned.obstacles_built(true);
+        assert!(some > 0 && some < n, "{some} of {n}: the plan's edges do not go everywhere");
+        assert_eq!(warmed.obstacles_built(true), n);
         let (_, warm) = PlanRequest::default().run(&warmed, None).unwrap();
         let pieces = |o: &PlanOutcome| o.trajectory.as_ref().map(|t| t.pieces.clone());
         assert_eq!(pieces(&warm), pieces(&cold));

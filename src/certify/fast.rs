@@ -1158,6 +1158,11 @@ impl CompiledContour {
         self.bounds.get_or_init(|| std::sync::Arc::new(CompiledBounds::new(contour, &self.frame)))
     }
 
+    /// Whether [`Self::bounds`] are built.
+    pub fn bounds_built(&self) -> bool {
+        self.bounds.get().is_some()
+    }
+
     /// E\[P\] restricted to a piece (`subs`: its coordinates from
     /// [`CompiledContour::substitutions`]), enclosed.
     pub fn mean_on(&self, subs: &[FPoly<CAPACITY>]) -> Option<UPoly<Interval>> {

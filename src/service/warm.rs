@@ -1,7 +1,9 @@
 //! Warming scenes' kernels in the background (docs/design.md §3.11, "Warm-ups"): on a
 //! scene of many obstacles a first plan spends most of its time building the proven
 //! covers, the final check's box tests and the whole-path reaches (on 512 disks about
-//! 0.8 s of a 0.85 s cold plan). After each commit that makes most of a scene new (an
+//! 0.8 s of a 0.85 s cold plan), and each obstacle's compiled contour and bounds, which
+//! plans build where their edges go (without them a first pass of plans took twice a
+//! steady plan's time). After each commit that makes most of a scene new (an
 //! `apply`, a put, a replica's install) and after the stored scenes are loaded, the server
 //! builds them on a thread of its own, so that a plan arriving later finds them built; a
 //! plan arriving meanwhile shares the builds.
@@ -22,7 +24,7 @@ pub const WARM_MIN_OBSTACLES: usize = 16;
 
 /// How often a warm-up looks whether its scene has a newer revision (then it is abandoned):
 /// a registry lookup takes a lock and clones the entry, and the builds ask their `stop`
-/// often; a warm-up of 512 disks takes about 0.8 s.
+/// often; a warm-up of 512 disks takes about a second.
 pub const SUPERSEDED_POLL: std::time::Duration = std::time::Duration::from_millis(10);
 
 /// After `name` was committed whole at `revision` (an `apply` or a put of the scene, a
@@ -113,6 +115,7 @@ fn run(st: &State) {
                     st.registry.kernels.warm_up(WarmUpOutcome::Skipped);
                     continue;
                 };
+                tracing::info!(scene = %name, revision, "warm-up started");
                 let term = Termination::after(st.max_job_seconds).with_cancel(guard.flag.clone());
                 // (a revision replaced meanwhile is abandoned: the new one is queued; looked
                 // up at most every SUPERSEDED_POLL, as `stop` is asked between cells)

@@ -55,6 +55,12 @@ impl CompiledSet {
         self.items[i].get_or_init(|| Arc::new(CompiledContour::new(&self.scene.obstacles[i].contour, &self.frame)))
     }
 
+    /// Whether obstacle `i`'s contour is compiled, and with `bounds` its bounds beyond
+    /// Cantelli too.
+    pub fn is_built(&self, i: usize, bounds: bool) -> bool {
+        self.items.get(i).and_then(|c| c.get()).is_some_and(|c| !bounds || c.bounds_built())
+    }
+
     /// How many are compiled.
     pub fn built(&self) -> usize {
         self.items.iter().filter(|c| c.get().is_some()).count()

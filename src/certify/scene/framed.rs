@@ -514,6 +514,18 @@ impl FramedContours {
         Some(p[i].get_or_init(|| (frame(&o.contour.mean), frame(&o.contour.second))))
     }
 
+    /// Makes obstacle `o`'s (the scene's `i`-th) E\[P\] and E\[P²\] in the frame now, if they
+    /// are not yet (a warm-up, `app::warm_up`: the verify path makes them on first use).
+    pub(crate) fn ensure_pair(&self, i: usize, o: &Obstacle) {
+        let _ = self.framed_pair(i, o);
+    }
+
+    /// Whether obstacle `i`'s framed polynomials are made (always, in the scene's own
+    /// coordinates: there are none to make).
+    pub(crate) fn has_pair(&self, i: usize) -> bool {
+        self.polys.as_ref().is_none_or(|(_, p)| p.get(i).is_some_and(|q| q.get().is_some()))
+    }
+
     /// For tests: how many obstacles' framed polynomials are made (or taken over) so far,
     /// and then every obstacle's, made where missing (`Debug` forms: exact for floats);
     /// `None` in the scene's own coordinates.

@@ -211,6 +211,39 @@ impl SceneKernel {
             && self.inner.path_reach_grid.get().is_some()
     }
 
+    /// Builds now what plans build for obstacle `i` on first use, where their edges go
+    /// (for warm-ups, `app::warm_up`; docs/design.md §3.11): its compiled contour (§5.10),
+    /// with `beyond_cantelli` its compiled bounds beyond Cantelli (§5.13), and its contours
+    /// in the verify path's frame (§5.12). A pedestrian with `beyond_cantelli` is decided by
+    /// its tail bound (§3.11) and needs none of them. Nothing is built twice.
+    pub fn build_obstacle(&self, i: usize, beyond_cantelli: bool) {
+        let Some(o) = self.inner.scene.obstacles.get(i) else { return };
+        if o.pedestrian.is_some() && beyond_cantelli {
+            return;
+        }
+        let compiled = self.compiled();
+        let c = compiled.get(i);
+        if beyond_cantelli {
+            c.bounds(&o.contour);
+        }
+        self.framed().ensure_pair(i, o);
+    }
+
+    /// How many obstacles have what [`Self::build_obstacle`] builds (with
+    /// `beyond_cantelli`), built or not needed.
+    pub fn obstacles_built(&self, beyond_cantelli: bool) -> usize {
+        let scene = &self.inner.scene;
+        let compiled = self.inner.compiled.get();
+        let framed = self.inner.framed.get();
+        (0..scene.obstacles.len())
+            .filter(|&i| {
+                (scene.obstacles[i].pedestrian.is_some() && beyond_cantelli)
+                    || (compiled.is_some_and(|c| c.is_built(i, beyond_cantelli))
+                        && framed.is_some_and(|f| f.has_pair(i)))
+            })
+            .count()
+    }
+
     /// The scene.
     pub fn scene(&self) -> &Arc<Scene> {
         &self.inner.scene
