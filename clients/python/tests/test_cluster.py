@@ -1,7 +1,7 @@
 """Several servers behind a router (deploy/cluster): `riskplan router`, a primary and a
 replica in client mode, clients connected to the router. Every query gets exactly one
 reply; the replica follows the primary's revisions (live, and by catch-up after a
-restart); with a server killed under load, reads keep being answered within their
+restart) and warms the large scenes it installs; with a server killed under load, reads keep being answered within their
 timeout, writes fail fast while the primary is down, and no acknowledged update is
 lost."""
 from __future__ import annotations
@@ -203,3 +203,57 @@ def test_a_replica_follows_a_primary_whose_data_directory_was_replaced(cluster):
                  what="the replica dropped the scene the new primary does not have")
         wait_for(lambda: revision_on(router.endpoint, "replica", "old-name-new-content") == 1, limit=15,
                  what="the replica took the new primary's scene")
+
+
+def disks_scene(n: int) -> dict:
+    """`n` uncertain disks on a grid (radius scaled by s ~ U[0.9, 1.1], centre offset along x₁
+    by d ~ N(0, 0.05)), start and goal in opposite corners: a scene the servers warm."""
+    side = 10.0 * n ** 0.5
+    params, obstacles = {}, []
+    k = int(n ** 0.5 + 0.999)
+    for i in range(n):
+        cx, cy = 5.0 + (i % k) * (side - 10.0) / k, 5.0 + (i // k) * (side - 10.0) / k
+        params[f"s{i}"] = {"dist": "uniform", "low": 0.9, "high": 1.1}
+        params[f"d{i}"] = {"dist": "normal", "mean": 0, "std": 0.05}
+        obstacles.append({"id": f"disk{i}", "poly": f"(1.2*s{i})^2 - (x1 - {cx:.2f} - d{i})^2 - (x2 - {cy:.2f})^2"})
+    return {"format": "riskplan-scene/1", "name": "disks", "dim": 2,
+            "workspace": {"lower": [0, 0], "upper": [side, side]}, "horizon": [0, 1], "risk": 0.05,
+            "params": params, "obstacles": obstacles, "start": [0.5, 0.5], "goal": [side - 0.5, side - 0.5]}
+
+
+def warm_ups_done(metrics_addr: str) -> float:
+    import urllib.request
+    with urllib.request.urlopen(f"http://{metrics_addr}/metrics", timeout=5) as r:
+        for line in r.read().decode().splitlines():
+            if line.startswith('riskplan_scene_warm_ups_total{outcome="done"}'):
+                return float(line.rsplit(" ", 1)[1])
+    return 0.0
+
+
+def test_a_replica_warms_the_scenes_it_installs(binary, tmp_path):
+    """A scene of many obstacles applied on the primary is warmed there and, once installed,
+    on the replica (README, "Warm-ups"); its obstacle updates are not."""
+    router = Router(binary)
+    common = ["--mode", "client", "--connect", router.endpoint, "--workers", "1"]
+    metrics = {role: f"127.0.0.1:{free_port()}" for role in ("primary", "replica")}
+    primary = Server(binary, tmp_path / "primary", extra=common + ["--metrics", metrics["primary"]])
+    replica = Server(binary, tmp_path / "replica", extra=common + ["--replica", "--metrics", metrics["replica"]])
+    try:
+        primary.start()
+        replica.start()
+        with riskplan.Client(router.endpoint, timeout=READ_TIMEOUT_S) as c:
+            rev = c.apply("disks", scene=disks_scene(24))
+            wait_for(lambda: revision_on(router.endpoint, "replica", "disks") == rev, what="the replica has disks")
+            for role in ("primary", "replica"):
+                wait_for(lambda: warm_ups_done(metrics[role]) == 1.0, what=f"the {role}'s warm-up")
+            rev2 = c.apply("disks", changes=[{"op": "put", "id": "disk0",
+                                              "poly": "(1.2*s0)^2 - (x1 - 5.5 - d0)^2 - (x2 - 5)^2"}])
+            wait_for(lambda: revision_on(router.endpoint, "replica", "disks") == rev2, what="the update reached the replica")
+            # (an update of one disk of 24 is not warmed: were it, its warm-up — tens of
+            # milliseconds — would be counted within this second)
+            time.sleep(1.0)
+            assert [warm_ups_done(metrics[r]) for r in ("primary", "replica")] == [1.0, 1.0]
+    finally:
+        for s in (replica, primary):
+            s.kill()
+        router.stop()
