@@ -3,7 +3,7 @@
 //! of waiting for their time limits.
 
 use crate::common;
-use crate::common::server::{serve, KillOnDrop};
+use crate::common::server::{serve, sigterm_and_wait, KillOnDrop};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
@@ -65,20 +65,7 @@ fn sigterm_during_a_long_plan_ends_the_service_within_2_s() {
         std::thread::sleep(Duration::from_millis(100));
     }
     std::thread::sleep(Duration::from_millis(500));
-    assert!(server.0.try_wait().unwrap().is_none(), "the server ended by itself");
-    let sent = Instant::now();
-    let kill = std::process::Command::new("kill").args(["-TERM", &server.0.id().to_string()]).status().unwrap();
-    assert!(kill.success());
-    loop {
-        if let Some(st) = server.0.try_wait().unwrap() {
-            let took = sent.elapsed();
-            assert!(took < SHUTDOWN_LIMIT, "the server took {took:?} to stop after SIGTERM");
-            assert!(st.success(), "the server exited with {st}");
-            break;
-        }
-        assert!(sent.elapsed() < Duration::from_secs(30), "the server is still running 30 s after SIGTERM");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    sigterm_and_wait(server, SHUTDOWN_LIMIT);
     // and it got there by cancelling the plan, not by abandoning it
     let log: Vec<String> = rx.try_iter().collect();
     assert!(

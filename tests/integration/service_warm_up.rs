@@ -6,7 +6,7 @@
 //! (covers misses). The plans are the same either way. A SIGTERM during a warm-up ends the
 //! server promptly. Loopback only.
 
-use crate::common::server::{free_port, serve};
+use crate::common::server::{free_port, serve, sigterm_and_wait};
 #[allow(dead_code)]
 #[path = "../../benches/common/mod.rs"]
 mod growth;
@@ -132,20 +132,7 @@ fn sigterm_during_a_warm_up_ends_the_service_promptly() {
     let mut srv = serve(&[("big", disks(512, 8, "big").to_string())], &["--workers", "1"], &["warm-up started"]);
     std::thread::sleep(Duration::from_millis(200));
     let server = &mut srv.child;
-    assert!(server.0.try_wait().unwrap().is_none(), "the server ended by itself");
-    let sent = Instant::now();
-    let kill = std::process::Command::new("kill").args(["-TERM", &server.0.id().to_string()]).status().unwrap();
-    assert!(kill.success());
-    loop {
-        if let Some(st) = server.0.try_wait().unwrap() {
-            let took = sent.elapsed();
-            assert!(took < SHUTDOWN_LIMIT, "the server took {took:?} to stop after SIGTERM");
-            assert!(st.success(), "the server exited with {st}");
-            break;
-        }
-        assert!(sent.elapsed() < Duration::from_secs(30), "the server is still running 30 s after SIGTERM");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    sigterm_and_wait(server, SHUTDOWN_LIMIT);
     // stopped by the shutdown, not finished meanwhile (then this test would prove nothing)
     let log: Vec<String> = srv.lines.try_iter().collect();
     assert!(

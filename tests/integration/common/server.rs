@@ -85,3 +85,22 @@ pub fn serve(scenes: &[(&str, String)], args: &[&str], wait_for: &[&str]) -> Ser
 pub fn reference_scene(name: &str) -> String {
     std::fs::read_to_string(super::reference_dir().join(format!("{name}.json"))).unwrap()
 }
+
+/// Sends SIGTERM to a running server and waits for it to exit: it must have been running,
+/// and exit successfully within `limit` (the wait gives up after 30 s).
+pub fn sigterm_and_wait(server: &mut KillOnDrop, limit: Duration) {
+    assert!(server.0.try_wait().unwrap().is_none(), "the server ended by itself");
+    let sent = Instant::now();
+    let kill = std::process::Command::new("kill").args(["-TERM", &server.0.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    loop {
+        if let Some(st) = server.0.try_wait().unwrap() {
+            let took = sent.elapsed();
+            assert!(took < limit, "the server took {took:?} to stop after SIGTERM");
+            assert!(st.success(), "the server exited with {st}");
+            break;
+        }
+        assert!(sent.elapsed() < Duration::from_secs(30), "the server is still running 30 s after SIGTERM");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
