@@ -1158,8 +1158,9 @@ impl CompiledContour {
         self.bounds.get_or_init(|| std::sync::Arc::new(CompiledBounds::new(contour, &self.frame)))
     }
 
-    /// Whether [`Self::bounds`] are built.
-    pub fn bounds_built(&self) -> bool {
+    /// Whether [`Self::bounds`] are built (for tests).
+    #[cfg(test)]
+    pub(crate) fn bounds_built(&self) -> bool {
         self.bounds.get().is_some()
     }
 

@@ -56,8 +56,9 @@ impl CompiledSet {
     }
 
     /// Whether obstacle `i`'s contour is compiled, and with `bounds` its bounds beyond
-    /// Cantelli too.
-    pub fn is_built(&self, i: usize, bounds: bool) -> bool {
+    /// Cantelli too (for tests).
+    #[cfg(test)]
+    pub(crate) fn is_built(&self, i: usize, bounds: bool) -> bool {
         self.items.get(i).and_then(|c| c.get()).is_some_and(|c| !bounds || c.bounds_built())
     }
 

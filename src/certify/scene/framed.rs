@@ -521,7 +521,8 @@ impl FramedContours {
     }
 
     /// Whether obstacle `i`'s framed polynomials are made (always, in the scene's own
-    /// coordinates: there are none to make).
+    /// coordinates: there are none to make; for tests).
+    #[cfg(test)]
     pub(crate) fn has_pair(&self, i: usize) -> bool {
         self.polys.as_ref().is_none_or(|(_, p)| p.get(i).is_some_and(|q| q.get().is_some()))
     }

@@ -230,8 +230,9 @@ impl SceneKernel {
     }
 
     /// How many obstacles have what [`Self::build_obstacle`] builds (with
-    /// `beyond_cantelli`), built or not needed.
-    pub fn obstacles_built(&self, beyond_cantelli: bool) -> usize {
+    /// `beyond_cantelli`), built or not needed (for tests).
+    #[cfg(test)]
+    pub(crate) fn obstacles_built(&self, beyond_cantelli: bool) -> usize {
         let scene = &self.inner.scene;
         let compiled = self.inner.compiled.get();
         let framed = self.inner.framed.get();
