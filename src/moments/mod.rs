@@ -216,21 +216,33 @@ impl Distribution {
         let mut m = vec![q(1)];
         match self {
             Distribution::Uniform { low, high } => {
-                // m_k = (1/(k+1)) Σ_j a^j b^(k-j): the sum form, no cancellation.
+                // m_n = S_n/(n+1), S_n = Σ_j a^j b^(n-j): the sum form, no cancellation,
+                // by S_n = b·S_(n-1) + a^n, in integers over a common denominator D
+                // (a = A/D, b = B/D: S_n = T_n/Dⁿ, T_n = B·T_(n-1) + Aⁿ), each moment
+                // reduced once (the sum term by term in rationals, each power formed anew,
+                // was two thirds of loading a scene of 512 uncertain disks)
+                let ([a, b], d) = over_common_denominator([low, high]);
+                let (mut t, mut a_n, mut d_n) = (BigInt::one(), BigInt::one(), BigInt::one());
                 for n in 1..=k {
-                    let mut s = BigRational::zero();
-                    for j in 0..=n {
-                        s += pow(low, j) * pow(high, n - j);
-                    }
-                    m.push(s / q(n as i64 + 1));
+                    a_n *= &a;
+                    d_n *= &d;
+                    t = &b * &t + &a_n;
+                    m.push(BigRational::new(t.clone(), &d_n * BigInt::from(n + 1)));
                 }
             }
             Distribution::Normal { mean, std } => {
+                // m_n = μ·m_(n-1) + (n−1)·σ²·m_(n-2), in integers over a common denominator
+                // L (μ = M/L, σ² = V/L: m_n = N_n/Lⁿ, N_n = M·N_(n-1) + (n−1)·V·L·N_(n-2)),
+                // each moment reduced once
                 let var = std * std;
+                let ([mu, v], l) = over_common_denominator([mean, &var]);
+                let vl = &v * &l;
+                let (mut prev2, mut prev, mut l_n) = (BigInt::zero(), BigInt::one(), BigInt::one());
                 for n in 1..=k {
-                    let prev2 = if n >= 2 { m[n - 2].clone() } else { BigRational::zero() };
-                    let v = mean * &m[n - 1] + q(n as i64 - 1) * &var * prev2;
-                    m.push(v);
+                    let next = &mu * &prev + BigInt::from(n - 1) * &vl * &prev2;
+                    l_n *= &l;
+                    m.push(BigRational::new(next.clone(), l_n.clone()));
+                    (prev2, prev) = (prev, next);
                 }
             }
             Distribution::Beta { alpha, beta, low, high } => {
@@ -241,10 +253,12 @@ impl Distribution {
                     b.push(v);
                 }
                 let width = high - low;
+                // m_n = Σ_j C(n, j)·low^(n-j)·width^j·b_j, the powers formed once
+                let (lows, widths) = (powers(low, k), powers(&width, k));
                 for n in 1..=k {
                     let mut s = BigRational::zero();
                     for (j, bj) in b.iter().enumerate().take(n + 1) {
-                        s += binomial(n as u32, j as u32) * pow(low, n - j) * pow(&width, j) * bj;
+                        s += binomial(n as u32, j as u32) * &lows[n - j] * &widths[j] * bj;
                     }
                     m.push(s);
                 }
@@ -262,17 +276,24 @@ impl Distribution {
                 }
             }
             Distribution::Laplace { mean, scale } => {
+                // m_n = Σ_(j even) C(n, j)·μ^(n-j)·j!·b^j, the powers formed once
+                let (means, scales) = (powers(mean, k), powers(scale, k));
                 for n in 1..=k {
                     let mut s = BigRational::zero();
                     for j in (0..=n).step_by(2) {
-                        s += binomial(n as u32, j as u32) * pow(mean, n - j) * factorial(j as u32) * pow(scale, j);
+                        s += binomial(n as u32, j as u32) * &means[n - j] * factorial(j as u32) * &scales[j];
                     }
                     m.push(s);
                 }
             }
             Distribution::Discrete { values, weights } => {
-                for n in 1..=k {
-                    m.push(values.iter().zip(weights).map(|(v, w)| w * pow(v, n)).sum());
+                // Σ w·v^n, each atom's power carried from n − 1
+                let mut at: Vec<BigRational> = weights.clone();
+                for _ in 1..=k {
+                    for (a, v) in at.iter_mut().zip(values) {
+                        *a *= v;
+                    }
+                    m.push(at.iter().sum());
                 }
             }
             Distribution::Moments { raw } => {
@@ -306,8 +327,22 @@ fn show(v: &BigRational) -> String {
     format!("{f}")
 }
 
-fn pow(v: &BigRational, k: usize) -> BigRational {
-    num_traits::pow(v.clone(), k)
+/// `xs` as integers over their least common denominator: `([x·L for x in xs], L)`.
+fn over_common_denominator<const N: usize>(xs: [&BigRational; N]) -> ([BigInt; N], BigInt) {
+    use num_integer::Integer;
+    let l = xs.iter().fold(BigInt::one(), |acc, x| acc.lcm(x.denom()));
+    (xs.map(|x| x.numer() * (&l / x.denom())), l)
+}
+
+/// `[1, v, v², ..., v^k]`, exact.
+fn powers(v: &BigRational, k: usize) -> Vec<BigRational> {
+    let mut out = Vec::with_capacity(k + 1);
+    out.push(q(1));
+    for j in 1..=k {
+        let next = &out[j - 1] * v;
+        out.push(next);
+    }
+    out
 }
 
 /// Most atoms of a `discrete` distribution.

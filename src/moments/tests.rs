@@ -128,3 +128,94 @@ fn moments_against_sampling() {
         }
     }
 }
+
+mod recurrences {
+    //! The moment recurrences of `raw_moments` against the formulas they rearrange,
+    //! evaluated term by term with each power formed anew (exact rationals: equal, not
+    //! close), and the uniform law against its closed form (b^(n+1) − a^(n+1))/((n+1)(b − a)).
+    use super::*;
+    use proptest::prelude::*;
+
+    fn pw(v: &BigRational, k: usize) -> BigRational {
+        num_traits::pow(v.clone(), k)
+    }
+
+    fn ratio() -> impl Strategy<Value = BigRational> {
+        (-2000i64..2000, 1i64..400).prop_map(|(n, d)| q(n, d))
+    }
+
+    const ORDER: u32 = 24;
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+        #[test]
+        fn uniform_moments_are_the_closed_form(a in ratio(), w in (1i64..3000, 1i64..300)) {
+            let b = &a + q(w.0, w.1);
+            let m = Distribution::Uniform { low: a.clone(), high: b.clone() }.raw_moments(ORDER).unwrap();
+            for (n, mn) in m.iter().enumerate() {
+                let closed = (pw(&b, n + 1) - pw(&a, n + 1)) / (q(n as i64 + 1, 1) * (&b - &a));
+                prop_assert_eq!(mn, &closed, "order {}", n);
+            }
+        }
+
+        #[test]
+        fn normal_moments_follow_their_recurrence(mu in ratio(), s in (0i64..3000, 1i64..300)) {
+            let std = q(s.0, s.1);
+            let m = Distribution::Normal { mean: mu.clone(), std: std.clone() }.raw_moments(ORDER).unwrap();
+            // m_n = μ·m_(n-1) + (n−1)·σ²·m_(n-2), in rationals
+            let var = &std * &std;
+            let mut want = vec![q(1, 1)];
+            for n in 1..=ORDER as usize {
+                let prev2 = if n >= 2 { want[n - 2].clone() } else { q(0, 1) };
+                let next = &mu * &want[n - 1] + q(n as i64 - 1, 1) * &var * prev2;
+                want.push(next);
+            }
+            prop_assert_eq!(&m, &want);
+            // centred: m_2k = σ^2k·(2k − 1)!!, the odd ones 0
+            let c = Distribution::Normal { mean: q(0, 1), std: std.clone() }.raw_moments(ORDER).unwrap();
+            for (n, cn) in c.iter().enumerate() {
+                let closed = if n % 2 == 1 { q(0, 1) } else { pw(&std, n) * (1..n).step_by(2).fold(q(1, 1), |a, i| a * q(i as i64, 1)) };
+                prop_assert_eq!(cn, &closed, "centred, order {}", n);
+            }
+        }
+
+        #[test]
+        fn beta_laplace_and_discrete_moments_are_their_sums(
+            lo in ratio(), w in (1i64..3000, 1i64..300), al in (1i64..40, 1i64..8), be in (1i64..40, 1i64..8),
+            mu in ratio(), sc in (1i64..500, 1i64..300),
+            atoms in proptest::collection::vec((ratio(), 1i64..50), 1..6),
+        ) {
+            let k = ORDER as usize;
+            let (alpha, beta, width) = (q(al.0, al.1), q(be.0, be.1), q(w.0, w.1));
+            let high = &lo + &width;
+            let m = Distribution::Beta { alpha: alpha.clone(), beta: beta.clone(), low: lo.clone(), high }
+                .raw_moments(ORDER).unwrap();
+            // b_j = E[u^j] of beta(α, β) on [0, 1] = Π_(i<j) (α + i)/(α + β + i)
+            let bj = |j: usize| (0..j).fold(q(1, 1), |acc, i| acc * (&alpha + q(i as i64, 1)) / (&alpha + &beta + q(i as i64, 1)));
+            for (n, mn) in m.iter().enumerate().take(k + 1).skip(1) {
+                let sum: BigRational = (0..=n)
+                    .map(|j| binomial(n as u32, j as u32) * pw(&lo, n - j) * pw(&width, j) * bj(j))
+                    .sum();
+                prop_assert_eq!(mn, &sum, "beta, order {}", n);
+            }
+            let scale = q(sc.0, sc.1);
+            let m = Distribution::Laplace { mean: mu.clone(), scale: scale.clone() }.raw_moments(ORDER).unwrap();
+            for (n, mn) in m.iter().enumerate().skip(1) {
+                let sum: BigRational = (0..=n)
+                    .step_by(2)
+                    .map(|j| binomial(n as u32, j as u32) * pw(&mu, n - j) * factorial(j as u32) * pw(&scale, j))
+                    .sum();
+                prop_assert_eq!(mn, &sum, "laplace, order {}", n);
+            }
+            let total: i64 = atoms.iter().map(|a| a.1).sum();
+            let values: Vec<BigRational> = atoms.iter().map(|a| a.0.clone()).collect();
+            let weights: Vec<BigRational> = atoms.iter().map(|a| q(a.1, total)).collect();
+            let m = Distribution::Discrete { values: values.clone(), weights: weights.clone() }.raw_moments(ORDER).unwrap();
+            for (n, mn) in m.iter().enumerate() {
+                let sum: BigRational = values.iter().zip(&weights).map(|(v, w)| w * pw(v, n)).sum();
+                prop_assert_eq!(mn, &sum, "discrete, order {}", n);
+            }
+        }
+    }
+}

@@ -353,10 +353,19 @@ impl Scene {
         let parsed = parse_obstacles(&file, &vars, dim, previous)?;
         // grown by the body (docs/design.md §3.12): (grown, original)
         let parsed = grow_obstacles(parsed, &body, &vars, &params, &workspace, horizon)?;
-        let polys: Vec<QPoly> = parsed
-            .iter()
-            .filter_map(|p| if let Parsed::Poly(q, _) = p { Some(q.clone()) } else { None })
-            .collect();
+        // each variable's largest degree over the obstacles' polynomials (formed once: the
+        // moments of a parameter serve every obstacle it occurs in)
+        let mut degrees: BTreeMap<Var, u32> = BTreeMap::new();
+        for p in &parsed {
+            if let Parsed::Poly(q, _) = p {
+                for (m, _) in q.terms() {
+                    for &(v, e) in m.pairs() {
+                        let d = degrees.entry(v).or_insert(0);
+                        *d = (*d).max(e);
+                    }
+                }
+            }
+        }
         // the moments are computed only when a contour is not in the cache, and only for
         // its parameters: a scene revision whose obstacles are all cached (an update of
         // one deterministic obstacle, a replica installing its primary's commit) needs
@@ -397,7 +406,7 @@ impl Scene {
                 None => {
                     for v in poly.vars().into_iter().filter(|&v| layout.is_param(v)) {
                         if let (false, Some(p)) = (moments.contains_key(&v), params.iter().find(|p| p.var == v)) {
-                            moments.insert(v, needed_moments(&polys, p)?);
+                            moments.insert(v, needed_moments(degrees.get(&v).copied().unwrap_or(0), p)?);
                         }
                     }
                     let moments = &moments;
@@ -923,8 +932,9 @@ fn s_dim(s: Option<&Scene>) -> usize {
 
 /// Raw moments of parameter `p` up to `2·max deg` over the obstacles (§2.1: E\[P²\]), and
 /// beyond, as far as known, up to the moment bounds' highest order.
-fn needed_moments(polys: &[QPoly], p: &Param) -> Result<Vec<BigRational>, SceneError> {
-    let deg = polys.iter().map(|q| q.degree_in(p.var)).max().unwrap_or(0);
+/// The raw moments of parameter `p` that the contours need, `deg` its largest degree in
+/// the scene's obstacles.
+fn needed_moments(deg: u32, p: &Param) -> Result<Vec<BigRational>, SceneError> {
     let k = 2 * deg;
     let mut m = p.dist.raw_moments(k).map_err(|e| moment_err(&format!("params.{}", p.name), e))?;
     if m.iter().skip(2).step_by(2).any(|x| x.is_negative()) {
