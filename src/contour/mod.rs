@@ -500,8 +500,8 @@ impl RiskContour {
     /// Exact risk at `xt = (x1..xn, t)`.
     pub fn risk_at(&self, xt: &[BigRational]) -> PointRisk {
         let vals = self.pad(xt, BigRational::zero());
-        let mean = self.mean.eval(&vals);
-        let second = self.second.eval(&vals);
+        let mean = self.mean.eval_exact(&vals);
+        let second = self.second.eval_exact(&vals);
         let bound = cantelli_bound(&mean, &second);
         PointRisk { mean, second_moment: second, bound }
     }

@@ -593,6 +593,62 @@ impl VarTable {
 /// Exact-rational polynomial, the form scenes and contours are kept in.
 pub type QPoly = Poly<BigRational>;
 
+impl QPoly {
+    /// The value at `vals`, exactly: [`Poly::eval`]'s, summed in integers over one common
+    /// denominator and reduced once. With `xᵥ = nᵥ/dᵥ`, `eᵥ` the largest exponent of `v` and
+    /// `L` the least common multiple of the coefficients' denominators,
+    /// `p(x) = Σ (c·L)·Π nᵥ^e·dᵥ^(eᵥ−e) / (L·Π dᵥ^(eᵥ))`. ([`Poly::eval`] reduces every
+    /// product and sum by a gcd: at a point given in floats, whose denominators are powers
+    /// of two, that was most of the exact point bounds' time — `risk`, the bounds oracle
+    /// test.) Panics, as [`Poly::eval`] does, when a variable of `self` has no value.
+    pub fn eval_exact(&self, vals: &[BigRational]) -> BigRational {
+        use num_bigint::BigInt;
+        use num_integer::Integer;
+        use num_traits::One;
+        let mut top: BTreeMap<Var, u32> = BTreeMap::new();
+        for m in self.terms.keys() {
+            for &(v, e) in m.pairs() {
+                let t = top.entry(v).or_insert(0);
+                *t = (*t).max(e);
+            }
+        }
+        // per variable: nᵥ^k and dᵥ^k for k = 0..=eᵥ
+        let table = |x: &BigInt, n: u32| {
+            let mut out = vec![BigInt::one()];
+            for k in 1..=n as usize {
+                let next = &out[k - 1] * x;
+                out.push(next);
+            }
+            out
+        };
+        let powers: BTreeMap<Var, (Vec<BigInt>, Vec<BigInt>)> = top
+            .iter()
+            .map(|(&v, &e)| {
+                let x = &vals[v as usize];
+                (v, (table(x.numer(), e), table(x.denom(), e)))
+            })
+            .collect();
+        let l = self.terms.values().fold(BigInt::one(), |acc, c| acc.lcm(c.denom()));
+        let mut sum = BigInt::from(0);
+        for (m, c) in &self.terms {
+            let mut t = c.numer() * (&l / c.denom());
+            for (v, (num, den)) in &powers {
+                let e = m.exp(*v) as usize;
+                let ev = top[v] as usize;
+                if e > 0 {
+                    t *= &num[e];
+                }
+                if ev > e {
+                    t *= &den[ev - e];
+                }
+            }
+            sum += t;
+        }
+        let denom = powers.iter().fold(l, |acc, (v, (_, den))| acc * &den[top[v] as usize]);
+        BigRational::new(sum, denom)
+    }
+}
+
 /// `p(x + c)`: the polynomial in centred variables, exactly (`c[v]` for variables
 /// `0..c.len()`).
 pub fn shift(p: &QPoly, c: &[f64]) -> QPoly {

@@ -131,6 +131,21 @@ proptest! {
         prop_assert_eq!(composed.eval(&vals), a.eval(&vals2));
     }
 
+    /// The exact evaluation over one common denominator is the term-by-term one, at points
+    /// with zero, negative and dyadic coordinates (those of floats).
+    #[test]
+    fn eval_exact_is_eval(a in arb_poly(), xs in prop::collection::vec((-40i64..40, 0u32..3, 0u32..70), 4)) {
+        let vals: Vec<BigRational> = xs
+            .iter()
+            .map(|&(n, kind, k)| match kind {
+                0 => q(n, 7),
+                1 => q(n, 1) / BigRational::from_integer(num_bigint::BigInt::from(2).pow(k)),
+                _ => BigRational::from_float(n as f64 * 1.000_000_000_1f64.powi(k as i32)).unwrap(),
+            })
+            .collect();
+        prop_assert_eq!(a.eval_exact(&vals), a.eval(&vals));
+    }
+
     /// Ring laws on random polynomials.
     #[test]
     fn ring_laws(a in arb_poly(), b in arb_poly(), c in arb_poly()) {
