@@ -296,6 +296,17 @@ impl<C: Ring> Poly<C> {
         self.terms.keys().map(|m| m.pairs().iter().filter(|&&(v, _)| pred(v)).map(|&(_, e)| e).sum()).max().unwrap_or(0)
     }
 
+    /// Raises `tops[v]` to the largest exponent of each variable `v` in `self` (over several
+    /// polynomials, one call each).
+    pub fn max_exponents_into(&self, tops: &mut BTreeMap<Var, u32>) {
+        for m in self.terms.keys() {
+            for &(v, e) in m.pairs() {
+                let t = tops.entry(v).or_insert(0);
+                *t = (*t).max(e);
+            }
+        }
+    }
+
     /// The variables that occur.
     pub fn vars(&self) -> BTreeSet<Var> {
         self.terms.keys().flat_map(|m| m.pairs().iter().map(|&(v, _)| v)).collect()
@@ -606,12 +617,7 @@ impl QPoly {
         use num_integer::Integer;
         use num_traits::One;
         let mut top: BTreeMap<Var, u32> = BTreeMap::new();
-        for m in self.terms.keys() {
-            for &(v, e) in m.pairs() {
-                let t = top.entry(v).or_insert(0);
-                *t = (*t).max(e);
-            }
-        }
+        self.max_exponents_into(&mut top);
         // per variable: nᵥ^k and dᵥ^k for k = 0..=eᵥ
         let table = |x: &BigInt, n: u32| {
             let mut out = vec![BigInt::one()];

@@ -358,12 +358,7 @@ impl Scene {
         let mut degrees: BTreeMap<Var, u32> = BTreeMap::new();
         for p in &parsed {
             if let Parsed::Poly(q, _) = p {
-                for (m, _) in q.terms() {
-                    for &(v, e) in m.pairs() {
-                        let d = degrees.entry(v).or_insert(0);
-                        *d = (*d).max(e);
-                    }
-                }
+                q.max_exponents_into(&mut degrees);
             }
         }
         // the moments are computed only when a contour is not in the cache, and only for
