@@ -20,7 +20,7 @@ pub mod tail;
 
 pub use bounds::{BoundChoice, BoundKind, HigherLimit, HigherMoments, PointBounds, SupportForm, UnknownBound};
 
-use crate::poly::{rational_to_f64, Interval, Monomial, Poly, QPoly, Var};
+use crate::poly::{rational_to_f64, Interval, Poly, QPoly, Var};
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use std::sync::{Arc, OnceLock};
@@ -354,21 +354,17 @@ impl RiskContour {
                 return Some(c.poly.clone());
             }
         }
-        let subs: Vec<Option<QPoly>> = (0..n)
+        // v ↦ c_v + 2^(e_v)·v, exactly (one common denominator: `affine_subst`)
+        let maps: Vec<Option<(BigRational, BigRational)>> = (0..n)
             .map(|v| {
                 let c = BigRational::from_float(*center.get(v)?)?;
                 let e = *exponents.get(v)?;
                 let two = BigRational::from_integer(2.into());
                 let scale = if e >= 0 { num_traits::pow(two, e as usize) } else { BigRational::one() / num_traits::pow(two, (-e) as usize) };
-                let mut p = QPoly::constant(c);
-                p.add_term(Monomial::var_pow(v as Var, 1), scale);
-                Some(p)
+                Some(Some((c, scale)))
             })
-            .collect();
-        if !subs.iter().all(Option::is_some) {
-            return None;
-        }
-        let exact = self.poly.subst(&|v| subs.get(v as usize).cloned().flatten());
+            .collect::<Option<_>>()?;
+        let exact = crate::poly::affine_subst(&self.poly, &maps);
         let p = Arc::new(exact.map_coeffs(Interval::enclose_rational));
         let mut kept = self.centred.lock().unwrap_or_else(|e| e.into_inner());
         if kept.len() >= CENTRED_FRAMES_KEPT {

@@ -13,10 +13,12 @@ pub mod dyadic;
 mod interval;
 mod parse;
 mod ring;
+mod taylor;
 mod univariate;
 
 pub use affine::{affine_subst, square_minus_scaled};
 pub use interval::Interval;
+pub use taylor::taylor_shift;
 pub use parse::{
     parse, parse_with_budget, product_cost, PolyError, VarResolver, MAX_EXPONENT, MAX_NESTING, MAX_PARSE_DEGREE,
     MAX_PARSE_TERMS, MAX_PARSE_WORK,

@@ -11,16 +11,21 @@ use crate::scene::{Obstacle, Scene};
 use num_rational::BigRational;
 use std::sync::OnceLock;
 
+/// Per variable (space, then time), the frame's map `v ↦ c_v + 2^(e_v)·v`, exactly
+/// ([`crate::poly::taylor_shift`]).
+type FrameMaps = Vec<Option<(BigRational, BigRational)>>;
+
 /// A scene's contour polynomials for the final check (docs/design.md §5.12), written in
 /// the verify path's own frame `z_v = (x_v − c_v)·2^(−e_v)` (centre and power-of-two
-/// scale from the workspace and the horizon) by general polynomial substitution in
-/// exact arithmetic, then enclosed coefficient by coefficient. In the scene's own
+/// scale from the workspace and the horizon) exactly, by the verify path's own Taylor
+/// shift ([`crate::poly::taylor_shift`]), then enclosed coefficient by coefficient. In the scene's own
 /// coordinates a workspace at x ≈ 5·10⁶ (UTM) makes the monomials cancel by many orders
 /// of magnitude and nearly every piece would go to the exact fallback. This is
-/// deliberately not the compiled path's frame code (`certify::fast`): the final check
-/// shares no code with it beyond the contour polynomials. A scene near the origin at
-/// moderate scale keeps its own coordinates (`polys` is `None`): the exact substitution
-/// costs about 0.25 ms per obstacle, more than the final check saves there.
+/// deliberately not the compiled path's frame code (`certify::fast`, whose exact
+/// substitution is [`crate::poly::affine_subst`]): the final check shares no code with it
+/// beyond the contour polynomials. A scene near the origin at moderate scale keeps its own
+/// coordinates (`polys` is `None`): the substitution is not needed there.
+
 #[derive(Debug)]
 pub struct FramedContours {
     center: Vec<f64>,
@@ -28,7 +33,7 @@ pub struct FramedContours {
     /// The substitution into the frame (`None`: the scene's own coordinates) and each
     /// obstacle's framed polynomials, made on first use (a pedestrian decided by its tail
     /// bound never needs them).
-    polys: Option<(Vec<crate::poly::QPoly>, Vec<FramedPair>)>,
+    polys: Option<(FrameMaps, Vec<FramedPair>)>,
     /// With more than [`FramedContours::NEAR_MIN_OBSTACLES`] obstacles in at most
     /// [`FramedContours::NEAR_MAX_DIM`] dimensions: each obstacle's contour polynomials
     /// rewritten exactly around a point of its own, for a box test that clears distant
@@ -302,14 +307,13 @@ impl FramedContours {
         }
         let center = super::index::obstacle_center(&o.contour, region);
         // the same exact values substituted and subtracted
-        let exact = center.iter().map(|&c| BigRational::from_float(c)).collect::<Option<Vec<_>>>()?;
-        let subs: Vec<crate::poly::QPoly> = exact
-            .into_iter()
-            .enumerate()
-            .map(|(v, c)| crate::poly::Poly::var(v as crate::poly::Var).add(&crate::poly::Poly::constant(c)))
-            .collect();
-        let around =
-            |p: &crate::poly::QPoly| p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational);
+        let one = BigRational::from_integer(1.into());
+        let maps = center
+            .iter()
+            .map(|&c| Some((BigRational::from_float(c)?, one.clone())))
+            .map(|m| m.map(Some))
+            .collect::<Option<Vec<_>>>()?;
+        let around = |p: &crate::poly::QPoly| crate::poly::taylor_shift(p, &maps).map_coeffs(Interval::enclose_rational);
         Some(Near { mean: around(&o.contour.mean), second: around(&o.contour.second), center })
     }
 
@@ -450,16 +454,11 @@ impl FramedContours {
             };
         }
         let two = BigRational::from_integer(2.into());
-        let subs: Vec<crate::poly::QPoly> = center
+        // v ↦ c_v + 2^(e_v)·v
+        let subs: FrameMaps = center
             .iter()
             .zip(&exps)
-            .enumerate()
-            .map(|(v, (&c, &e))| {
-                let scale: BigRational = num_traits::Pow::pow(&two, e);
-                crate::poly::Poly::var(v as crate::poly::Var)
-                    .scale(&scale)
-                    .add(&crate::poly::Poly::constant(BigRational::from_float(c).unwrap_or_default()))
-            })
+            .map(|(&c, &e)| Some((BigRational::from_float(c).unwrap_or_default(), num_traits::Pow::pow(&two, e))))
             .collect();
         let polys = scene.obstacles.iter().map(|_| OnceLock::new()).collect();
         let inv_scale = exps.iter().map(|&e| crate::certify::fast::pow2(-e)).collect();
@@ -508,9 +507,8 @@ impl FramedContours {
     /// exactly on first use (or taken over from the previous revision,
     /// [`FramedContours::reusing`]) and enclosed; `None` in the scene's own coordinates.
     fn framed_pair(&self, i: usize, o: &Obstacle) -> Option<&(crate::poly::Poly<Interval>, crate::poly::Poly<Interval>)> {
-        let (subs, p) = self.polys.as_ref()?;
-        let frame =
-            |p: &crate::poly::QPoly| p.subst(&|v| subs.get(v as usize).cloned()).map_coeffs(Interval::enclose_rational);
+        let (maps, p) = self.polys.as_ref()?;
+        let frame = |p: &crate::poly::QPoly| crate::poly::taylor_shift(p, maps).map_coeffs(Interval::enclose_rational);
         Some(p[i].get_or_init(|| (frame(&o.contour.mean), frame(&o.contour.second))))
     }
 
