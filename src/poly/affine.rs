@@ -163,16 +163,16 @@ pub fn square_minus_scaled(a: &QPoly, b: &QPoly, c: &BigRational) -> QPoly {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn q(n: i64, d: i64) -> BigRational {
+    pub(in crate::poly) fn q(n: i64, d: i64) -> BigRational {
         BigRational::new(n.into(), d.into())
     }
 
     /// Random polynomials in 3 variables, degree ≤ 4 per variable, rational coefficients.
-    fn poly() -> impl Strategy<Value = QPoly> {
+    pub(in crate::poly) fn poly() -> impl Strategy<Value = QPoly> {
         prop::collection::vec(((0u32..5, 0u32..4, 0u32..3), (-1000i64..1000, 1i64..1000)), 0..12).prop_map(|terms| {
             let mut p = QPoly::zero();
             for ((a, b, c), (n, d)) in terms {

@@ -113,32 +113,20 @@ fn powers(x: &BigInt, d: usize) -> Vec<BigInt> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::affine::tests::{poly, q};
     use super::*;
     use proptest::prelude::*;
 
-    fn q(n: i64, d: i64) -> BigRational {
-        BigRational::new(n.into(), d.into())
-    }
-
-    /// Random polynomials in 3 variables, degree ≤ 4 per variable, rational coefficients.
-    fn poly() -> impl Strategy<Value = QPoly> {
-        prop::collection::vec(((0u32..5, 0u32..4, 0u32..3), (-1000i64..1000, 1i64..1000)), 0..12).prop_map(|terms| {
-            let mut p = QPoly::zero();
-            for ((a, b, c), (n, d)) in terms {
-                p.add_term(Monomial::from_pairs([(0, a), (1, b), (2, c)]), q(n, d));
-            }
-            p
-        })
-    }
-
-    /// A variable's map: a float (dyadic) centre as the frames use, or a decimal one, or
-    /// 0; a scale 2^e, or a rational one.
+    /// A variable's map: a float (dyadic) centre as the frames use — moderate, huge
+    /// (about 10³⁰⁰) or subnormal —, or a decimal one, or 0; a scale 2^e, or a rational one.
     fn map() -> impl Strategy<Value = Option<(BigRational, BigRational)>> {
-        prop::option::of(((-1e6f64..1e6), 0u8..3, -20i32..20, prop::option::of((1i64..50, 1i64..50)))).prop_map(|m| {
+        prop::option::of(((-1e6f64..1e6), 0u8..5, -20i32..20, prop::option::of((1i64..50, 1i64..50)))).prop_map(|m| {
             m.map(|(c, kind, e, ratio)| {
                 let c = match kind {
                     0 => BigRational::from_float(c).unwrap(),
                     1 => q((c * 1000.0) as i64, 997),
+                    2 => BigRational::from_float(c * 1e294).unwrap(),
+                    3 => BigRational::from_float(c * 1e-314).unwrap(),
                     _ => BigRational::zero(),
                 };
                 let s = ratio.map_or_else(|| num_traits::Pow::pow(&q(2, 1), e), |(n, d)| q(-n, d));
