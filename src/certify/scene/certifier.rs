@@ -187,7 +187,11 @@ impl SceneCertifier {
             if self.scene.obstacles.len() < LAZY_MAX_OBSTACLES {
                 self.kernel.lazy_index(&self.deltas)
             } else {
-                self.kernel.index(&self.deltas, stop)
+                // a plan's first check on a crowded scene waits for every cover: built on
+                // the machine's cores (the service's warm-up builds them on one thread
+                // beforehand, `app::warm_up`)
+                let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+                self.kernel.index_on(&self.deltas, stop, cores)
             }
         })
     }

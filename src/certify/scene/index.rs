@@ -100,6 +100,15 @@ fn pedestrian_covers(p: &crate::scene::Pedestrian, kappa: f64, horizon: (f64, f6
 /// on every cover is built at once, and the grid over them.
 pub const LAZY_MAX_OBSTACLES: usize = GRID_MIN_OBSTACLES;
 
+/// Fewest obstacles without covers for which [`SceneIndex::ensure_all_on`] builds covers
+/// on more than one thread: a cover costs 0.3–1 ms (512 disks: about 0.5 ms each, half of a
+/// cold plan's CPU), a scoped thread about 0.1 ms to start; from this many obstacles on a
+/// plan builds every cover at once ([`LAZY_MAX_OBSTACLES`]).
+pub const PARALLEL_COVERS_MIN: usize = GRID_MIN_OBSTACLES;
+
+/// Most threads that build one index's covers at once ([`SceneIndex::ensure_all_on`]).
+pub const MAX_COVER_BUILD_THREADS: usize = 4;
+
 /// Direct checks of one obstacle after which its covers are built: a static obstacle's
 /// covers cost about as much as a few hundred direct checks of it (0.3–1 ms against
 /// 1–3 µs measured on the reference scenes), the rule of ski rental.
@@ -280,11 +289,46 @@ impl SceneIndex {
     /// [`GRID_MIN_OBSTACLES`] or more, the grid over them. `scene` must be the scene the
     /// index was made for.
     pub fn ensure_all(&self, scene: &Scene, stop: &dyn Fn() -> bool) {
-        for i in 0..self.covers.len() {
+        self.ensure_all_on(scene, stop, 1);
+    }
+
+    /// [`Self::ensure_all`] on up to `threads` threads (the calling one and scoped ones,
+    /// at most [`MAX_COVER_BUILD_THREADS`]) when at least [`PARALLEL_COVERS_MIN`] obstacles
+    /// lack covers: each thread claims the next obstacle not claimed (an atomic counter)
+    /// and builds its covers, the same covers as one thread builds (each depends only on
+    /// its obstacle). The other threads stop, between obstacles or a moving obstacle's
+    /// slabs, once the calling thread's `stop` has said stop.
+    pub fn ensure_all_on(&self, scene: &Scene, stop: &dyn Fn() -> bool, threads: usize) {
+        use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+        let missing = self.covers.iter().filter(|c| c.get().is_none()).count();
+        let threads = if missing >= PARALLEL_COVERS_MIN { threads.clamp(1, MAX_COVER_BUILD_THREADS) } else { 1 };
+        let next = AtomicUsize::new(0);
+        let halted = AtomicBool::new(false);
+        // claims obstacles until none is left or `stop` (polled between obstacles) says stop
+        let claim = |stop: &dyn Fn() -> bool| loop {
             if stop() {
+                halted.store(true, Ordering::Relaxed);
+                return;
+            }
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= self.covers.len() {
                 return;
             }
             self.ensure(scene, i, stop);
+        };
+        if threads > 1 {
+            let other_stop = || halted.load(Ordering::Relaxed);
+            std::thread::scope(|sc| {
+                for _ in 1..threads {
+                    sc.spawn(|| claim(&other_stop));
+                }
+                claim(&|| other_stop() || stop());
+            });
+        } else {
+            claim(stop);
+        }
+        if halted.load(Ordering::Relaxed) {
+            return;
         }
         // every build tried (an obstacle whose covers cannot be built, a pedestrian without
         // a tail threshold, is filed as always checked; covers built later only ever skip
@@ -802,6 +846,69 @@ mod tests {
         }
     }
 
+    /// `n` disks of uncertain size and centre in a square of side `side` (every seventh
+    /// moving along x), from `rng`; the static ones' (index, centre x, centre y, radius).
+    fn review_scene(n: usize, side: f64, rng: &mut rand_chacha::ChaCha8Rng) -> (Scene, Vec<(usize, f64, f64, f64)>) {
+        use rand::Rng;
+        let mut params = serde_json::Map::new();
+        let mut obstacles = Vec::new();
+        let mut disks = Vec::new();
+        for k in 0..n {
+            let (cx, cy, r): (f64, f64, f64) = (
+                (rng.random_range(0.0..side) * 100.0f64).round() / 100.0,
+                (rng.random_range(0.0..side) * 100.0f64).round() / 100.0,
+                (rng.random_range(0.8..1.6) * 100.0f64).round() / 100.0,
+            );
+            params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
+            params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
+            if k % 7 == 3 {
+                // moving along x at speed ~ 1 (no closed form kept for it)
+                obstacles.push(serde_json::json!({"id": format!("m{k}"), "poly": format!("({r}*s{k})^2 - (x1 - {cx} - d{k} - t)^2 - (x2 - {cy})^2")}));
+            } else {
+                obstacles.push(serde_json::json!({"id": format!("disk{k}"), "poly": format!("({r}*s{k})^2 - (x1 - {cx} - d{k})^2 - (x2 - {cy})^2")}));
+                disks.push((k, cx, cy, r));
+            }
+        }
+        let text = serde_json::json!({
+            "format": "riskplan-scene/1", "name": "review", "dim": 2,
+            "workspace": {"lower": [0, 0], "upper": [side, side]}, "horizon": [0, 1], "risk": 0.05,
+            "params": params, "obstacles": obstacles,
+        })
+        .to_string();
+        (crate::scene::Scene::from_json(&text).unwrap(), disks)
+    }
+
+    /// Covers built on several threads are those one thread builds, obstacle for obstacle
+    /// (static and moving ones), and so is the grid; a build stopped on several threads
+    /// leaves no grid, and a later call completes it.
+    #[test]
+    fn covers_built_on_several_threads_are_the_ones_built_on_one() {
+        use rand::SeedableRng;
+        let n = PARALLEL_COVERS_MIN + 9;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let (scene, _) = review_scene(n, 4.0 * (n as f64).sqrt() + 4.0, &mut rng);
+        let deltas = vec![scene.risk.clone(); n];
+        let one = SceneIndex::lazy(&scene, &deltas, &[]);
+        one.ensure_all_on(&scene, &|| false, 1);
+        let covers = |ix: &SceneIndex| -> Vec<String> { ix.covers.iter().map(|c| format!("{:?}", c.get())).collect() };
+        for threads in [2, 3, MAX_COVER_BUILD_THREADS + 2] {
+            let many = SceneIndex::lazy(&scene, &deltas, &[]);
+            many.ensure_all_on(&scene, &|| false, threads);
+            assert!(many.complete());
+            assert_eq!(covers(&many), covers(&one), "{threads} threads");
+            assert_eq!(format!("{:?}", many.grid.get()), format!("{:?}", one.grid.get()));
+            assert_eq!(many.cells(), one.cells());
+        }
+        // stopped after a few obstacles: incomplete, no grid; completed by a later call
+        let stopped = SceneIndex::lazy(&scene, &deltas, &[]);
+        let asked = std::sync::atomic::AtomicUsize::new(0);
+        stopped.ensure_all_on(&scene, &|| asked.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= 5, 2);
+        assert!(!stopped.complete());
+        assert!(stopped.grid.get().is_none());
+        stopped.ensure_all_on(&scene, &|| false, 2);
+        assert_eq!(covers(&stopped), covers(&one));
+    }
+
     /// review21: marking the parts of a piece into one set gives exactly the union over the
     /// parts of the obstacles not proven skippable for that part (naive filter per part,
     /// no bitset, no grid), on scene sizes around the 64-bit word boundaries, with moving
@@ -813,32 +920,7 @@ mod tests {
         for (n, seed) in [(1usize, 1u64), (15, 2), (16, 3), (63, 4), (64, 5), (65, 6), (129, 7)] {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             let side = 4.0 * (n as f64).sqrt() + 4.0;
-            let mut params = serde_json::Map::new();
-            let mut obstacles = Vec::new();
-            let mut disks = Vec::new();
-            for k in 0..n {
-                let (cx, cy, r): (f64, f64, f64) = (
-                    (rng.random_range(0.0..side) * 100.0f64).round() / 100.0,
-                    (rng.random_range(0.0..side) * 100.0f64).round() / 100.0,
-                    (rng.random_range(0.8..1.6) * 100.0f64).round() / 100.0,
-                );
-                params.insert(format!("s{k}"), serde_json::json!({"dist": "uniform", "low": 0.9, "high": 1.1}));
-                params.insert(format!("d{k}"), serde_json::json!({"dist": "normal", "mean": 0, "std": 0.05}));
-                if k % 7 == 3 {
-                    // moving along x at speed ~ 1 (no closed form kept for it)
-                    obstacles.push(serde_json::json!({"id": format!("m{k}"), "poly": format!("({r}*s{k})^2 - (x1 - {cx} - d{k} - t)^2 - (x2 - {cy})^2")}));
-                } else {
-                    obstacles.push(serde_json::json!({"id": format!("disk{k}"), "poly": format!("({r}*s{k})^2 - (x1 - {cx} - d{k})^2 - (x2 - {cy})^2")}));
-                    disks.push((k, cx, cy, r));
-                }
-            }
-            let text = serde_json::json!({
-                "format": "riskplan-scene/1", "name": "review", "dim": 2,
-                "workspace": {"lower": [0, 0], "upper": [side, side]}, "horizon": [0, 1], "risk": 0.05,
-                "params": params, "obstacles": obstacles,
-            })
-            .to_string();
-            let scene = crate::scene::Scene::from_json(&text).unwrap();
+            let (scene, disks) = review_scene(n, side, &mut rng);
             let deltas = vec![scene.risk.clone(); n];
             let index = SceneIndex::build(&scene, &deltas, &|| false);
             assert!(index.complete());
