@@ -182,7 +182,7 @@ impl SceneCertifier {
         self.index_until(&|| false)
     }
 
-    fn index_until(&self, stop: &dyn Fn() -> bool) -> &Arc<SceneIndex> {
+    fn index_until(&self, stop: &(dyn Fn() -> bool + Sync)) -> &Arc<SceneIndex> {
         self.index.get_or_init(|| {
             if self.scene.obstacles.len() < LAZY_MAX_OBSTACLES {
                 self.kernel.lazy_index(&self.deltas)

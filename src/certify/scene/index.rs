@@ -289,47 +289,69 @@ impl SceneIndex {
     /// [`GRID_MIN_OBSTACLES`] or more, the grid over them. `scene` must be the scene the
     /// index was made for.
     pub fn ensure_all(&self, scene: &Scene, stop: &dyn Fn() -> bool) {
-        self.ensure_all_on(scene, stop, 1);
+        if self.claim_all(scene, stop, &std::sync::atomic::AtomicUsize::new(0)) {
+            self.finish_grid(scene);
+        }
     }
 
     /// [`Self::ensure_all`] on up to `threads` threads (the calling one and scoped ones,
     /// at most [`MAX_COVER_BUILD_THREADS`]) when at least [`PARALLEL_COVERS_MIN`] obstacles
     /// lack covers: each thread claims the next obstacle not claimed (an atomic counter)
     /// and builds its covers, the same covers as one thread builds (each depends only on
-    /// its obstacle). The other threads stop, between obstacles or a moving obstacle's
-    /// slabs, once the calling thread's `stop` has said stop.
-    pub fn ensure_all_on(&self, scene: &Scene, stop: &dyn Fn() -> bool, threads: usize) {
+    /// its obstacle). Every thread asks `stop` between obstacles (and a moving obstacle's
+    /// slabs), and all stop once one has been told to; a thread the system refuses to
+    /// start leaves its share to the others, and a panic on any thread stops the others.
+    pub fn ensure_all_on(&self, scene: &Scene, stop: &(dyn Fn() -> bool + Sync), threads: usize) {
         use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
         let missing = self.covers.iter().filter(|c| c.get().is_none()).count();
         let threads = if missing >= PARALLEL_COVERS_MIN { threads.clamp(1, MAX_COVER_BUILD_THREADS) } else { 1 };
+        if threads == 1 {
+            return self.ensure_all(scene, stop);
+        }
         let next = AtomicUsize::new(0);
         let halted = AtomicBool::new(false);
-        // claims obstacles until none is left or `stop` (polled between obstacles) says stop
-        let claim = |stop: &dyn Fn() -> bool| loop {
-            if stop() {
-                halted.store(true, Ordering::Relaxed);
-                return;
+        /// Stops the other threads when its thread ends early: told to stop, or panicking.
+        struct Halt<'a>(&'a AtomicBool, bool);
+        impl Drop for Halt<'_> {
+            fn drop(&mut self) {
+                if !self.1 || std::thread::panicking() {
+                    self.0.store(true, Ordering::Relaxed);
+                }
             }
-            let i = next.fetch_add(1, Ordering::Relaxed);
+        }
+        let work = || {
+            let mut guard = Halt(&halted, false);
+            guard.1 = self.claim_all(scene, &|| halted.load(Ordering::Relaxed) || stop(), &next);
+        };
+        std::thread::scope(|sc| {
+            for _ in 1..threads {
+                // (a thread not started leaves its share to the others)
+                let _ = std::thread::Builder::new().spawn_scoped(sc, work);
+            }
+            work();
+        });
+        if !halted.load(Ordering::Relaxed) {
+            self.finish_grid(scene);
+        }
+    }
+
+    /// Claims obstacles from `next` and builds their covers until none is left (`true`)
+    /// or `stop` says stop (`false`).
+    fn claim_all(&self, scene: &Scene, stop: &dyn Fn() -> bool, next: &std::sync::atomic::AtomicUsize) -> bool {
+        loop {
+            if stop() {
+                return false;
+            }
+            let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             if i >= self.covers.len() {
-                return;
+                return true;
             }
             self.ensure(scene, i, stop);
-        };
-        if threads > 1 {
-            let other_stop = || halted.load(Ordering::Relaxed);
-            std::thread::scope(|sc| {
-                for _ in 1..threads {
-                    sc.spawn(|| claim(&other_stop));
-                }
-                claim(&|| other_stop() || stop());
-            });
-        } else {
-            claim(stop);
         }
-        if halted.load(Ordering::Relaxed) {
-            return;
-        }
+    }
+
+    /// The grid over every obstacle's covers, once every build was tried.
+    fn finish_grid(&self, scene: &Scene) {
         // every build tried (an obstacle whose covers cannot be built, a pedestrian without
         // a tail threshold, is filed as always checked; covers built later only ever skip
         // less through the grid's `always` list, which `candidates` still tests)
@@ -899,10 +921,12 @@ mod tests {
             assert_eq!(format!("{:?}", many.grid.get()), format!("{:?}", one.grid.get()));
             assert_eq!(many.cells(), one.cells());
         }
-        // stopped after a few obstacles: incomplete, no grid; completed by a later call
+        // stopped after a few obstacles (every thread asks the same `stop`): incomplete, no
+        // grid; completed by a later call
         let stopped = SceneIndex::lazy(&scene, &deltas, &[]);
         let asked = std::sync::atomic::AtomicUsize::new(0);
         stopped.ensure_all_on(&scene, &|| asked.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= 5, 2);
+        assert!(stopped.covers.iter().filter(|c| c.get().is_some()).count() <= 5);
         assert!(!stopped.complete());
         assert!(stopped.grid.get().is_none());
         stopped.ensure_all_on(&scene, &|| false, 2);

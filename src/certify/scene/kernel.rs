@@ -371,12 +371,14 @@ impl SceneKernel {
     /// obstacles; what a stop leaves unbuilt is built by a later call). Kept among the
     /// last [`INDEXES_PER_SCENE`].
     pub fn index(&self, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> Arc<SceneIndex> {
-        self.index_on(deltas, stop, 1)
+        let index = self.lazy_index(deltas);
+        index.ensure_all(&self.inner.scene, stop);
+        index
     }
 
     /// [`Self::index`], its covers built on up to `threads` threads
     /// ([`SceneIndex::ensure_all_on`]).
-    pub fn index_on(&self, deltas: &[RiskLevel], stop: &dyn Fn() -> bool, threads: usize) -> Arc<SceneIndex> {
+    pub fn index_on(&self, deltas: &[RiskLevel], stop: &(dyn Fn() -> bool + Sync), threads: usize) -> Arc<SceneIndex> {
         let index = self.lazy_index(deltas);
         index.ensure_all_on(&self.inner.scene, stop, threads);
         index
