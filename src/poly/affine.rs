@@ -116,13 +116,13 @@ pub fn affine_subst(p: &QPoly, maps: &[Option<(BigRational, BigRational)>]) -> Q
 }
 
 /// A polynomial over one common denominator: integer numerators and `den > 0`.
-struct OverDen {
-    terms: Vec<(Monomial, BigInt)>,
-    den: BigInt,
+pub(super) struct OverDen {
+    pub(super) terms: Vec<(Monomial, BigInt)>,
+    pub(super) den: BigInt,
 }
 
 impl OverDen {
-    fn new(p: &QPoly) -> Self {
+    pub(super) fn new(p: &QPoly) -> Self {
         let den = p.terms().fold(BigInt::one(), |acc, (_, c)| acc.lcm(c.denom()));
         let terms = p.terms().map(|(m, c)| (m.clone(), c.numer() * (&den / c.denom()))).collect();
         OverDen { terms, den }

@@ -10,6 +10,7 @@
 
 mod affine;
 pub mod dyadic;
+mod expect;
 mod interval;
 mod parse;
 mod ring;
@@ -17,6 +18,7 @@ mod taylor;
 mod univariate;
 
 pub use affine::{affine_subst, square_minus_scaled};
+pub use expect::mean_and_second_moment;
 pub use interval::Interval;
 pub use taylor::taylor_shift;
 pub use parse::{
