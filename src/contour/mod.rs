@@ -256,7 +256,7 @@ impl RiskContour {
     ) -> Result<Self, ContourError> {
         let is_param = |v| layout.is_param(v);
         let missing = |(v, k): (Var, u32)| ContourError::MissingMoment { param: name(v), order: k };
-        // E[P] and E[P²] exactly, over common denominators (docs/design.md §2.1)
+        // E[P] and E[P²] exactly, over common denominators (docs/design.md §2.3)
         let (mean, second) = crate::poly::mean_and_second_moment(p, is_param, moment).map_err(missing)?;
         let dynamic = p.contains_var(layout.t());
         // the raw moments the higher central moments may need, as far as they are known
