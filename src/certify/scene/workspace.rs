@@ -7,7 +7,7 @@
 use super::decide::{Status, WitnessReport};
 use crate::certify::fast::straight_value_sign;
 use crate::certify::{bernstein, coordinates_exact, PieceRef};
-use crate::poly::{rational_to_f64, Interval, UPoly};
+use crate::poly::{rational_to_f64, Interval, Ring, UPoly};
 use num_rational::BigRational;
 use serde::{Deserialize, Serialize};
 
@@ -105,17 +105,84 @@ pub fn inside_by_box(lower: &[f64], upper: &[f64], piece: PieceRef<'_>, bbox: Op
 /// outward-rounded Bernstein hull of the coordinate composed with `t0 + hτ` in interval
 /// arithmetic (general polynomial code, not the planners' compiled path); `None` when
 /// a hull is not finite.
+///
+/// The composition is [`UPoly::compose_affine`]'s Horner scheme — the same interval
+/// operations in the same order, so the same enclosure bit for bit — carried out in
+/// fixed buffers ([`coordinate_hull`]): the final check forms a hull for every piece,
+/// for each of its parts and for its grid lookup, and the general code's allocations
+/// were about a sixth of a crowded scene's final check (docs/benchmarks.md, session 35).
 pub fn interval_hull(piece: PieceRef<'_>) -> Option<Vec<Interval>> {
     let t0 = Interval::point(piece.t0);
     let h = Interval::point(piece.t1) - t0;
-    piece
-        .coeffs
-        .iter()
-        .map(|row| {
-            let x = UPoly::new(row.iter().map(|&c| Interval::point(c)).collect()).compose_affine(&t0, &h);
-            bernstein::bernstein_enclosure(x.coeffs())
-        })
-        .collect()
+    piece.coeffs.iter().map(|row| coordinate_hull(row, t0, h)).collect()
+}
+
+/// One coordinate's hull for [`interval_hull`]: `Σ c_k (t0 + hτ)^k` by Horner over
+/// intervals — `acc ← acc·(t0 + hτ) + c_k`, each step as [`UPoly::mul`] then
+/// [`UPoly::add`] form it (zero coefficients skipped in the product, trailing zeros
+/// trimmed after each step) — then its Bernstein enclosure on [0, 1]. Rows longer than
+/// the Bernstein enclosure takes ([`bernstein::MAX_DEGREE`] + 1 coefficients after
+/// trimming) go through the general polynomial code, which gives `None` for them too.
+fn coordinate_hull(row: &[f64], t0: Interval, h: Interval) -> Option<Interval> {
+    const N: usize = bernstein::MAX_DEGREE + 1;
+    let zero = Interval::point(0.0);
+    // the coefficients as `UPoly::new` keeps them (trailing zeros trimmed)
+    let mut n = row.len();
+    while n > 0 && Interval::point(row[n - 1]).is_zero() {
+        n -= 1;
+    }
+    if n > N {
+        let x = UPoly::new(row.iter().map(|&c| Interval::point(c)).collect()).compose_affine(&t0, &h);
+        return bernstein::bernstein_enclosure(x.coeffs());
+    }
+    // t0 + hτ as `UPoly::linear` keeps it
+    let lin = [t0, h];
+    let lin_len = if !h.is_zero() {
+        2
+    } else if !t0.is_zero() {
+        1
+    } else {
+        0
+    };
+    let trimmed = |b: &[Interval], mut len: usize| {
+        while len > 0 && b[len - 1].is_zero() {
+            len -= 1;
+        }
+        len
+    };
+    let (mut acc, mut len) = ([zero; N], 0usize);
+    let mut product = [zero; N];
+    for &c in row[..n].iter().rev() {
+        // acc · (t0 + hτ): the product has at most as many coefficients as the row part
+        // taken so far (lin has at most 2), so it fits
+        if len == 0 || lin_len == 0 {
+            len = 0;
+        } else {
+            let out = len + lin_len - 1;
+            product[..out].fill(zero);
+            for (i, a) in acc[..len].iter().enumerate() {
+                if a.is_zero() {
+                    continue;
+                }
+                for (j, b) in lin[..lin_len].iter().enumerate() {
+                    product[i + j] = product[i + j] + *a * *b;
+                }
+            }
+            len = trimmed(&product, out);
+            acc[..len].copy_from_slice(&product[..len]);
+        }
+        // + c (a zero constant is the zero polynomial: nothing is added, as in `add`)
+        let c = Interval::point(c);
+        let c_len = usize::from(!c.is_zero());
+        let m = len.max(c_len);
+        for (i, a) in acc[..m].iter_mut().enumerate() {
+            let x = if i < len { *a } else { zero };
+            let y = if i == 0 && c_len == 1 { c } else { zero };
+            *a = x + y;
+        }
+        len = trimmed(&acc, m);
+    }
+    bernstein::bernstein_enclosure(&acc[..len])
 }
 
 /// Checks the box along a piece.
@@ -164,6 +231,71 @@ pub fn check_workspace(lower: &[f64], upper: &[f64], piece: PieceRef<'_>) -> Wor
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fixed-buffer [`interval_hull`] against the general composition it stands for.
+    mod hull_by_upoly {
+        use super::super::*;
+        use proptest::prelude::*;
+
+        /// The general composition `interval_hull` was before session 35 (the reference
+        /// of the fixed-buffer one).
+        fn interval_hull_by_upoly(piece: PieceRef<'_>) -> Option<Vec<Interval>> {
+            let t0 = Interval::point(piece.t0);
+            let h = Interval::point(piece.t1) - t0;
+            piece
+                .coeffs
+                .iter()
+                .map(|row| {
+                    let x = UPoly::new(row.iter().map(|&c| Interval::point(c)).collect()).compose_affine(&t0, &h);
+                    bernstein::bernstein_enclosure(x.coeffs())
+                })
+                .collect()
+        }
+
+        /// A float of any scale: zeros of both signs, subnormals, huge and tiny normals,
+        /// ordinary values, and now and then a non-finite one.
+        fn any_scale() -> impl Strategy<Value = f64> {
+            prop_oneof![
+                3 => -10.0f64..10.0,
+                1 => Just(0.0),
+                1 => Just(-0.0),
+                1 => (-1.0f64..1.0, -330i32..300).prop_map(|(m, e)| m * 10f64.powi(e)),
+                1 => (-1.0f64..1.0).prop_map(|m| m * f64::MIN_POSITIVE),
+                1 => prop_oneof![Just(f64::NAN), Just(f64::INFINITY), Just(f64::MAX)],
+            ]
+        }
+
+        /// A coordinate: mostly of degree below 6, sometimes beyond the Bernstein
+        /// enclosure's degree, sometimes zeros only.
+        fn row() -> impl Strategy<Value = Vec<f64>> {
+            prop_oneof![
+                8 => proptest::collection::vec(any_scale(), 0..6),
+                1 => proptest::collection::vec(any_scale(), 30..42),
+                1 => proptest::collection::vec(Just(0.0), 1..4),
+            ]
+        }
+
+        proptest! {
+            /// The same enclosure bit for bit (or `None` where it is `None`), at any
+            /// scale, on time intervals of any length including none, with trailing
+            /// zeros of both signs (which the general code trims).
+            #[test]
+            fn the_fixed_buffer_hull_is_the_general_compositions(
+                rows in proptest::collection::vec(row(), 1..4),
+                t0 in any_scale(),
+                dt in prop_oneof![3 => 0.0f64..10.0, 1 => Just(0.0), 1 => any_scale()],
+                trailing in 0usize..3,
+            ) {
+                let mut rows = rows;
+                for r in rows.iter_mut() {
+                    r.extend(std::iter::repeat_n(if trailing == 2 { -0.0 } else { 0.0 }, trailing));
+                }
+                let piece = PieceRef { t0, t1: t0 + dt, coeffs: &rows };
+                let bits = |h: Option<Vec<Interval>>| h.map(|v| v.iter().map(|i| (i.lo.to_bits(), i.hi.to_bits())).collect::<Vec<_>>());
+                prop_assert_eq!(bits(interval_hull(piece)), bits(interval_hull_by_upoly(piece)));
+            }
+        }
+    }
 
     const LO: [f64; 2] = [0.0, 0.0];
     const HI: [f64; 2] = [1.0, 1.0];
