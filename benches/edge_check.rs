@@ -153,15 +153,20 @@ fn bench(c: &mut Criterion) {
                 let st = req.run(&kernel, None).expect("plan").1.stats;
                 let first = st.time_to_feasible_s.unwrap_or(f64::NAN);
                 let edge = st.checker_time_s / st.edges_checked.max(1) as f64 * 1e6;
+                let sm = st.smoothing.as_ref();
                 ratios.push(st.planning_time_s / first);
                 per_edge.push(edge);
                 eprintln!(
-                    "disks-{n} seed {seed}, whole default plan ({pass}): first path {:.3} ms, whole {:.2} ms ({:.1}x), post-processing {:.2} ms, final check {:.2} ms (whole-path bound {:.2} ms), {} edges at {:.2} us each, length {:.2}",
+                    "disks-{n} seed {seed}, whole default plan ({pass}): first path {:.3} ms, whole {:.2} ms ({:.1}x), post-processing {:.2} ms (shortcuts {:.2}, reduction {:.2}, blends {:.2}), final check {:.2} ms (verify path {:.2}, whole-path bound {:.2} ms), {} edges at {:.2} us each, length {:.2}",
                     first * 1e3,
                     st.planning_time_s * 1e3,
                     st.planning_time_s / first,
                     st.improve_time_s * 1e3,
+                    sm.map_or(0.0, |s| s.shortcut_seconds) * 1e3,
+                    sm.map_or(0.0, |s| s.reduction_seconds) * 1e3,
+                    sm.map_or(0.0, |s| s.blend_seconds) * 1e3,
                     st.final_check.as_ref().map_or(0.0, |f| f.seconds) * 1e3,
+                    st.final_check.as_ref().map_or(0.0, |f| f.verify_seconds) * 1e3,
                     st.final_check.as_ref().map_or(0.0, |f| f.whole_path_seconds) * 1e3,
                     st.edges_checked,
                     edge,

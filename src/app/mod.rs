@@ -271,6 +271,7 @@ impl PreparedPlan {
                 abandon.store(true, std::sync::atomic::Ordering::Relaxed);
             }
             fc.seconds += check.seconds;
+            fc.verify_seconds += check.seconds;
             fc.pieces += check.pieces;
             let why = match check.failure {
                 None => {
@@ -733,6 +734,33 @@ mod tests {
         let pieces = |o: &PlanOutcome| o.trajectory.as_ref().map(|t| t.pieces.clone());
         assert_eq!(pieces(&warm), pieces(&cold));
         assert_eq!(warm.stats.whole_path_risk, cold.stats.whole_path_risk);
+    }
+
+    /// How far the sum of a window's sub-intervals, each converted to seconds on its own,
+    /// may exceed the window's own conversion: a few roundings of `as_secs_f64` (about
+    /// 10⁻¹⁶ s each here), far below any interval measured.
+    const SECONDS_ROUNDING: f64 = 1e-12;
+
+    #[test]
+    fn a_plans_phase_times_are_parts_of_its_totals() {
+        // 64 obstacles: the whole-path bound runs beside the verify path; 8: after it
+        for n in [WHOLE_PATH_BESIDE_MIN_OBSTACLES, 8] {
+            let (_, out) = PlanRequest::default().run(SceneKernel::new(disks(n)), None).unwrap();
+            assert!(out.certified, "{n} disks: {:?}", out.reason);
+            let st = &out.stats;
+            let sm = st.smoothing.as_ref().expect("a default plan is smoothed");
+            let parts = [sm.shortcut_seconds, sm.reduction_seconds, sm.blend_seconds];
+            assert!(parts.iter().all(|&t| t > 0.0), "{n} disks: {sm:?}");
+            assert!(parts.iter().sum::<f64>() <= st.improve_time_s + SECONDS_ROUNDING, "{n} disks: {sm:?} {st:?}");
+            let fc = st.final_check.as_ref().expect("a certified plan's final check");
+            assert!(fc.verify_seconds > 0.0 && fc.whole_path_seconds > 0.0, "{n} disks: {fc:?}");
+            assert!(fc.verify_seconds <= fc.seconds + SECONDS_ROUNDING, "{n} disks: {fc:?}");
+            // (after the check, on a small scene, the bound is the rest of the final check)
+            if n < WHOLE_PATH_BESIDE_MIN_OBSTACLES {
+                assert!(fc.verify_seconds + fc.whole_path_seconds <= fc.seconds + SECONDS_ROUNDING, "{fc:?}");
+            }
+            assert!(st.improve_time_s + fc.seconds <= st.planning_time_s + SECONDS_ROUNDING, "{n} disks: {st:?}");
+        }
     }
 
     #[test]

@@ -117,6 +117,11 @@ pub struct FinalCheckStats {
     /// `seconds`); 0 when none was computed.
     #[serde(default)]
     pub whole_path_seconds: f64,
+    /// Wall time of the verify path alone (docs/design.md §5.12), seconds (included in
+    /// `seconds`): on crowded scenes the whole-path bound runs beside it, and `seconds`
+    /// less this is the wait for that bound (or the bound itself, after the check).
+    #[serde(default)]
+    pub verify_seconds: f64,
 }
 
 /// Sizes and solver totals of an optimisation planner's SDPs.

@@ -275,11 +275,11 @@ impl Planner for ConnectRrt {
             let pieces = if self.params.kinematics.smooth {
                 let t_imp = Instant::now();
                 let mut sm = SmoothStats { waypoints_before: timed.len(), ..Default::default() };
-                let shorten = |path, rng: &mut ChaCha8Rng| {
+                let shorten = |path, rng: &mut ChaCha8Rng, sm: &mut SmoothStats| {
                     let budget = self.params.path_budget;
-                    shortcut(path, p.horizon, false, None, checker, &counter, rng, term, work_budget, budget)
+                    shortcut(path, p.horizon, false, None, checker, &counter, rng, term, work_budget, budget, sm)
                 };
-                let mut short = shorten(timed.clone(), &mut rng);
+                let mut short = shorten(timed.clone(), &mut rng, &mut sm);
                 // more candidate paths (fresh trees) while the budget lasts, each within a few
                 // times the first's time: the shortest after shortcutting is kept (a tree may
                 // find a long way round)
@@ -293,7 +293,7 @@ impl Planner for ConnectRrt {
                         break;
                     };
                     let t = time_at_constant_speed(&other, p.horizon);
-                    let s = shorten(t, &mut rng);
+                    let s = shorten(t, &mut rng, &mut sm);
                     if length(&s) < length(&short) {
                         short = s;
                     }

@@ -431,6 +431,7 @@ impl Planner for LayeredRrt {
                         term,
                         WorkBudget::UNLIMITED,
                         self.params.path_budget,
+                        &mut sm,
                     );
                 sm.waypoints_after = short.len();
                 let bounds = (ws.lower.as_slice(), ws.upper.as_slice());

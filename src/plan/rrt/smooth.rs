@@ -34,6 +34,7 @@ pub(crate) use crate::certify::path_risk::add_up;
 use crate::scene::{Piece, CONTINUITY_TOLERANCE};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use std::time::Instant;
 
 /// Shortcut attempts per waypoint of the path (OMPL uses a fixed count; proportional
 /// keeps long paths improving).
@@ -98,6 +99,18 @@ pub struct SmoothStats {
     /// Returned blends and eased parts whose peak acceleration is above `max_accel` (a
     /// target, not refused: docs/design.md §6.8).
     pub accel_violations: usize,
+    /// Wall time of the random shortcuts ([`shortcut`], of every candidate path's too),
+    /// seconds. Of the plan's `improve_time_s`, what these three times leave is the
+    /// candidate paths' own searches and the fallbacks to straight pieces.
+    #[serde(default)]
+    pub shortcut_seconds: f64,
+    /// Wall time of the vertex reduction after the random shortcuts, seconds.
+    #[serde(default)]
+    pub reduction_seconds: f64,
+    /// Wall time of the corner blends and the checks of the pieces between them
+    /// ([`blend`]), seconds.
+    #[serde(default)]
+    pub blend_seconds: f64,
 }
 
 fn lerp(a: &[f64], b: &[f64], s: f64) -> Vec<f64> {
@@ -168,6 +181,7 @@ pub(crate) fn path_risk_sum(checker: &dyn MotionChecker, pieces: &[Piece], stop:
 /// are judged over the whole horizon and the result is re-timed at constant speed.
 /// `timed = true` (moving obstacles): a shortcut between the points at times `ta < tb`
 /// is the straight piece on `[ta, tb]`, and must pass [`within_speed`] under `max_speed`.
+/// The times of its two steps are added to `stats`.
 #[allow(clippy::too_many_arguments)]
 pub fn shortcut(
     path: Vec<Waypoint>,
@@ -180,7 +194,9 @@ pub fn shortcut(
     term: &Termination,
     budget: WorkBudget,
     path_budget: Option<f64>,
+    stats: &mut SmoothStats,
 ) -> Vec<Waypoint> {
+    let began = Instant::now();
     let mut w = path;
     // Some(the piece's whole-path bound, 0 without a budget) when the piece is accepted
     // (`guess`: a piece the checker guesses refused is not checked)
@@ -272,6 +288,8 @@ pub fn shortcut(
     // reduction misses: one corner at a neck where the reduction leaves two); at most one
     // check per waypoint, so outside the budget (a path left with dozens of waypoints would
     // cost more in blends than the reduction)
+    let reducing = Instant::now();
+    stats.shortcut_seconds += (reducing - began).as_secs_f64();
     let mut k = 1;
     while k + 1 < w.len() && !term.expired() {
         let joined = judge(&w[k - 1], &w[k + 1]).filter(|&r| {
@@ -286,6 +304,7 @@ pub fn shortcut(
             k += 1;
         }
     }
+    stats.reduction_seconds += reducing.elapsed().as_secs_f64();
     if timed {
         w
     } else {
@@ -629,9 +648,28 @@ fn assemble(
 /// the stop whose refusal lowers `u` most is refused (the corner stays sharp), until the
 /// pieces keep it. `timed = true` (moving obstacles): times stay attached to the points, and a stop
 /// whose eased parts break the limit is refused. Returns `None` when a straight part is
-/// rejected (or, at a path without corners, any piece).
+/// rejected (or, at a path without corners, any piece). Its time is added to
+/// `stats.blend_seconds`.
 #[allow(clippy::too_many_arguments)]
 pub fn blend(
+    w: &[Waypoint],
+    workspace: (&[f64], &[f64]),
+    limits: Limits,
+    timed: bool,
+    checker: &dyn MotionChecker,
+    counter: &CheckCounter,
+    stats: &mut SmoothStats,
+    term: &Termination,
+) -> Option<Vec<Piece>> {
+    let began = Instant::now();
+    let out = blend_corners(w, workspace, limits, timed, checker, counter, stats, term);
+    stats.blend_seconds += began.elapsed().as_secs_f64();
+    out
+}
+
+/// [`blend`] without its timing.
+#[allow(clippy::too_many_arguments)]
+fn blend_corners(
     w: &[Waypoint],
     workspace: (&[f64], &[f64]),
     limits: Limits,
@@ -1063,7 +1101,7 @@ mod tests {
             let b = budget(&counter, &checker);
             let mut rng = ChaCha8Rng::seed_from_u64(3);
             let out =
-                shortcut(path.clone(), (0.0, 1.0), true, None, &checker, &counter, &mut rng, &Termination::never(), b, None);
+                shortcut(path.clone(), (0.0, 1.0), true, None, &checker, &counter, &mut rng, &Termination::never(), b, None, &mut SmoothStats::default());
             (out, counter.totals().0)
         };
         let (_, none) = run(&|c, k| WorkBudget::until(c.work(k)));
