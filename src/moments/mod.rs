@@ -431,3 +431,5 @@ fn check_hankel(m: &[BigRational]) -> Result<(), MomentError> {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod oracle_tests;

@@ -16,6 +16,8 @@ mod parse;
 mod ring;
 mod taylor;
 mod univariate;
+#[cfg(test)]
+mod oracle_tests;
 
 pub use affine::{affine_subst, square_minus_scaled};
 pub use expect::mean_and_second_moment;
