@@ -228,3 +228,79 @@ fn grazing_segments_certified_safe_pass_the_independent_check() {
     println!("{grazing} grazing segments certified and checked");
     assert!(grazing >= 20, "too few grazing segments were found ({grazing})");
 }
+
+#[allow(dead_code)]
+#[path = "../../benches/common/mod.rs"]
+mod growth;
+
+/// Long segments among many disks as the planners' checker judges them (issue 21, session
+/// 37; docs/design.md §5.10): a long piece is split into parts in time, each with its own
+/// proven box, and only the obstacles whose covers meet a part's box are decided. From random
+/// points in random directions, the longest accepted segment is found by bisection on its
+/// length (it ends grazing some obstacle's contour and passes others on the way); it, and
+/// its first half, must pass the independent oracle. Candidates that left out a part's
+/// obstacles (say, only the first part's kept) accept segments through disks, and this
+/// test fails.
+#[test]
+fn long_segments_the_planners_checker_accepts_among_many_disks_pass_the_oracle() {
+    use riskplan::certify::scene::SceneCertifier;
+    use riskplan::plan::MotionChecker;
+    let n = 128;
+    let s = std::sync::Arc::new(Scene::from_json(&growth::disks_scene(n, 3)).unwrap());
+    let kernel = riskplan::SceneKernel::from(s.clone());
+    let deltas = vec![s.risk.clone(); n];
+    let _ = kernel.index(&deltas, &|| false);
+    let checker = SceneCertifier::with_deltas(&kernel, deltas, Method::Exact);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(37);
+    let (lo, hi) = (&s.workspace.lower, &s.workspace.upper);
+    let side = hi[0] - lo[0];
+    let (h0, h1) = s.horizon;
+    let mut checked = 0;
+    let mut longest = 0.0f64;
+    for _ in 0..common::size("LONG_SEGMENTS", 12, 40) {
+        let a: Vec<f64> = (0..2).map(|i| rng.random_range(lo[i]..hi[i])).collect();
+        let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+        let dir = [phi.cos(), phi.sin()];
+        // the longest length that stays in the workspace
+        let room = (0..2)
+            .map(|i| {
+                if dir[i] > 0.0 {
+                    (hi[i] - a[i]) / dir[i]
+                } else if dir[i] < 0.0 {
+                    (lo[i] - a[i]) / dir[i]
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .fold(f64::INFINITY, f64::min);
+        let seg = |len: f64| {
+            let b: Vec<f64> = (0..2).map(|i| (a[i] + dir[i] * len).clamp(lo[i], hi[i])).collect();
+            Piece::segment(&a, &b, h0, h1)
+        };
+        let accepted = |len: f64| checker.check(&seg(len)) == riskplan::plan::Motion::Accepted;
+        if !accepted(0.0) || room < 1e-3 * side {
+            continue;
+        }
+        let (mut good, mut bad) = (0.0, room);
+        if accepted(room) {
+            good = room;
+        } else {
+            for _ in 0..24 {
+                let mid = 0.5 * (good + bad);
+                if accepted(mid) {
+                    good = mid;
+                } else {
+                    bad = mid;
+                }
+            }
+        }
+        for len in [good, 0.5 * good] {
+            oracle::check_piece(&s, &seg(len), &s.risk, oracle::times_per_piece())
+                .unwrap_or_else(|e| panic!("accepted segment of length {len} from {a:?}: {e}"));
+            checked += 1;
+        }
+        longest = longest.max(good);
+    }
+    println!("{checked} accepted segments checked, longest {longest:.1} of a side {side:.1}");
+    assert!(checked >= 8 && longest > 0.1 * side, "{checked} checked, longest {longest}");
+}
