@@ -229,10 +229,6 @@ fn grazing_segments_certified_safe_pass_the_independent_check() {
     assert!(grazing >= 20, "too few grazing segments were found ({grazing})");
 }
 
-#[allow(dead_code)]
-#[path = "../../benches/common/mod.rs"]
-mod growth;
-
 /// Long segments among many disks as the planners' checker judges them (issue 21, session
 /// 37; docs/design.md §5.10): a long piece is split into parts in time, each with its own
 /// proven box, and only the obstacles whose covers meet a part's box are decided. From random
@@ -246,7 +242,7 @@ fn long_segments_the_planners_checker_accepts_among_many_disks_pass_the_oracle()
     use riskplan::certify::scene::SceneCertifier;
     use riskplan::plan::MotionChecker;
     let n = 128;
-    let s = std::sync::Arc::new(Scene::from_json(&growth::disks_scene(n, 3)).unwrap());
+    let s = std::sync::Arc::new(Scene::from_json(&common::growth::disks_scene(n, 3)).unwrap());
     let kernel = riskplan::SceneKernel::from(s.clone());
     let deltas = vec![s.risk.clone(); n];
     let _ = kernel.index(&deltas, &|| false);

@@ -6,10 +6,8 @@
 //! (covers misses). The plans are the same either way. A SIGTERM during a warm-up ends the
 //! server promptly. Loopback only.
 
+use crate::common::growth;
 use crate::common::server::{free_port, serve, sigterm_and_wait};
-#[allow(dead_code)]
-#[path = "../../benches/common/mod.rs"]
-mod growth;
 use riskplan::service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
 use riskplan::service::Client;
 use std::io::{Read, Write};

@@ -1,6 +1,11 @@
 //! Shared helpers of the integration tests.
 #![allow(dead_code)]
 
+/// The benches' scene families (`disks_scene`: the growth family of issue 10), shared with
+/// the tests that need a crowded scene.
+#[allow(dead_code)]
+#[path = "../../../benches/common/mod.rs"]
+pub mod growth;
 pub mod oracle;
 #[cfg(all(feature = "service", feature = "cli"))]
 pub mod server;
