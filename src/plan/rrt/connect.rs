@@ -101,14 +101,11 @@ fn steer(from: &[f64], to: &[f64], step: f64) -> Vec<f64> {
 }
 
 /// Post-processing (candidate paths and shortcuts; not the corner blends, which the C¹
-/// output needs) may spend the checking work of the search for the first path
-/// ([`MotionChecker::work`], docs/design.md §6.8) divided by this: half as much again. Issue
-/// 21, measured on 512 disks: twice the search's work, floored at 2000, made the whole plan
-/// 15–20× its first path for a path 1.3 % shorter than the search's work gives; half the
-/// search's work gave paths 0.15 % longer on average over 32 seeds (session 38) and the
-/// steady whole plan about 10 % faster. (Scenes of up to a few hundred obstacles
-/// post-process at [`SMOOTH_MIN_WORK`], which this does not change.)
-pub const SMOOTH_WORK_DIVISOR: u64 = 2;
+/// output needs) may spend this many times the checking work of the search for the first
+/// path ([`MotionChecker::work`], docs/design.md §6.8): as much again (issue 21: on 512
+/// disks twice the search's work, floored at 2000, made the whole plan 15–20× its first
+/// path for a path 1.3 % shorter than this budget gives).
+pub const SMOOTH_WORK_FACTOR: u64 = 1;
 
 /// ... and at least this much: on small scenes the search decides a few dozen obstacles in
 /// all, and this lets the shortcuts reach their usual length (issue 21, measured: with 250
@@ -255,12 +252,12 @@ impl Planner for ConnectRrt {
             }
         }
         // the time to the first certified path, and the work of its search: post-processing
-        // may spend a share of that work (at least SMOOTH_MIN_WORK), deterministically
+        // may spend a multiple of that work (at least SMOOTH_MIN_WORK), deterministically
         let first = t_start.elapsed();
         let work_now = counter.work(checker);
         let search_work = work_now.saturating_sub(work_start);
         let work_budget =
-            WorkBudget::until(work_now.saturating_add((search_work / SMOOTH_WORK_DIVISOR).max(SMOOTH_MIN_WORK)));
+            WorkBudget::until(work_now.saturating_add(search_work.saturating_mul(SMOOTH_WORK_FACTOR).max(SMOOTH_MIN_WORK)));
         let mut trajectory = None;
         let mut reason = None;
         if let Some(points) = found {
