@@ -2,8 +2,7 @@
 #![allow(dead_code)]
 
 /// The benches' scene families (`disks_scene`: the growth family of issue 10), shared with
-/// the tests that need a crowded scene.
-#[allow(dead_code)]
+/// the tests that need a crowded scene (the module's `dead_code` allowance covers it).
 #[path = "../../../benches/common/mod.rs"]
 pub mod growth;
 pub mod oracle;
