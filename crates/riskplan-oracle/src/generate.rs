@@ -51,6 +51,11 @@ pub const PLACEMENT_TRIES: usize = 60;
 /// How many standard deviations of an uncertain size or offset the bounding radius
 /// allows for.
 pub const BOUND_SIGMAS: f64 = 3.0;
+/// The tightened level Δ·TIGHT_FACTOR at which the oracle's clearance search judges cells
+/// ([`crate::oracle`]); a pedestrian's bounding radius reaches at least its Cantelli radius
+/// at that level ([`pedestrian_cantelli_radius`]), so that what the search keeps clear of
+/// lies inside the bound.
+pub const TIGHT_FACTOR: f64 = 0.5;
 /// Most parameters of one obstacle other than a pedestrian (the generator makes the
 /// uncertain quantities past it constant).
 pub const MAX_PARAMS: usize = 3;
@@ -974,7 +979,7 @@ fn build_obstacle(
             // the centre error's sd per axis at the horizon's end (the largest)
             let s_end = (sp * sp + sv * sv * len * len).sqrt();
             let r_max = s * (1.0 + if uncertain { BOUND_SIGMAS * rel } else { 0.0 });
-            let tight = p.delta * super::oracle::TIGHT_FACTOR;
+            let tight = p.delta * TIGHT_FACTOR;
             let bound = pedestrian_cantelli_radius(r_max, s_end, dim, tight)
                 .max(r_max + BOUND_SIGMAS * s_end * (dim as f64).sqrt());
             (Shape::Pedestrian { radius, pos, vel, t_ref: t0 }, bound, s)

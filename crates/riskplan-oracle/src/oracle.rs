@@ -51,8 +51,9 @@ use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap, VecDeque};
 use thiserror::Error;
 
-/// The tightened level of the clearance search is Δ·TIGHT_FACTOR.
-pub const TIGHT_FACTOR: f64 = 0.5;
+/// The tightened level of the clearance search is Δ·TIGHT_FACTOR (defined beside the
+/// generator, which sizes a pedestrian's bounding sphere at that level).
+pub use super::generate::TIGHT_FACTOR;
 /// The relaxed level of the disconnection check is min(Δ·RELAX_FACTOR, [`RELAX_CAP`]).
 pub const RELAX_FACTOR: f64 = 1.5;
 /// The relaxed level stays below 1 (at Δ = 1 every point with E[P] < 0 is "safe").
