@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The quick tier, for the edit–test loop (a few minutes warm on 2 cores), with no
 # transport linked: formatting, clippy over the core (library, its unit tests, the
-# integration binary) without the service and CLI features, the library's unit and
+# integration binary) without the service and CLI features, the API docs, the library's unit and
 # property tests and the integration binary at quick sizes — no zenoh, tokio or
 # plotters — and the Python client's tests that need no server. Not run here: the
 # service, the CLI, the Python tests against the server, the full-size differential
@@ -16,6 +16,8 @@ echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy (the core: library, unit tests, integration binary; no transport)"
 cargo clippy "${CORE[@]}" --lib --tests -- -D warnings
+echo "== the API docs (rustdoc: no broken, ambiguous or private intra-doc links; no transport)"
+RUSTDOCFLAGS="-D warnings" cargo doc "${CORE[@]}" --workspace --no-deps
 echo "== library unit/property tests and the integration binary (quick sizes, no transport)"
 cargo test "${CORE[@]}" --lib --test integration
 echo "== Python client tests that need no server"

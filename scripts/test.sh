@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The full tier (what CI runs): formatting, clippy once over the workspace (riskplan,
-# crates/riskplan-oracle, crates/riskplan-testkit), a build of the math core alone (no
+# crates/riskplan-oracle, crates/riskplan-testkit), its API docs without warnings, a build of the math core alone (no
 # zenoh, tokio, clap or plotters), every Rust test of the workspace once at full sizes,
 # then the Python client's tests against the real server binary built by that same test
 # run. Run from anywhere; needs scripts/setup-debian.sh once.
@@ -13,6 +13,8 @@ echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy (the workspace, all targets, all features)"
 cargo clippy --workspace --all-targets --all-features -- -D warnings
+echo "== the API docs (rustdoc: no broken, ambiguous or private intra-doc links)"
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --all-features
 echo "== the shipped build (default features: internal modules private, no test-support)"
 cargo check --lib --bins
 echo "== the math core builds alone (no service, no CLI)"

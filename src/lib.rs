@@ -21,10 +21,10 @@
 //! What a user of the library needs is re-exported here, flat: a [`Scene`] (from its
 //! JSON, scene format v1) and its [`Trajectory`]; a [`PlanRequest`] naming a
 //! [`PlannerKind`], a [`RiskLevel`] and a [`RiskMode`], run to a [`PlanOutcome`] (or a
-//! typed [`PlanError`]); [`verify`] with its [`VerifyReport`] and the Monte Carlo
+//! typed [`PlanError`]); [`verify()`] with its [`VerifyReport`] and the Monte Carlo
 //! [`audit_trajectory`]; a [`SceneKernel`] to share what checkers cache across plans and
 //! verifications of one scene. The Zenoh service and its Rust client are [`service`]
-//! (feature `service`), the command line [`cli`] (feature `cli`).
+//! (feature `service`), the command line `cli` (feature `cli`).
 //!
 //! ```
 //! use riskplan::{verify, Method, PlanRequest, PlannerKind, RiskLevel, Scene, SceneKernel};

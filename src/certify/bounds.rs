@@ -283,7 +283,7 @@ impl<'a> PieceBounds<'a> {
 
     /// With the enclosures of −E\[P\] and of Cantelli's g₁ on the piece that the caller's
     /// fast path computed (`(−E[P], g₁)` coefficients; the same polynomials
-    /// [`PieceBounds::mu`] and [`PieceBounds::g1`] would restrict again).
+    /// `PieceBounds::mu` and `PieceBounds::g1` would restrict again).
     pub fn with_cantelli_restrictions(self, restricted: Option<(Vec<Interval>, Vec<Interval>)>) -> Self {
         if let Some((neg_mean, g1)) = restricted {
             let _ = self.mu.set(UPoly::new(neg_mean.into_iter().map(|v| -v).collect()));

@@ -28,7 +28,7 @@ use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 
 /// Capacity of an [`FPoly`]: the Bernstein checker's stack-buffer degree plus one.
-/// A restriction of higher degree is not compiled ([`Compiled::restrict`] returns
+/// A restriction of higher degree is not compiled ([`CompiledContour::restrict`] returns
 /// `None`) and the caller falls back to the general path.
 pub const CAPACITY: usize = MAX_DEGREE + 1;
 
@@ -525,8 +525,8 @@ fn enclosed_e(c: &Compiled, sub: &Substitution) -> Option<UPoly<Interval>> {
 
 /// The exact sign of `c0 + c1·t − l` (a straight coordinate's value at `t` against a
 /// bound), by error-free transformations: `c1·t = p + e` exactly by a fused multiply-add
-/// (when `p` is zero from a zero factor or at least [`FMA_FLOOR`]), `c0 − l` by
-/// [`two_sum`], and the four terms summed into a non-overlapping expansion (Shewchuk's
+/// (when `p` is zero from a zero factor or at least `FMA_FLOOR`), `c0 − l` by
+/// `two_sum`, and the four terms summed into a non-overlapping expansion (Shewchuk's
 /// grow-expansion), whose sign is its largest component's. `None` when a value is not
 /// finite or too large for the sums to be exact (the caller decides in rationals then).
 pub fn straight_value_sign(c0: f64, c1: f64, t: f64, l: f64) -> Option<std::cmp::Ordering> {
@@ -669,7 +669,7 @@ fn scale_exact(v: f64, inv: f64) -> Option<f64> {
 /// exactly by a fused multiply-add, `c0 + p = s + e2` and `s − c = s2 + e3` by TwoSum,
 /// then `y0 = s2 + (e1 + e2 + e3)`: three roundings of terms whose sizes add up to
 /// about `|y0|`); for curved pieces, and for straight ones whose product `c1·t0` is too
-/// small for the FMA to be error-free ([`FMA_FLOOR`]), exactly in rationals, then
+/// small for the FMA to be error-free (`FMA_FLOOR`), exactly in rationals, then
 /// rounded once ([`round_for_model`]). Every rounded value is normal or exact; the
 /// scaling by `2^(−e)` is checked exact. `None` when that cannot be had.
 #[derive(Clone, Debug)]

@@ -358,7 +358,7 @@ pub(super) fn build_higher(c: &RiskContour) -> HigherMoments {
     build_higher_of(c, &c.poly, &c.mean)
 }
 
-/// [`build_higher`] for P and E\[P\] given in other coordinates of (x, t) (the parameters
+/// `build_higher` for P and E\[P\] given in other coordinates of (x, t) (the parameters
 /// untouched): the central moments of the same obstacle, in those coordinates (the
 /// compiled fast path's centred frame, docs/design.md §5.13). Z = P − E\[P\] is formed
 /// exactly before it is enclosed: its terms free of parameters cancel to nothing, where

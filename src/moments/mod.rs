@@ -307,7 +307,7 @@ impl Distribution {
         Ok(m)
     }
 
-    /// The mean E[w] (exact).
+    /// The mean E\[w\] (exact).
     pub fn mean(&self) -> Result<BigRational, MomentError> {
         match self {
             Distribution::Moments { raw } if raw.is_empty() => Err(MomentError::TooFewMoments { needed: 1, given: 0 }),

@@ -144,7 +144,7 @@ pub enum ParamFile {
         /// Probabilities.
         weights: Vec<Num>,
     },
-    /// `moments`: `raw` = E[w], E[w²], ...
+    /// `moments`: `raw` = E\[w\], E\[w²\], ...
     Moments {
         /// Raw moments from order 1.
         raw: Vec<Num>,

@@ -25,7 +25,7 @@ pub fn svec_side(len: usize) -> Option<usize> {
 }
 
 /// Raw upper triangle (no scaling) of a square matrix, column-major: the layout of a
-/// [`GramBlock`]'s variables. Only the upper triangle of `m` is read.
+/// [`GramBlock`](super::GramBlock)'s variables. Only the upper triangle of `m` is read.
 pub fn pack_upper(m: &[Vec<f64>]) -> Vec<f64> {
     let n = m.len();
     let mut v = Vec::with_capacity(svec_len(n));

@@ -172,8 +172,8 @@ pub struct ObstacleWholePath {
 pub const MAX_WHOLE_PATH_PIECES: usize = 2_000;
 
 /// The whole-path bound of `pieces` against every obstacle of the kernel's scene
-/// (docs/design.md §5.14): [`trajectory_path_risk`] per obstacle, summed (Boole).
-/// Asks `stop` between steps.
+/// (docs/design.md §5.14): [`crate::certify::path_risk::trajectory_path_risk`] per
+/// obstacle, summed (Boole). Asks `stop` between steps.
 pub fn whole_path_risk(
     kernel: &SceneKernel,
     pieces: &[crate::scene::Piece],
@@ -685,7 +685,7 @@ fn covered_report(o: &Obstacle, piece: PieceRef<'_>, bounds: BoundChoice) -> Obs
     }
 }
 
-/// The `method` of a constraint proven by the scene index's cover ([`covered_report`]).
+/// The `method` of a constraint proven by the scene index's cover (`covered_report`).
 pub const COVER_METHOD: &str = "cover";
 
 /// A pedestrian over one piece by its Gaussian tail bound, exactly (docs/design.md

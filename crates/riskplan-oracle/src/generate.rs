@@ -465,8 +465,8 @@ fn disk(r: f64, u: &[f64], z: &[f64]) -> f64 {
 /// The radius around a pedestrian's nominal centre outside which it is safe at level
 /// `delta` by Cantelli's inequality (paper, eq. 10), for radius `r` taken as fixed and
 /// an isotropic Gaussian centre error of sd `s` per axis in `dim` dimensions: with
-/// ρ = |u|, E[P] = r² − ρ² − dim·s² and Var[P] = 4ρ²s² + 2·dim·s⁴, the point is safe
-/// when E[P] < 0 and E[P]² ≥ k²·Var[P], k² = (1 − Δ)/Δ: ρ² at least the larger root of
+/// ρ = |u|, E\[P\] = r² − ρ² − dim·s² and Var\[P\] = 4ρ²s² + 2·dim·s⁴, the point is safe
+/// when E\[P\] < 0 and E\[P\]² ≥ k²·Var\[P\], k² = (1 − Δ)/Δ: ρ² at least the larger root of
 /// (ρ² + a)² − k²(4s²ρ² + 2·dim·s⁴), a = dim·s² − r².
 pub fn pedestrian_cantelli_radius(r: f64, s: f64, dim: usize, delta: f64) -> f64 {
     let n = dim as f64;

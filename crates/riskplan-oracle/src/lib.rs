@@ -1,7 +1,7 @@
 //! # riskplan-oracle
 //!
 //! The robustness suite of riskplan without riskplan: a seeded scene generator
-//! ([`generate`]), an independent feasibility oracle ([`oracle`], with its own
+//! ([`generate()`]), an independent feasibility oracle ([`oracle`], with its own
 //! quadrature in [`quadrature`]). The runner that plans, audits and certifies each scene
 //! and summarises the results is `riskplan_testkit::runner`, and the bench is the
 //! testkit's `robustness` binary

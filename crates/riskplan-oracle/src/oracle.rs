@@ -2,14 +2,14 @@
 //! path), infeasible (with a typed reason) or ambiguous, using none of riskplan's
 //! moment, polynomial, contour, certification or verification code.
 //!
-//! **Point safety.** At a point (x, t), E[P] and E[P²] of each obstacle are computed by
+//! **Point safety.** At a point (x, t), E\[P\] and E\[P²\] of each obstacle are computed by
 //! Gauss quadrature ([`super::quadrature`], 3 nodes per parameter, tensor product over
 //! an obstacle's independent parameters, exact since P has degree ≤ 2 in each
 //! parameter) of P evaluated from the generator's structure ([`ObstacleSpec::eval`]);
 //! a pedestrian's Gaussian position and velocity errors through its centre error, one
 //! Gaussian per axis at each time ([`ObstacleMoments`]).
 //! The point is safe at level Δ when, for every obstacle, it lies in the paper's
-//! Cantelli contour: E[P] < 0 and E[P]² − (1−Δ)·E[P²] > 0 ([`cantelli_safe`]), and it
+//! Cantelli contour: E\[P\] < 0 and E\[P\]² − (1−Δ)·E\[P²\] > 0 ([`cantelli_safe`]), and it
 //! lies in the workspace box.
 //!
 //! **Static scenes** (no obstacle moves): a grid of cells over the workspace, with the
@@ -56,7 +56,7 @@ use thiserror::Error;
 pub use super::generate::TIGHT_FACTOR;
 /// The relaxed level of the disconnection check is min(Δ·RELAX_FACTOR, [`RELAX_CAP`]).
 pub const RELAX_FACTOR: f64 = 1.5;
-/// The relaxed level stays below 1 (at Δ = 1 every point with E[P] < 0 is "safe").
+/// The relaxed level stays below 1 (at Δ = 1 every point with E\[P\] < 0 is "safe").
 pub const RELAX_CAP: f64 = 0.99;
 /// Cells on the longest workspace side, static 2-D scenes (min, max).
 pub const STATIC_CELLS_2D: (usize, usize) = (64, 128);
@@ -191,7 +191,7 @@ pub struct OracleReport {
     pub judgement: Judgement,
     /// The grid.
     pub grid: GridInfo,
-    /// Point classifications made (each: E[P], E[P²] of every obstacle).
+    /// Point classifications made (each: E\[P\], E\[P²\] of every obstacle).
     pub evaluations: usize,
 }
 
@@ -212,19 +212,19 @@ pub enum OracleError {
 }
 
 /// The Cantelli contour condition of one obstacle at level `delta` (paper, eqs. 10–12):
-/// E[P] < 0 and E[P]² − (1−Δ)·E[P²] > 0.
+/// E\[P\] < 0 and E\[P\]² − (1−Δ)·E\[P²\] > 0.
 pub fn cantelli_safe(ep: f64, ep2: f64, delta: f64) -> bool {
     ep < 0.0 && ep * ep - (1.0 - delta) * ep2 > 0.0
 }
 
-/// E[P] and E[P²] of one obstacle at points, by tensor-product quadrature.
+/// E\[P\] and E\[P²\] of one obstacle at points, by tensor-product quadrature.
 ///
 /// A pedestrian ([`Shape::Pedestrian`]) whose position and velocity errors are each
 /// `base + scale·ω` of its own normal parameter ω is integrated through its centre error
 /// instead: per axis z_d(t) = p_d + v_d·(t − t_ref) is normal (a sum of independent
 /// normals) with mean m_p + m_v·(t − t_ref) and variance s_p² + s_v²·(t − t_ref)², and the
 /// axes are independent, so a 3-node Gauss–Hermite rule per axis (exact to degree 5; P
-/// has degree 2 in z) gives E[P] and E[P²] exactly with 3^dim nodes instead of the
+/// has degree 2 in z) gives E\[P\] and E\[P²\] exactly with 3^dim nodes instead of the
 /// 3^(2·dim) of the tensor product over the 2·dim errors. The other parameters (an
 /// uncertain radius) keep their tensor-product rule. [`ObstacleMoments::tensor`] builds
 /// the plain tensor product for every obstacle (the cross-check of the shortcut).
@@ -320,7 +320,7 @@ impl ObstacleMoments {
         self.nodes.len() * self.centre_error.as_ref().map_or(1, |c| c.combos.len())
     }
 
-    /// (E[P], E[P²]) at (x, t).
+    /// (E\[P\], E\[P²\]) at (x, t).
     pub fn at(&self, x: &[f64], t: f64) -> (f64, f64) {
         let (mut m1, mut m2) = (0.0, 0.0);
         match &self.centre_error {

@@ -2,7 +2,7 @@
 //! each distribution family (never from `riskplan::moments`).
 //!
 //! A rule with `n` nodes integrates polynomials of degree ≤ 2n − 1 exactly. The oracle
-//! needs E[P] and E[P²] with P of degree ≤ 2 in each parameter, so P² has degree ≤ 4:
+//! needs E\[P\] and E\[P²\] with P of degree ≤ 2 in each parameter, so P² has degree ≤ 4:
 //! [`NODES`] = 3 nodes (exact to degree 5) suffice. The rule of a family is built for a
 //! *standardised* variable z (mean 0, variance 1, or a fixed standard form) by the
 //! Stieltjes procedure on its moments and the Golub–Welsch eigen-decomposition of the
@@ -35,7 +35,7 @@ pub const NODES: usize = 3;
 /// below any real variance of a standardised variable (~1).
 pub const DEGENERATE_NORM: f64 = 1e-10;
 
-/// A quadrature rule: Σ weights[i]·f(nodes[i]) ≈ E[f(w)].
+/// A quadrature rule: Σ weights\[i\]·f(nodes\[i\]) ≈ E\[f(w)\].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rule {
     /// Nodes (values of the parameter).
@@ -76,7 +76,7 @@ pub enum QuadratureError {
     /// A moments list too short for the rule asked for.
     #[error("{listed} raw moments listed, {needed} needed")]
     NotEnoughMoments {
-        /// How many are listed (E[w] … E[w^listed]).
+        /// How many are listed (E\[w\] … E\[w^listed\]).
         listed: usize,
         /// How many the rule needs.
         needed: usize,

@@ -26,7 +26,7 @@ use std::time::{Duration, Instant};
 /// relative to the constraint's value scale on the piece, is at least this.
 pub const RELATIVE_MARGIN: f64 = 1e-4;
 /// Times per piece at which the value scale of a constraint is sampled: the scale is
-/// the largest |value| of the constraint (−E[P], or E[P]² − (1−Δ)E[P²]) at these
+/// the largest |value| of the constraint (−E\[P\], or E\[P\]² − (1−Δ)E\[P²\]) at these
 /// evenly spaced times, computed by the oracle's quadrature (a proxy for the size of
 /// the restricted polynomial's coefficients).
 pub const SCALE_SAMPLES: usize = 9;

@@ -52,7 +52,7 @@ pub const CELLS_MAX_DEPTH: u32 = 6;
 /// about (2.5/2)² ≈ 1.6, so no box of the parameters decided it and the bound was the mass
 /// of every box: 0.98 where the event is impossible (issue 21, session 27). Beyond depth 6
 /// a part is halved only as [`TIME_SPLIT_RATIO`] says, and at most
-/// [`CELLS_DEEP_SPLITS_PER_BOX`] times per box; 20 bounds the depth when the parameters'
+/// `CELLS_DEEP_SPLITS_PER_BOX` times per box; 20 bounds the depth when the parameters'
 /// boxes have no width to spread (point masses).
 pub const CELLS_DEEPEST_DEPTH: u32 = 20;
 
@@ -480,7 +480,7 @@ pub const SCREEN_DEPTH: u32 = 5;
 
 /// Enclosures of a trajectory's pieces, for the partition's screen ([`cells_path_risk_in`]),
 /// built once for all obstacles of a scene: per piece and per part of its time
-/// (2^[`SCREEN_DEPTH`] of them), each coordinate (time last) over the part, x_v(t(s)) for
+/// (2^`SCREEN_DEPTH` of them), each coordinate (time last) over the part, x_v(t(s)) for
 /// s in the part, by Horner in interval arithmetic; and a binary tree of hulls over
 /// consecutive pieces, so that an obstacle far from a stretch of the trajectory is
 /// dismissed for the whole stretch at one evaluation. In the scene's coordinates: each
@@ -595,7 +595,7 @@ pub struct Reach {
 impl Reach {
     /// The reach of the obstacle whose P is `folded` in `frame`, in `region` (a box of
     /// the scene's coordinates, time last; `None` for a region of another dimension or
-    /// not finite). Each side by bisection ([`REACH_STEPS`]); interval evaluation is
+    /// not finite). Each side by bisection (`REACH_STEPS`); interval evaluation is
     /// inclusion-monotone, so a slab inside a clear one is clear.
     pub fn new(folded: &FoldedPoly, frame: &Frame, region: &[(f64, f64)]) -> Option<Reach> {
         let n = frame.center.len();

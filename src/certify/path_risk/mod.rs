@@ -15,7 +15,7 @@
 //! Each bⱼ is a polynomial in ω alone, formed exactly (the piece's floats and the times are
 //! exact dyadic rationals). Boole over the coefficients adds up nearly identical events, so
 //! the maximum of the coefficients (pooled over a dyadic refinement of the control net) is
-//! bounded instead by one polynomial envelope U(ω) ≥ maxⱼ bⱼ(ω) ([`envelopes`]), and
+//! bounded instead by one polynomial envelope U(ω) ≥ maxⱼ bⱼ(ω) (`envelopes`), and
 //! P(U ≥ 0) from its moments
 //! ([`crate::contour::bounds::exceedance_bound`]: Cantelli, the shifted Markov bounds of
 //! orders 4–8, zero risk from a bounded support). Groups of the piece's time are summed

@@ -176,7 +176,7 @@ impl SceneCertifier {
     }
 
     /// The index, built (without interruption) if [`MotionChecker::prepare`] did not:
-    /// on a scene of fewer than [`LAZY_MAX_OBSTACLES`] obstacles with the covers built on
+    /// on a scene of fewer than `LAZY_MAX_OBSTACLES` obstacles with the covers built on
     /// demand (docs/design.md §5.10).
     pub fn index(&self) -> &Arc<SceneIndex> {
         self.index_until(&|| false)

@@ -286,7 +286,7 @@ impl SceneIndex {
 
     /// Builds every obstacle's covers not built yet, asking `stop` between obstacles (and
     /// between a moving obstacle's slabs); once all are built and the scene has
-    /// [`GRID_MIN_OBSTACLES`] or more, the grid over them. `scene` must be the scene the
+    /// `GRID_MIN_OBSTACLES` or more, the grid over them. `scene` must be the scene the
     /// index was made for.
     pub fn ensure_all(&self, scene: &Scene, stop: &dyn Fn() -> bool) {
         if self.claim_all(scene, stop, &std::sync::atomic::AtomicUsize::new(0)) {
@@ -295,7 +295,7 @@ impl SceneIndex {
     }
 
     /// [`Self::ensure_all`] on up to `threads` threads (the calling one and scoped ones,
-    /// at most [`MAX_COVER_BUILD_THREADS`]) when at least [`PARALLEL_COVERS_MIN`] obstacles
+    /// at most `MAX_COVER_BUILD_THREADS`) when at least `PARALLEL_COVERS_MIN` obstacles
     /// lack covers: each thread claims the next obstacle not claimed (an atomic counter)
     /// and builds its covers, the same covers as one thread builds (each depends only on
     /// its obstacle). Every thread asks `stop` between obstacles (and a moving obstacle's
@@ -377,7 +377,7 @@ impl SceneIndex {
     }
 
     /// Counts one direct check of obstacle `i` (a candidate without covers); `true` when
-    /// its covers are due ([`LAZY_COVER_CHECKS`]).
+    /// its covers are due (`LAZY_COVER_CHECKS`).
     pub fn note_direct_check(&self, i: usize) -> bool {
         // (the counter wraps after 2³² checks of an obstacle never covered: harmless)
         self.checks[i].fetch_add(1, std::sync::atomic::Ordering::Relaxed) == LAZY_COVER_CHECKS - 1
@@ -556,7 +556,7 @@ impl SceneIndex {
 
     /// How many equal parts in time a piece whose bounding box is `bbox` is split into
     /// for the cover tests: about its longest side over the covers' typical extent, at
-    /// most [`MAX_SUB_PIECES`] (1: not split).
+    /// most `MAX_SUB_PIECES` (1: not split).
     pub fn sub_pieces_for(&self, bbox: &[(f64, f64)]) -> usize {
         let side = bbox.iter().map(|(lo, hi)| hi - lo).fold(0.0, f64::max);
         match self.typical_extent() {

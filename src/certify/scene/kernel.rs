@@ -266,7 +266,7 @@ impl SceneKernel {
     /// Per obstacle, the frame its whole-path partition is written in (docs/design.md
     /// §5.14): the scene's frame ([`super::scene_frame`]) moved to the obstacle when the
     /// box tests found a centre for it (scenes of more than a few obstacles, static ones)
-    /// — the centre refined ([`super::index::refine_center`]), the scales kept. Far from
+    /// — the centre refined (`super::index::refine_center`), the scales kept. Far from
     /// its frame's centre P's expanded terms cancel, and their interval ranges over the
     /// parameters' boxes, which cannot cancel, dwarf P (on 512 disks the screen kept six
     /// obstacles in ten, and the partition beside the path never converged). Built once
@@ -369,7 +369,7 @@ impl SceneKernel {
 
     /// The index at `deltas` with every obstacle's covers built (asking `stop` between
     /// obstacles; what a stop leaves unbuilt is built by a later call). Kept among the
-    /// last [`INDEXES_PER_SCENE`].
+    /// last `INDEXES_PER_SCENE`.
     pub fn index(&self, deltas: &[RiskLevel], stop: &dyn Fn() -> bool) -> Arc<SceneIndex> {
         let index = self.lazy_index(deltas);
         index.ensure_all(&self.inner.scene, stop);
@@ -386,7 +386,7 @@ impl SceneKernel {
 
     /// The index at `deltas`, made if absent with no covers built but those taken over
     /// from the previous revision (its obstacles' covers are built on demand:
-    /// [`SceneIndex::ensure`]). Kept among the last [`INDEXES_PER_SCENE`].
+    /// [`SceneIndex::ensure`]). Kept among the last `INDEXES_PER_SCENE`.
     pub fn lazy_index(&self, deltas: &[RiskLevel]) -> Arc<SceneIndex> {
         if let Some(i) = self.peek_index(deltas) {
             return i;

@@ -1,6 +1,6 @@
 //! Certification against a whole scene (docs/design.md §5.9–§5.12): one obstacle's
 //! constraints over one piece decided by a [`Method`] ([`decide`]), the workspace box
-//! ([`workspace`]), the scene certifier that planners consult as their motion checker
+//! (`workspace`), the scene certifier that planners consult as their motion checker
 //! ([`SceneCertifier`]) with its fast path ([`SceneIndex`]: proven covers and a grid),
 //! the verify path's own frame for the final check ([`FramedContours`]), and the
 //! [`SceneKernel`] that holds what all of them cache for one scene.

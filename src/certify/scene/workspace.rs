@@ -89,7 +89,7 @@ pub(crate) fn straight_coordinate_inside(c: &[f64], t0: f64, t1: f64, l: f64, u:
 /// A sufficient test that a piece stays in the box `[lower, upper]`, in floating point:
 /// its proven bounding box `bbox` ([`super::piece_bbox`]) lies inside, coordinate by
 /// coordinate, or the coordinate is straight and its end values are inside exactly
-/// ([`straight_coordinate_inside`]: an edge that ends on a wall is inside). `false`
+/// (`straight_coordinate_inside`: an edge that ends on a wall is inside). `false`
 /// proves nothing: [`check_workspace`] decides then.
 pub fn inside_by_box(lower: &[f64], upper: &[f64], piece: PieceRef<'_>, bbox: Option<&[(f64, f64)]>) -> bool {
     bbox.is_some_and(|b| {
@@ -108,7 +108,7 @@ pub fn inside_by_box(lower: &[f64], upper: &[f64], piece: PieceRef<'_>, bbox: Op
 ///
 /// The composition is [`UPoly::compose_affine`]'s Horner scheme — the same interval
 /// operations in the same order, so the same enclosure bit for bit — carried out in
-/// fixed buffers ([`coordinate_hull`]): the final check forms a hull for every piece,
+/// fixed buffers (`coordinate_hull`): the final check forms a hull for every piece,
 /// for each of its parts and for its grid lookup, and the general code allocated at every
 /// step (about 8 % of a crowded scene's final check by instruction count, 4 % saved:
 /// docs/benchmarks.md, session 35).

@@ -40,7 +40,7 @@ pub const LADDER: [usize; 6] = [1, 2, 4, 8, 16, 32];
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LayeredParams {
-    /// Number of pieces `s` (equal time intervals); `None`: the [`LADDER`].
+    /// Number of pieces `s` (equal time intervals); `None`: the `LADDER`.
     pub pieces: Option<usize>,
     /// Steering step `rlim` (the paper's, which also caps speed at `rlim·s/(tf − t0)`);
     /// `None`: no cap but `max_speed`.

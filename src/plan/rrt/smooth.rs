@@ -51,7 +51,7 @@ pub const BLEND_HALVINGS: usize = 6;
 pub const BLEND_SHARE: f64 = 1.0 / 3.0;
 
 /// A straight part between two blends that the checker refuses whole is tried again as
-/// 2, 4 and 8 equal pieces ([`straight_part`]): measured on example-d1 (seed 3), a part
+/// 2, 4 and 8 equal pieces (`straight_part`): measured on example-d1 (seed 3), a part
 /// starting beside a corner in a contour's Cantelli ring was refused whole and proven in
 /// two halves. Three levels bound the extra checks of a part that is truly refused at 14.
 pub const STRAIGHT_SPLITS: u32 = 3;

@@ -54,7 +54,7 @@
 //! 1. the given (or scene's) pieces, seed and iterations, `η` = [`TvSosParams::eta`],
 //!    started from the default RRT-SOS path; on a static scene, if that fails, one piece
 //!    per segment of the unsmoothed RRT-SOS path started at its corners
-//!    ([`TvSos::corner_path`]); then the perturbed straight line;
+//!    (`TvSos::corner_path`); then the perturbed straight line;
 //! 2. the same with a fresh seed, then twice the iterations;
 //! 3. one more piece at a time up to [`TvSosParams::max_pieces`], with the tighter
 //!    [`TvSosParams::eta_retry`].
