@@ -79,3 +79,28 @@ pub fn run() -> i32 {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::CommandFactory;
+
+    /// Every command's `--help` as a user reads it: clap prints doc comments as written, so
+    /// the escapes that rustdoc needs (`E\[P\]`) would show; and every command explains itself.
+    #[test]
+    fn every_help_text_reads_without_rustdoc_escapes() {
+        fn walk(cmd: &mut clap::Command, path: &str, seen: &mut usize) {
+            let help = cmd.render_long_help().to_string();
+            assert!(!help.contains("\\[") && !help.contains("\\]"), "`{path} --help` shows a rustdoc escape:\n{help}");
+            assert!(cmd.get_about().is_some(), "`{path}` has no description");
+            *seen += 1;
+            for sub in cmd.get_subcommands_mut() {
+                let name = format!("{path} {}", sub.get_name());
+                walk(sub, &name, seen);
+            }
+        }
+        let mut seen = 0;
+        walk(&mut Cli::command(), "riskplan", &mut seen);
+        assert!(seen >= 5, "only {seen} commands walked");
+    }
+}

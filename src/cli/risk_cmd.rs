@@ -8,14 +8,16 @@ use num_rational::BigRational;
 use serde_json::json;
 use std::path::PathBuf;
 
-/// Risk at a point: E\[P\], E\[P²\] and every risk bound per obstacle, with the best (JSON on stdout).
+/// Risk at a point: E[P], E[P²] and every risk bound per obstacle, with the best (JSON on stdout).
 ///
-/// Cantelli's bound (E\[P²\] − E\[P\]²)/E\[P²\] where E\[P\] ≤ 0, and 1 where E\[P\] > 0 (Theorem 1),
+/// Cantelli's bound (E[P²] − E[P]²)/E[P²] where E[P] ≤ 0, and 1 where E[P] > 0 (Theorem 1),
 /// exactly (rational arithmetic, printed as a float and an exact fraction); zero risk where
 /// P < 0 for every parameter in a bounded support (proven); the shifted moment bounds of
 /// orders 4, 6 and 8 at their best shift (proven upper ends). `bound` is the smallest allowed
 /// by --bound (docs/design.md §3.7–§3.10). With --mc, the Monte Carlo estimate of the true probability
 /// Prob(P(x, ω, t) ≥ 0) is added with its exact Clopper–Pearson interval.
+// clap prints the doc comment as written: E[P] is math here, not an intra-doc link
+#[allow(rustdoc::broken_intra_doc_links)]
 #[derive(Args, Debug)]
 pub struct RiskArgs {
     /// Scene file (format v1).

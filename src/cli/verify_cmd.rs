@@ -9,7 +9,7 @@ use std::path::PathBuf;
 /// Certify a trajectory against a scene, continuously in time (eq. 15).
 ///
 /// For every piece and obstacle, both constraints of the Δ-risk contour
-/// (−E\[P\] > 0 and E\[P\]² − (1−Δ)E\[P²\] > 0) are composed with the piece on its own time
+/// (−E[P] > 0 and E[P]² − (1−Δ)E[P²] > 0) are composed with the piece on its own time
 /// interval and proven positive — by the exact checker (Bernstein subdivision in
 /// outward-rounded interval arithmetic with an exact rational fallback), by an SOS
 /// certificate (Clarabel, re-checked rigorously), or by both. Unsafe verdicts come
@@ -17,6 +17,8 @@ use std::path::PathBuf;
 /// trajectory file is format v1 (or the output of `riskplan plan`).
 ///
 /// Exit status: 0 every piece certified safe, 1 some piece not, 2 bad input.
+// clap prints the doc comment as written: E[P] is math here, not an intra-doc link
+#[allow(rustdoc::broken_intra_doc_links)]
 #[derive(Args, Debug)]
 pub struct VerifyArgs {
     /// Scene file (format v1).
