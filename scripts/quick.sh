@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The quick tier, for the edit–test loop (a few minutes warm on 2 cores), with no
 # transport linked: formatting, clippy over the core (library, its unit tests, the
-# integration binary) without the service and CLI features, the API docs, the library's unit and
-# property tests and the integration binary at quick sizes — no zenoh, tokio or
-# plotters — and the Python client's tests that need no server. Not run here: the
+# integration binary) without the service and CLI features, the API docs, the
+# library's unit and property tests and the integration binary at quick sizes — no
+# zenoh, tokio or plotters — and the Python client's tests that need no server. Not run here: the
 # service, the CLI, the Python tests against the server, the full-size differential
 # runs (scripts/test.sh, what CI runs).
 set -euo pipefail

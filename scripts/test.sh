@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The full tier (what CI runs): formatting, clippy once over the workspace (riskplan,
-# crates/riskplan-oracle, crates/riskplan-testkit), its API docs without warnings, a build of the math core alone (no
-# zenoh, tokio, clap or plotters), every Rust test of the workspace once at full sizes,
-# then the Python client's tests against the real server binary built by that same test
-# run. Run from anywhere; needs scripts/setup-debian.sh once.
+# crates/riskplan-oracle, crates/riskplan-testkit), its API docs without warnings, a
+# build of the math core alone (no zenoh, tokio, clap or plotters), every Rust test of
+# the workspace once at full sizes, then the Python client's tests against the real
+# server binary built by that same test run. Run from anywhere; needs scripts/setup-debian.sh once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1}   # small SDPs are faster single-threaded

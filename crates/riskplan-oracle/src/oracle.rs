@@ -51,8 +51,8 @@ use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap, VecDeque};
 use thiserror::Error;
 
-/// The tightened level of the clearance search is Δ·TIGHT_FACTOR (defined beside the
-/// generator, which sizes a pedestrian's bounding sphere at that level).
+// the clearance search's tightened level Δ·TIGHT_FACTOR: documented where the generator
+// defines it (it sizes pedestrians' bounds by it)
 pub use super::generate::TIGHT_FACTOR;
 /// The relaxed level of the disconnection check is min(Δ·RELAX_FACTOR, [`RELAX_CAP`]).
 pub const RELAX_FACTOR: f64 = 1.5;
