@@ -125,6 +125,10 @@ pub struct PreparedPlan {
     pub risk_mode: RiskMode,
     /// The bounds the checker and the final check may use.
     pub bounds: BoundChoice,
+    /// The planner's kind and options (to build it again should its output need a re-plan).
+    pub kind: PlannerKind,
+    /// The options the planner was built with.
+    pub options: PlanOptions,
 }
 
 /// The share of Δ by which the whole-path bound a plan reports may exceed, summed over the
@@ -327,7 +331,25 @@ impl PreparedPlan {
                     }
                     break;
                 }
-                Some(FinalFailure::Invalid(why)) => why,
+                Some(FinalFailure::Invalid(why)) => {
+                    fc.invalid += 1;
+                    if fc.invalid == 1 && self.options.kinematics.smooth {
+                        // the planner's output is not a valid trajectory (a bug of its
+                        // post-processing): plan again without smoothing, whose straight
+                        // pieces between certified waypoints always are
+                        self.options.kinematics.smooth = false;
+                        let setup = Setup {
+                            problem: &self.problem,
+                            kernel: &self.kernel,
+                            deltas: &self.deltas,
+                            options: &self.options,
+                        };
+                        self.planner = self.kind.build(&setup)?.planner;
+                        out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
+                        continue;
+                    }
+                    why
+                }
                 Some(FinalFailure::NotProven(piece)) => {
                     fc.disagreements += 1;
                     if fc.disagreements == 1 {
@@ -451,10 +473,22 @@ impl PlanRequest {
         };
         let deltas = allocate(&kernel, &problem, self.risk_mode, bound)?;
         let setup = Setup { problem: &problem, kernel: &kernel, deltas: &deltas, options: &options };
-        let Built { planner, checker } = self.planner_kind()?.build(&setup)?;
+        let kind = self.planner_kind()?;
+        let Built { planner, checker } = kind.build(&setup)?;
         let allocation = matches!(self.risk_mode, RiskMode::JointUniform | RiskMode::JointWeighted)
             .then(|| problem.scene.obstacles.iter().zip(&deltas).map(|(o, d)| (o.id.clone(), d.to_f64())).collect());
-        Ok(PreparedPlan { problem, planner, checker, allocation, deltas, kernel, bounds: bound, risk_mode: self.risk_mode })
+        Ok(PreparedPlan {
+            problem,
+            planner,
+            checker,
+            allocation,
+            deltas,
+            kernel,
+            bounds: bound,
+            risk_mode: self.risk_mode,
+            kind,
+            options,
+        })
     }
 
     /// The bounds this request uses on `scene`: its own, else the scene's

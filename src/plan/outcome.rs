@@ -113,6 +113,11 @@ pub struct FinalCheckStats {
     /// is an internal error (a bug), logged; the plan was made again without the fast
     /// path.
     pub disagreements: u32,
+    /// Trajectories the planner returned that the final check found not valid (pieces that
+    /// do not meet, outside the horizon, …): each is an internal error (a bug of the
+    /// planner's post-processing), logged; the plan was made again without smoothing.
+    #[serde(default)]
+    pub invalid: u32,
     /// Wall time of the whole-path bound (`stats.whole_path_risk`), seconds (included in
     /// `seconds`); 0 when none was computed.
     #[serde(default)]

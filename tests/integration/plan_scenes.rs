@@ -128,3 +128,74 @@ fn conformance_of_every_planner_kind() {
         }
     }
 }
+
+/// The seeds on which the default plan of illustrative-3 ended in an internal error (a
+/// shortcut left a piece of 5·10⁻⁷ s beside the goal, whose eased corner made the
+/// trajectory jump by 0.25): each plans, certified, with nothing for the final check to
+/// refuse, and the pieces pass the trajectory format's own test.
+#[test]
+fn seeds_that_split_the_end_piece_plan_without_an_internal_error() {
+    let scene = Arc::new(common::scene("illustrative-3"));
+    for seed in [161, 192, 201] {
+        let request = PlanRequest { seed, ..Default::default() };
+        let (problem, out) = request.run(scene.clone(), None).expect("a plan");
+        let fc = out.stats.final_check.clone().expect("a final check");
+        assert!(out.certified, "seed {seed}: {:?}", out.reason);
+        assert_eq!((fc.invalid, fc.disagreements), (0, 0), "seed {seed}");
+        let t = out.trajectory.expect("a trajectory");
+        let diag = riskplan::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
+        t.validate(scene.dim, problem.horizon, diag).expect("a valid trajectory");
+        oracle::check_trajectory(&scene, &t.pieces, &scene.risk).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+    }
+}
+
+/// A planner whose certified answer is not a valid trajectory (its two pieces do not meet):
+/// what a bug of post-processing returns.
+struct Jumping;
+
+impl Planner for Jumping {
+    fn name(&self) -> &'static str {
+        "jumping"
+    }
+    fn solve(
+        &mut self,
+        p: &Problem,
+        _checker: &dyn riskplan::plan::MotionChecker,
+        _term: &riskplan::plan::Termination,
+    ) -> Result<riskplan::plan::PlanOutcome, riskplan::plan::PlanError> {
+        let (t0, t1) = p.horizon;
+        let tm = 0.5 * (t0 + t1);
+        let mid: Vec<f64> = p.start.iter().zip(&p.goal).map(|(a, b)| 0.5 * (a + b)).collect();
+        let off: Vec<f64> = mid.iter().map(|m| m + 0.25).collect();
+        let pieces = vec![
+            riskplan::scene::Piece::segment(&p.start, &mid, t0, tm),
+            riskplan::scene::Piece::segment(&off, &p.goal, tm, t1),
+        ];
+        Ok(riskplan::plan::PlanOutcome {
+            status: riskplan::plan::PlanStatus::Exact,
+            trajectory: Some(Trajectory::new(pieces)),
+            certified: true,
+            stats: Default::default(),
+            tree: Vec::new(),
+            reason: None,
+        })
+    }
+}
+
+/// The final check's refusal of an invalid trajectory is answered by a re-plan (without
+/// smoothing, whose straight pieces between certified waypoints always meet), not by an
+/// internal error: the plan is certified, counted once in `final_check.invalid`.
+#[test]
+fn an_invalid_trajectory_is_planned_again_without_smoothing() {
+    let scene = Arc::new(common::scene("illustrative-3"));
+    let request = PlanRequest { seed: 3, ..Default::default() };
+    let mut prepared = request.prepare(scene.clone()).expect("prepared");
+    prepared.planner = Box::new(Jumping);
+    let out = prepared.solve(&request.termination(None)).expect("an outcome");
+    assert!(out.certified, "{:?}", out.reason);
+    assert_eq!(out.stats.final_check.as_ref().map(|f| f.invalid), Some(1));
+    let t = out.trajectory.expect("a trajectory");
+    assert!(t.pieces.iter().all(|pc| pc.degree() <= 1), "the re-plan is not smoothed");
+    let diag = riskplan::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
+    t.validate(scene.dim, scene.horizon, diag).expect("a valid trajectory");
+}

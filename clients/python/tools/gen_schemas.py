@@ -487,6 +487,7 @@ MESSAGES = {
                             "seconds": {"type": "number", "minimum": 0, "description": "wall time of the final check(s), included in planning_time_s"},
                             "pieces": {"type": "integer", "minimum": 0},
                             "disagreements": {"type": "integer", "minimum": 0, "description": "trajectories the planner's fast edge check accepted and the final check rejected: each an internal error (a bug), logged; the plan was then made again without the fast path"},
+                            "invalid": {"type": "integer", "minimum": 0, "description": "trajectories the planner returned that the final check found not valid (pieces that do not meet, outside the horizon, ...): each an internal error (a bug of its post-processing), logged; the plan was then made again without smoothing"},
                             "whole_path_seconds": {"type": "number", "minimum": 0, "description": "wall time of the whole-path bound (stats.whole_path_risk), included in seconds"},
                             "verify_seconds": {"type": "number", "minimum": 0, "description": "wall time of the verify path alone, included in seconds; on crowded scenes the whole-path bound runs beside it, and seconds - verify_seconds is the wait for that bound"},
                         },

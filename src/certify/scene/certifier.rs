@@ -519,7 +519,16 @@ impl MotionChecker for SceneCertifier {
         if !self.fast {
             return;
         }
-        let _ = self.index_until(&|| term.expired());
+        let index = self.index_until(&|| term.expired());
+        // every cover before the first check, on small scenes too (where a check would
+        // otherwise build an obstacle's covers once it is checked often enough): the
+        // candidates of a check, and with them the checking work that budgets
+        // post-processing (docs/design.md §6.8), are then the same whether the scene is new
+        // here (a CLI plan) or its covers were built by earlier plans or the service's
+        // warm-up — same seed, same plan, through every front end
+        if self.build_covers {
+            index.ensure_all(&self.scene, &|| term.expired());
+        }
     }
 
     fn work(&self) -> Option<u64> {

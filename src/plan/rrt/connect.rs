@@ -117,12 +117,6 @@ pub const SMOOTH_WORK_FACTOR: u64 = 1;
 /// [`MotionChecker::likely_rejected`]: crate::motion::MotionChecker::likely_rejected
 pub const SMOOTH_MIN_WORK: u64 = 250;
 
-/// Each further candidate path may take this many times the first one's time.
-pub const CANDIDATE_TIME_FACTOR: u32 = 4;
-
-/// ... and at least this long.
-pub const MIN_CANDIDATE_TIME: std::time::Duration = std::time::Duration::from_millis(5);
-
 /// Fresh searches tried when the re-check of an unsmoothed path's timed pieces refuses
 /// one of them.
 pub const RAW_PATH_RETRIES: usize = 4;
@@ -280,16 +274,16 @@ impl Planner for ConnectRrt {
                     shortcut(path, p.horizon, false, None, checker, &counter, rng, term, work_budget, budget, sm)
                 };
                 let mut short = shorten(timed.clone(), &mut rng, &mut sm);
-                // more candidate paths (fresh trees) while the budget lasts, each within a few
-                // times the first's time: the shortest after shortcutting is kept (a tree may
-                // find a long way round)
+                // more candidate paths (fresh trees) while the work budget lasts: the shortest
+                // after shortcutting is kept (a tree may find a long way round). Bounded by
+                // work, not by time, so that the same seed gives the same plan however fast
+                // the machine or the front end (only the request's own deadline cuts it)
                 let over = || !work_budget.left(&counter, checker);
                 for _ in 1..self.params.candidates {
                     if direct || over() || term.should_stop() {
                         break;
                     }
-                    let sub = term.clone().earliest((first * CANDIDATE_TIME_FACTOR).max(MIN_CANDIDATE_TIME));
-                    let Ok(other) = self.grow(p, step, &ok, &mut rng, &sub, &mut stats, &mut tree_edges, &over) else {
+                    let Ok(other) = self.grow(p, step, &ok, &mut rng, term, &mut stats, &mut tree_edges, &over) else {
                         break;
                     };
                     let t = time_at_constant_speed(&other, p.horizon);

@@ -177,6 +177,37 @@ pub(crate) fn path_risk_sum(checker: &dyn MotionChecker, pieces: &[Piece], stop:
     pieces.iter().fold(0.0, |acc, pc| add_up(acc, checker.path_risk(pc, stop).unwrap_or(1.0)))
 }
 
+/// A random shortcut's end closer to an end of its piece than this share of the piece is
+/// moved onto that waypoint (docs/design.md §6.8): without it a shortcut could leave a
+/// piece of any shortness beside a waypoint — a segment of 10⁻⁶ of the path, timed over a
+/// horizon of length 1, lasts 5·10⁻⁷ — whose corner no blend can take and whose eased parts
+/// have coefficients of order 10¹⁸ in absolute time. The shortcut gives up at most this
+/// share of one piece's length.
+pub const SHORTCUT_SNAP_SHARE: f64 = 1e-3;
+
+/// `s ∈ [0, 1)` moved to 0 or 1 within [`SHORTCUT_SNAP_SHARE`] of either.
+fn snapped(s: f64) -> f64 {
+    if s < SHORTCUT_SNAP_SHARE {
+        0.0
+    } else if s > 1.0 - SHORTCUT_SNAP_SHARE {
+        1.0
+    } else {
+        s
+    }
+}
+
+/// The point at share `s` of piece `i` of the path (its waypoints themselves, exactly, at
+/// `s = 0` and `s = 1`).
+fn point_on(w: &[Waypoint], i: usize, s: f64) -> Waypoint {
+    if s == 0.0 {
+        w[i].clone()
+    } else if s == 1.0 {
+        w[i + 1].clone()
+    } else {
+        (w[i].0 + (w[i + 1].0 - w[i].0) * s, lerp(&w[i].1, &w[i + 1].1, s))
+    }
+}
+
 /// Shortcuts a path. `timed = false` (static obstacles): the path is geometric, pieces
 /// are judged over the whole horizon and the result is re-timed at constant speed.
 /// `timed = true` (moving obstacles): a shortcut between the points at times `ta < tb`
@@ -242,9 +273,8 @@ pub fn shortcut(
         if i > j {
             std::mem::swap(&mut i, &mut j);
         }
-        let (si, sj): (f64, f64) = (rng.random_range(0.0..1.0), rng.random_range(0.0..1.0));
-        let a: Waypoint = (w[i].0 + (w[i + 1].0 - w[i].0) * si, lerp(&w[i].1, &w[i + 1].1, si));
-        let b: Waypoint = (w[j].0 + (w[j + 1].0 - w[j].0) * sj, lerp(&w[j].1, &w[j + 1].1, sj));
+        let (si, sj) = (snapped(rng.random_range(0.0..1.0)), snapped(rng.random_range(0.0..1.0)));
+        let (a, b) = (point_on(&w, i, si), point_on(&w, j, sj));
         let old = dist(&a.1, &w[i + 1].1) + path_length(&w[i + 1..=j]) + dist(&w[j].1, &b.1);
         if dist(&a.1, &b.1) >= old * (1.0 - 1e-9) || a.0 >= b.0 {
             continue;
@@ -259,12 +289,18 @@ pub fn shortcut(
         // disks, session 28. Untimed, a sub-segment is retimed over the horizon, and an
         // obstacle whose P depends on t may differ there: the check decides it all the
         // same, the guess only ever spared work)
-        let Some(ria) = judge_with(&w[i], &a, false) else { continue };
-        let Some(rbj) = judge_with(&b, &w[j + 1], false) else { continue };
+        // (an end snapped onto its waypoint has no piece there to check)
+        let (a_new, b_new) = (dist(&w[i].1, &a.1) > 0.0, dist(&b.1, &w[j + 1].1) > 0.0);
+        let Some(ria) = (if a_new { judge_with(&w[i], &a, false) } else { Some(0.0) }) else { continue };
+        let Some(rbj) = (if b_new { judge_with(&b, &w[j + 1], false) } else { Some(0.0) }) else { continue };
         let mut next: Vec<Waypoint> = w[..=i].to_vec();
         let mut next_r: Vec<f64> = risks[..i].to_vec();
         let mut pending = ria;
-        for (p, r) in [(a, rab), (b, rbj)] {
+        for (p, r, new) in [(a, rab, true), (b, rbj, b_new)] {
+            if !new {
+                // b is w[j + 1]: the piece up to it is the pending one
+                continue;
+            }
             if dist(&p.1, &next[next.len() - 1].1) > 0.0 {
                 next.push(p);
                 next_r.push(pending);
@@ -316,10 +352,9 @@ pub fn shortcut(
 /// Whether a blend's ends, evaluated from its expanded coefficients, are within `tol` of the
 /// straight parts it joins (`x − vin·δ` and `x + vout·δ`).
 fn blend_meets(piece: &Piece, x: &[f64], vin: &[f64], vout: &[f64], delta: f64, tol: f64) -> bool {
-    let (a, b) = (piece.at(piece.t0), piece.at(piece.t1));
-    x.iter().enumerate().all(|(d, &xc)| {
-        (a[d] - (xc - vin[d] * delta)).abs() <= tol && (b[d] - (xc + vout[d] * delta)).abs() <= tol
-    })
+    let a: Vec<f64> = x.iter().zip(vin).map(|(xc, v)| xc - v * delta).collect();
+    let b: Vec<f64> = x.iter().zip(vout).map(|(xc, v)| xc + v * delta).collect();
+    meets(piece, &a, &b, tol)
 }
 
 /// The parabolic blend on `[tc − δ, tc + δ]` at corner `x` between velocities `vin`
@@ -560,6 +595,22 @@ fn straight_part(
     None
 }
 
+/// The share of [`CONTINUITY_TOLERANCE`] (times the workspace diagonal, at least 1: the
+/// trajectory format's own test) within which every piece smoothing makes must meet the
+/// straight parts it joins, evaluated from its expanded coefficients. Pieces are
+/// polynomials in absolute time, so a short blend or eased part far from `t = 0` has
+/// coefficients of order `(t/h)^degree` and its ends round away from the points they were
+/// built through; a tenth of the format's tolerance leaves the rest of it to the straight
+/// parts' own rounding.
+pub const JOIN_SHARE: f64 = 0.1;
+
+/// Whether `piece`, evaluated from its coefficients, starts within `tol` of `a` and ends
+/// within `tol` of `b`, in every coordinate.
+fn meets(piece: &Piece, a: &[f64], b: &[f64], tol: f64) -> bool {
+    let (pa, pb) = (piece.at(piece.t0), piece.at(piece.t1));
+    pa.iter().zip(a).chain(pb.iter().zip(b)).all(|(x, y)| (x - y).abs() <= tol)
+}
+
 /// How an assembly ended.
 enum Assembly {
     /// Every piece accepted.
@@ -581,6 +632,7 @@ fn assemble(
     accept: &dyn Fn(&Piece) -> bool,
 ) -> Assembly {
     let n = w.len();
+    let join_tol = JOIN_SHARE * CONTINUITY_TOLERANCE * dist(workspace.0, workspace.1).max(1.0);
     let mut out = Vec::with_capacity(2 * n);
     for i in 0..n - 1 {
         let (d0, d1) = (timing.delta[i], timing.delta[i + 1]);
@@ -597,7 +649,7 @@ fn assemble(
                 (if stop0 { 0.0 } else { 1.0 }, if stop1 { 0.0 } else { 1.0 }, 1.0)
             };
             let piece = eased_segment(&a, &b, ta, tb, s0, s1);
-            if !accept(&piece) {
+            if !meets(&piece, &a, &b, join_tol) || !accept(&piece) {
                 return Assembly::EaseRejected(
                     [(stop0, i), (stop1, i + 1)].iter().filter(|e| e.0).map(|e| e.1).collect(),
                 );
@@ -611,14 +663,9 @@ fn assemble(
         }
         if i + 1 < n - 1 && timing.delta[i + 1] > 0.0 {
             let piece = if timing.retimed {
-                let pc = blend_piece(
-                    timing.times[i + 1],
-                    &w[i + 1].1,
-                    &timing.vel[i],
-                    &timing.vel[i + 1],
-                    timing.delta[i + 1],
-                );
-                if !accept(&pc) {
+                let (x, vin, vout, d) = (&w[i + 1].1, &timing.vel[i], &timing.vel[i + 1], timing.delta[i + 1]);
+                let pc = blend_piece(timing.times[i + 1], x, vin, vout, d);
+                if !blend_meets(&pc, x, vin, vout, d, join_tol) || !accept(&pc) {
                     return Assembly::Rejected;
                 }
                 pc
@@ -631,8 +678,10 @@ fn assemble(
             out.push(piece);
         }
     }
-    // the pieces must be exactly contiguous in time (a blend ends where the next starts)
-    if out.windows(2).any(|p| p[1].t0 != p[0].t1) {
+    // the pieces must be exactly contiguous in time (a blend ends where the next starts),
+    // and meet in space as the trajectory format demands
+    let gap = |p: &[Piece]| p[0].at(p[0].t1).iter().zip(p[1].at(p[1].t0)).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    if out.windows(2).any(|p| p[1].t0 != p[0].t1 || gap(p) > join_tol / JOIN_SHARE) {
         return Assembly::Rejected;
     }
     Assembly::Done(out)
@@ -715,7 +764,7 @@ fn blend_corners(
             // the expanded coefficients grow like 1/δ: a blend so narrow that its ends no
             // longer meet the straight parts within a tenth of the continuity tolerance
             // (rounding) is not tried, and narrower ones would be worse
-            if !blend_meets(&piece, &w[i].1, &vin, &vout, delta, 0.1 * CONTINUITY_TOLERANCE * diag.max(1.0)) {
+            if !blend_meets(&piece, &w[i].1, &vin, &vout, delta, JOIN_SHARE * CONTINUITY_TOLERANCE * diag.max(1.0)) {
                 break;
             }
             if accept(&piece) {
@@ -919,6 +968,38 @@ mod tests {
             assert!(within_speed(pc, v), "a piece breaks max_speed {v} (sampled peak speed {peak}): {pc:?}");
         }
         assert!(peak <= v, "sampled peak speed {peak} > max_speed {v}");
+    }
+
+    /// A corner beside a piece of 5·10⁻⁷ of the horizon at t ≈ 1 (what a shortcut ending
+    /// just short of a waypoint used to leave, illustrative-3 seed 161): no blend fits, so
+    /// the corner would be stopped at, but the eased part on that piece has coefficients of
+    /// order 10¹³ in absolute time and its ends round 10⁻³ away from the segment's. It is
+    /// refused and the corner stays sharp: the pieces meet as the trajectory format demands
+    /// (`smooth` validates them). Without the join check the eased part was kept and the
+    /// trajectory jumped at its start.
+    #[test]
+    fn an_eased_part_too_short_to_meet_its_segment_is_refused() {
+        let (h, l) = (5e-7, 1e-6);
+        let w = vec![(0.0, vec![0.0, 0.0]), (0.5, vec![1.0, 0.0]), (1.0 - h, vec![1.0, 1.0 - l]), (1.0, vec![1.0 + l, 1.0 - l])];
+        // no blend is accepted near the end: the last corner must be stopped at or left sharp
+        let checker = Accepts(|pc: &Piece| !(pc.degree() == 2 && pc.t1 > 0.9));
+        let (pieces, stats) = smooth(&w, Limits::default(), false, &checker);
+        assert!(pieces.iter().all(|pc| pc.degree() <= 3), "{pieces:?}");
+        assert_eq!(stats.corners_stopped + stats.corners_sharp + stats.corners_blended, 2, "{stats:?}");
+        assert!(stats.corners_sharp >= 1, "the corner beside the short piece is left sharp: {stats:?}");
+    }
+
+    /// Shortcut ends near a waypoint are that waypoint, exactly (time and position).
+    #[test]
+    fn shortcut_ends_snap_onto_waypoints() {
+        assert_eq!(snapped(0.0), 0.0);
+        assert_eq!(snapped(SHORTCUT_SNAP_SHARE / 2.0), 0.0);
+        assert_eq!(snapped(1.0 - SHORTCUT_SNAP_SHARE / 2.0), 1.0);
+        assert_eq!(snapped(0.5), 0.5);
+        let w = vec![(0.1, vec![0.1, 0.7]), (0.3, vec![0.3, 0.9])];
+        assert_eq!(point_on(&w, 0, 1.0), w[1]);
+        assert_eq!(point_on(&w, 0, 0.0), w[0]);
+        assert_eq!(point_on(&w, 0, 0.5).1.len(), 2);
     }
 
     /// Issue 17, item 4: a corner whose blend is never certified is stopped at, and the
