@@ -88,6 +88,8 @@ internal! {
     verify;
     #[cfg(feature = "cli")]
     viz;
+    #[cfg(any(feature = "cli", feature = "proto"))]
+    names;
 }
 
 #[cfg(feature = "cli")]

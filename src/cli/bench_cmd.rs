@@ -46,7 +46,7 @@ pub struct BenchArgs {
     seeds: u64,
     /// Only these planners (comma-separated names: rrt-sos, rrt-sos-paper,
     /// mc-rrt, tv-sos, moment, moment-poly) [default: all].
-    #[arg(long, value_delimiter = ',', value_parser = super::util::planner_parser())]
+    #[arg(long, value_delimiter = ',', value_parser = super::util::whole_plan_planner_parser())]
     planners: Vec<PlannerKind>,
     /// Time limit per run, seconds [default: 60].
     #[arg(long)]
@@ -95,13 +95,11 @@ pub fn run(a: BenchArgs) -> Result<i32, CliError> {
     }
 }
 
+/// The commit the binary was built from (`build.rs`; "unknown" when it was built outside a
+/// git checkout), shortened to 12 hex digits: the bench's runs are of this binary,
+/// whatever directory it runs in.
 fn git_rev() -> String {
-    std::process::Command::new("git")
-        .args(["rev-parse", "--short", "HEAD"])
-        .output()
-        .ok()
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-        .unwrap_or_default()
+    env!("RISKPLAN_GIT_COMMIT").chars().take(12).collect()
 }
 
 fn run_paper(a: BenchArgs) -> Result<i32, CliError> {

@@ -168,6 +168,14 @@ fn read_json(p: &PathBuf) -> Result<serde_json::Value, CliError> {
     serde_json::from_str(&t).map_err(|e| CliError(format!("{}: {e}", p.display())))
 }
 
+/// A scene file to send: checked here first as `riskplan plan` would load it, so that
+/// its errors name the line and column in the file (the server sees the parsed value and
+/// can name only the field); then as the JSON value sent.
+fn read_scene_json(p: &PathBuf) -> Result<serde_json::Value, CliError> {
+    super::util::load_scene(p)?;
+    read_json(p)
+}
+
 fn show<T: serde::Serialize>(v: &T) -> Result<(), CliError> {
     write_json(v, true)
 }
@@ -207,14 +215,16 @@ fn err(e: ClientError) -> CliError {
 async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
     match cmd {
         ClientCommand::Put { scene, file } => {
-            client.put_scene(&scene, &read_json(&file)?).await.map_err(err)?;
+            client.put_scene(&scene, &read_scene_json(&file)?).await.map_err(err)?;
             let key = Route::Scene { name: scene };
             eprintln!("put {key} (not acknowledged; use `client apply` to wait for persistence)");
             Ok(0)
         }
         ClientCommand::Apply { scene, file, changes } => {
             let req = match (file, changes) {
-                (Some(f), None) => ApplyRequest { scene: Some(EmbeddedJson(read_json(&f)?)), ..Default::default() },
+                (Some(f), None) => {
+                    ApplyRequest { scene: Some(EmbeddedJson(read_scene_json(&f)?)), ..Default::default() }
+                }
                 (None, Some(c)) => {
                     let ch: Vec<Change> = serde_json::from_value(read_json(&c)?)
                         .map_err(|e| CliError(format!("{}: {e}", c.display())))?;

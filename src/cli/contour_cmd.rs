@@ -74,6 +74,9 @@ pub fn run(a: ContourArgs) -> Result<i32, CliError> {
     } else {
         a.time.iter().map(|t| exact_arg("--time", t).map(|q| rational_to_f64(&q))).collect::<Result<_, _>>()?
     };
+    for &t in &times {
+        super::util::time_in_horizon("--time", &scene, t)?;
+    }
     if a.grid < 8 || a.grid > 4000 || a.mc_grid < 8 || a.mc_grid > 1000 {
         return Err(CliError("--grid must be in 8..=4000 and --mc-grid in 8..=1000".into()));
     }

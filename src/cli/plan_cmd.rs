@@ -55,6 +55,13 @@ use std::time::Duration;
 /// and the final check proves the plan's; slower (example-d1: about 0.4 s instead of 0.04 s).
 /// Every certified plan reports its whole-path bound (stats.whole_path_risk).
 ///
+/// --start and --goal plan between other endpoints than the scene's. --planner receding
+/// plans one receding-horizon window from the robot's state (docs/design.md §6.9): from
+/// --position (default: the scene's start) with --velocity (default: at rest) at --t-now
+/// (default: the horizon's start) over --horizon time units (default: the scene's whole
+/// horizon), towards --goal (default: the scene's); a plan that does not reach the goal
+/// within the window ends where it got to ("progress").
+///
 /// Writes the trajectory (format v1 plus "planner", "certified", "stats") to --out or
 /// stdout and a one-line summary to stderr. Exit status: 0 plan found, 1 none found
 /// within the limits, 2 bad input.
@@ -66,6 +73,24 @@ pub struct PlanArgs {
     /// Planner.
     #[arg(long, default_value = "rrt-sos", value_parser = planner_parser())]
     planner: PlannerKind,
+    /// Start instead of the scene's: one coordinate per dimension.
+    #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "X")]
+    start: Option<Vec<f64>>,
+    /// Goal instead of the scene's: one coordinate per dimension.
+    #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "X")]
+    goal: Option<Vec<f64>>,
+    /// --planner receding: the current time (default: the scene's horizon start).
+    #[arg(long, allow_negative_numbers = true, value_name = "T")]
+    t_now: Option<f64>,
+    /// --planner receding: the robot's position at --t-now (default: --start, else the scene's start).
+    #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "X")]
+    position: Option<Vec<f64>>,
+    /// --planner receding: the robot's velocity at --t-now (default: at rest).
+    #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "V")]
+    velocity: Option<Vec<f64>>,
+    /// --planner receding: the window's length in time units (default: to the scene's horizon end).
+    #[arg(long, value_name = "H")]
+    horizon: Option<f64>,
     /// Run the improve step of rrt-sos-paper on a static scene: shortest path over all certified edges between tree vertices.
     #[arg(long)]
     improve: bool,
@@ -108,12 +133,81 @@ pub struct PlanArgs {
 }
 
 pub fn run(a: PlanArgs) -> Result<i32, CliError> {
+    // the outputs are checked before any work: a plan is not made to be lost
+    for (flag, path) in [("--out", &a.out), ("--figure", &a.figure)] {
+        if let Some(p) = path {
+            writable(flag, p)?;
+        }
+    }
     let scene = Arc::new(load_scene(&a.scene)?);
+    let point = |flag: &str, v: &Option<Vec<f64>>| -> Result<Option<Vec<f64>>, CliError> {
+        match v {
+            Some(x) if x.len() != scene.dim => Err(CliError(format!(
+                "{flag}: the scene is {}-D, so give {} coordinates, got {}",
+                scene.dim,
+                scene.dim,
+                x.len()
+            ))),
+            Some(x) if x.iter().any(|c| !c.is_finite()) => Err(CliError(format!("{flag}: coordinates must be finite"))),
+            other => Ok(other.clone()),
+        }
+    };
+    let (start, goal) = (point("--start", &a.start)?, point("--goal", &a.goal)?);
+    let (position, velocity) = (point("--position", &a.position)?, point("--velocity", &a.velocity)?);
+    let receding_flags = a.t_now.is_some() || position.is_some() || velocity.is_some() || a.horizon.is_some();
+    if receding_flags && a.planner != PlannerKind::Receding {
+        return Err(CliError(
+            "--t-now, --position, --velocity and --horizon describe a receding-horizon request: add --planner receding"
+                .into(),
+        ));
+    }
+    let scene_start = || {
+        scene
+            .start
+            .clone()
+            .ok_or_else(|| CliError(format!("{}: the scene has no start: give --start", a.scene.display())))
+    };
+    let scene_goal = || {
+        scene.goal.clone().ok_or_else(|| CliError(format!("{}: the scene has no goal: give --goal", a.scene.display())))
+    };
+    let (receding, endpoints) = if a.planner == PlannerKind::Receding {
+        let t_now = a.t_now.unwrap_or(scene.horizon.0);
+        let r = crate::app::RecedingRequest {
+            t_now,
+            position: match position.or(start) {
+                Some(p) => p,
+                None => scene_start()?,
+            },
+            velocity,
+            horizon: a.horizon.unwrap_or(scene.horizon.1 - t_now),
+            goal: match goal {
+                Some(g) => g,
+                None => scene_goal()?,
+            },
+            warm_start: None,
+        };
+        (Some(r), None)
+    } else {
+        let endpoints = match (start, goal) {
+            (None, None) => None,
+            (s, g) => Some((
+                match s {
+                    Some(s) => s,
+                    None => scene_start()?,
+                },
+                match g {
+                    Some(g) => g,
+                    None => scene_goal()?,
+                },
+            )),
+        };
+        (None, endpoints)
+    };
     let request = PlanRequest {
         planner: a.planner,
         certifier: a.certifier,
         delta: a.delta.as_deref().map(delta_arg).transpose()?,
-        endpoints: None,
+        endpoints,
         seed: a.seed,
         pieces: a.pieces,
         improve: a.improve,
@@ -123,7 +217,7 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
         smooth: !a.no_smooth,
         risk_mode: a.risk_mode,
         bound: a.bound,
-        receding: None,
+        receding,
     };
     let mut prepared = request.prepare(scene.clone()).map_err(|e| CliError(format!("{}: {e}", a.scene.display())))?;
     let term = request.termination(None);
@@ -161,6 +255,13 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
             a.planner
         );
     }
+    if let Some(n) = s.final_check.as_ref().map(|f| f.invalid).filter(|&n| n > 0) {
+        eprintln!(
+            "{}: internal error: the planner returned {n} trajectory(ies) that are not valid (a bug; planned again \
+             without smoothing; please report it with the scene and seed)",
+            a.planner
+        );
+    }
     if let Some(fig) = &a.figure {
         draw_figure(&scene, &problem, &outcome, !a.planner.certifies(), fig)?;
     }
@@ -183,6 +284,27 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
         None => print_out(&text)?,
     }
     Ok(0)
+}
+
+/// Refuses an output path whose directory does not exist (or is not a directory), before
+/// the work that would write it.
+pub(crate) fn writable(flag: &str, path: &std::path::Path) -> Result<(), CliError> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => std::path::Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(CliError(format!(
+            "{flag} {}: the directory {} does not exist: create it first (mkdir -p {})",
+            path.display(),
+            dir.display(),
+            dir.display()
+        )));
+    }
+    if path.is_dir() {
+        return Err(CliError(format!("{flag} {}: is a directory: name a file in it", path.display())));
+    }
+    Ok(())
 }
 
 fn draw_figure(

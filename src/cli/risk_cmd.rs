@@ -67,6 +67,15 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
     xt.push(t.clone());
     let delta = a.delta.as_deref().map(delta_arg).transpose()?;
     let xt_f: Vec<f64> = xt.iter().map(rational_to_f64).collect();
+    super::util::warn_outside_workspace("--point", &scene, &xt_f[..scene.dim]);
+    let (h0, h1) = scene.horizon;
+    if !(h0..=h1).contains(&xt_f[scene.dim]) {
+        eprintln!(
+            "warning: --time {} is outside the horizon [{h0}, {h1}] of scene '{}': the obstacles' polynomials are \
+             evaluated there all the same, but the scene does not describe them there",
+            xt_f[scene.dim], scene.name
+        );
+    }
     let mc = if a.mc > 0 {
         let model = scene.mc_model().map_err(|e| CliError(format!("--mc: {}: {e}", a.scene.display())))?;
         Some(model.point_risk(&xt_f, a.mc, a.seed, a.confidence))

@@ -131,9 +131,14 @@ pub fn run_router(a: RouterArgs) -> Result<i32, CliError> {
     Ok(0)
 }
 
+/// The log filter without `RISKPLAN_LOG`: riskplan at info, Zenoh's warnings — but not the
+/// orchestrator's about an endpoint it cannot listen on or connect to, which the server's
+/// own error says once, with what to do (its warning would say the same again).
+const DEFAULT_LOG_FILTER: &str = "info,zenoh=warn,zenoh::net::runtime::orchestrator=error";
+
 fn init_logging(json: bool) {
     let filter = tracing_subscriber::EnvFilter::try_from_env("RISKPLAN_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn"));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(DEFAULT_LOG_FILTER));
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))

@@ -13,8 +13,68 @@ pub struct CliError(pub String);
 
 /// Reads and validates a scene file; errors name the file, the field and the problem.
 pub fn load_scene(path: &Path) -> Result<Scene, CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CliError(format!("{}: cannot read: {e}", path.display())))?;
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        let hint = if e.kind() == std::io::ErrorKind::NotFound { missing_scene_hint(path) } else { String::new() };
+        CliError(format!("{}: cannot read: {e}{hint}", path.display()))
+    })?;
     Scene::from_json(&text).map_err(|e| CliError(format!("{}: {e}", path.display())))
+}
+
+/// A warning (on stderr) when `x` lies outside the scene's workspace: what is asked there is
+/// answered all the same (the bounds are polynomials), but no plan goes there.
+pub fn warn_outside_workspace(flag: &str, scene: &Scene, x: &[f64]) {
+    if !scene.workspace.contains(x) {
+        eprintln!(
+            "warning: {flag} {} is outside the workspace of scene '{}' ({}): answered all the same, but no plan goes there",
+            fmt_point(x),
+            scene.name,
+            workspace_text(scene)
+        );
+    }
+}
+
+/// The workspace as `[l1, u1] × [l2, u2] …`.
+pub fn workspace_text(scene: &Scene) -> String {
+    let w = &scene.workspace;
+    w.lower.iter().zip(&w.upper).map(|(l, u)| format!("[{l}, {u}]")).collect::<Vec<_>>().join(" × ")
+}
+
+/// `(x1, x2, …)`.
+pub fn fmt_point(x: &[f64]) -> String {
+    format!("({})", x.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", "))
+}
+
+/// Refuses a time outside the scene's horizon, where its obstacles are not described.
+pub fn time_in_horizon(flag: &str, scene: &Scene, t: f64) -> Result<(), CliError> {
+    let (h0, h1) = scene.horizon;
+    if (h0..=h1).contains(&t) {
+        return Ok(());
+    }
+    Err(CliError(format!(
+        "{flag} {t} is outside the horizon [{h0}, {h1}] of scene '{}': give a time in it",
+        scene.name
+    )))
+}
+
+/// The hint for a scene file that does not exist: the closest scene file (by its name
+/// without `.json`) in its directory or in `scenes/` — `--scene Illustrative-3` finds
+/// `scenes/illustrative-3.json` — else what `--scene` takes.
+fn missing_scene_hint(path: &Path) -> String {
+    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+    for d in [dir, Some(Path::new("scenes"))].into_iter().flatten() {
+        let Ok(entries) = std::fs::read_dir(d) else { continue };
+        let files: Vec<std::path::PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "json"))
+            .collect();
+        let stems: Vec<&str> = files.iter().filter_map(|p| p.file_stem().and_then(|s| s.to_str())).collect();
+        if let Some(c) = crate::names::closest(stem, stems.iter().copied()) {
+            return format!(": did you mean {}?", d.join(format!("{c}.json")).display());
+        }
+    }
+    ": --scene takes a scene file (e.g. scenes/illustrative-3.json; `riskplan client` commands take a scene's name)"
+        .into()
 }
 
 /// Parses a number given on the command line exactly (`0.5`, `1e-3`, `37/300`).
@@ -39,6 +99,14 @@ pub fn time_limit_arg(seconds: f64) -> Result<std::time::Duration, CliError> {
 pub fn planner_parser() -> impl clap::builder::TypedValueParser<Value = PlannerKind> {
     use clap::builder::TypedValueParser;
     clap::builder::PossibleValuesParser::new(PlannerKind::ALL.map(|k| k.as_str())).try_map(|s| s.parse::<PlannerKind>())
+}
+
+/// `bench --planners`: the planners of whole start-to-goal plans (every [`PlannerKind`]
+/// but `receding`, which plans one window from a robot's state).
+pub fn whole_plan_planner_parser() -> impl clap::builder::TypedValueParser<Value = PlannerKind> {
+    use clap::builder::TypedValueParser;
+    let names = PlannerKind::ALL.into_iter().filter(|k| *k != PlannerKind::Receding).map(|k| k.as_str());
+    clap::builder::PossibleValuesParser::new(names).try_map(|s| s.parse::<PlannerKind>())
 }
 
 /// `--method` / `--certifier`: exact, sos or both.

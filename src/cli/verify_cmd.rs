@@ -62,7 +62,16 @@ pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
     let scene = load_scene(&a.scene)?;
     let text = std::fs::read_to_string(&a.trajectory)
         .map_err(|e| CliError(format!("{}: cannot read: {e}", a.trajectory.display())))?;
-    let traj = Trajectory::from_json(&text).map_err(|e| CliError(format!("{}: {e}", a.trajectory.display())))?;
+    let file = crate::scene::TrajectoryFile::from_json(&text)
+        .map_err(|e| CliError(format!("{}: {e}", a.trajectory.display())))?;
+    if let Some(other) = file.scene.as_deref().filter(|n| *n != scene.name) {
+        eprintln!(
+            "warning: {} was planned on scene '{other}', and is verified here against scene '{}'",
+            a.trajectory.display(),
+            scene.name
+        );
+    }
+    let traj = Trajectory::new(file.pieces);
     let diag = crate::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
     traj.validate_up_to(scene.dim, scene.horizon, diag, crate::verify::MAX_VERIFY_PIECES)
         .map_err(|e| CliError(format!("{}: {e}", a.trajectory.display())))?;

@@ -110,6 +110,53 @@ pub struct TrajectoryFile {
     pub risk: Option<f64>,
 }
 
+impl TrajectoryFile {
+    /// Parses trajectory JSON (format v1, or `riskplan plan` output) with what a plan adds
+    /// (planner, scene, Δ, stats). A file of another riskplan format (a scene) is named
+    /// as such instead of by its first field a trajectory does not have.
+    pub fn from_json(text: &str) -> Result<TrajectoryFile, TrajectoryError> {
+        // the plain parse first (several times faster on large trajectories); only a
+        // failure is parsed again to name the field at fault
+        let f: TrajectoryFile = match serde_json::from_str(text) {
+            Ok(f) => f,
+            Err(_) => {
+                #[derive(Deserialize)]
+                struct Format {
+                    format: Option<String>,
+                }
+                if let Ok(Format { format: Some(other) }) = serde_json::from_str::<Format>(text) {
+                    if other != TRAJECTORY_FORMAT {
+                        return Err(wrong_format(&other));
+                    }
+                }
+                let de = &mut serde_json::Deserializer::from_str(text);
+                serde_path_to_error::deserialize::<_, TrajectoryFile>(de).map_err(|e| {
+                    let p = e.path().to_string();
+                    terr(if p == "." { "trajectory".to_string() } else { p }, e.into_inner().to_string())
+                })?
+            }
+        };
+        if f.format != TRAJECTORY_FORMAT {
+            return Err(wrong_format(&f.format));
+        }
+        Ok(f)
+    }
+}
+
+/// The error of a file whose `format` is not [`TRAJECTORY_FORMAT`].
+fn wrong_format(format: &str) -> TrajectoryError {
+    if format == crate::scene::SCENE_FORMAT {
+        return terr(
+            "format",
+            format!(
+                "this is a scene file (\"{format}\"), not a trajectory: give it as --scene; a trajectory \
+                 (\"{TRAJECTORY_FORMAT}\") is what `riskplan plan --out` writes"
+            ),
+        );
+    }
+    terr("format", format!("must be \"{TRAJECTORY_FORMAT}\", got \"{format}\""))
+}
+
 /// What is wrong with a trajectory.
 #[derive(Debug, Error, Clone, PartialEq)]
 #[error("{path}: {message}")]
@@ -127,21 +174,7 @@ fn terr(path: impl Into<String>, message: impl Into<String>) -> TrajectoryError 
 impl Trajectory {
     /// Parses trajectory JSON (format v1, or `riskplan plan` output).
     pub fn from_json(text: &str) -> Result<Trajectory, TrajectoryError> {
-        // the plain parse first (several times faster on large trajectories); only a
-        // failure is parsed again to name the field at fault
-        let f: TrajectoryFile = match serde_json::from_str(text) {
-            Ok(f) => f,
-            Err(_) => {
-                let de = &mut serde_json::Deserializer::from_str(text);
-                serde_path_to_error::deserialize::<_, TrajectoryFile>(de).map_err(|e| {
-                    let p = e.path().to_string();
-                    terr(if p == "." { "trajectory".to_string() } else { p }, e.into_inner().to_string())
-                })?
-            }
-        };
-        if f.format != TRAJECTORY_FORMAT {
-            return Err(terr("format", format!("must be \"{TRAJECTORY_FORMAT}\", got \"{}\"", f.format)));
-        }
+        let f = TrajectoryFile::from_json(text)?;
         Ok(Trajectory { format: f.format, pieces: f.pieces })
     }
 

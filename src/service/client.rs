@@ -14,11 +14,22 @@ use zenoh::query::{ConsolidationMode, QueryTarget};
 /// What can go wrong with a request.
 #[derive(Debug, Error)]
 pub enum ClientError {
-    /// Zenoh could not connect or send.
+    /// No Zenoh session could be opened to the endpoint(s): nothing listens there.
+    #[error(
+        "cannot connect to {endpoint} ({detail}): is `riskplan serve` running there? Start one with \
+         `riskplan serve --listen {endpoint}`, or give the endpoint of a running one with --endpoint"
+    )]
+    Connect {
+        /// The endpoint(s) tried.
+        endpoint: String,
+        /// What Zenoh said, without its source location.
+        detail: String,
+    },
+    /// Zenoh could not send.
     #[error("zenoh: {0}")]
     Zenoh(String),
-    /// The server answered with a typed error.
-    #[error("{}: {}{}", .0.code, .0.message, .0.field.as_ref().map(|f| format!(" (field {f})")).unwrap_or_default())]
+    /// The server answered with a typed error: its message, then its code (and the field).
+    #[error("{} ({}{})", .0.message, .0.code, .0.field.as_ref().map(|f| format!(", field {f}")).unwrap_or_default())]
     Server(ErrorReply),
     /// No reply at all: no server, it died during the query, or access control denied
     /// the query (Zenoh drops denied messages silently).
@@ -62,6 +73,13 @@ const SUSPEND: Duration = Duration::from_secs(1);
 
 /// How long a new client asks for the servers' tokens that are up (in the background).
 const TOKENS_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// How long [`Client::connect`] waits for the servers' tokens up at its start (their
+/// liveliness query's replies, a few milliseconds on a LAN) before it returns: the reads
+/// of a client that asks once — a one-shot `riskplan client` command — are spread over
+/// the servers too, instead of going to the shared key, where the primary answers. A
+/// discovery slower than this goes on in the background.
+const DISCOVERY_WAIT: Duration = Duration::from_millis(500);
 
 impl Servers {
     /// The server for the next read: of two live servers drawn at random, the one with
@@ -170,7 +188,10 @@ impl Client {
         c.insert_json5("mode", r#""client""#).map_err(z)?;
         c.insert_json5("connect/endpoints", &serde_json::to_string(&[endpoint]).unwrap_or_default()).map_err(z)?;
         c.insert_json5("scouting/multicast/enabled", "false").map_err(z)?;
-        let mut client = Client::connect_with(c, timeout, codec).await?;
+        let mut client = Client::connect_with(c, timeout, codec).await.map_err(|e| match e {
+            ClientError::Connect { detail, .. } => ClientError::Connect { endpoint: endpoint.to_string(), detail },
+            other => other,
+        })?;
         client.discover().await;
         Ok(client)
     }
@@ -178,7 +199,10 @@ impl Client {
     /// Connects with a full Zenoh configuration (e.g. a role's configuration of the
     /// secure deployment in `deploy/secure`: TLS, user and password).
     pub async fn connect_with(config: zenoh::Config, timeout: Duration, codec: Codec) -> Result<Client, ClientError> {
-        let session = zenoh::open(config).await.map_err(|e| ClientError::Zenoh(e.to_string()))?;
+        let session = zenoh::open(config).await.map_err(|e| ClientError::Connect {
+            endpoint: "the configuration's endpoints".into(),
+            detail: super::error::strip_source_locations(&e.to_string()).trim_end().trim_end_matches('!').to_string(),
+        })?;
         let servers = Arc::new(Mutex::new(Servers::default()));
         Ok(Client { session, codec, timeout, servers, _watch: None, min_revision: None })
     }
@@ -209,9 +233,10 @@ impl Client {
             .await
             .ok()
             .map(Arc::new);
-        // the tokens up now, in the background
+        // the tokens up now: waited for briefly, so that even a client's first read (a
+        // one-shot CLI command's only one) can go to any server; the rest in the background
         let (now, view) = (session.clone(), servers.clone());
-        tokio::spawn(async move {
+        let tokens = tokio::spawn(async move {
             let Ok(replies) = now.liveliness().get(SERVER_TOKENS).timeout(TOKENS_TIMEOUT).await else { return };
             while let Ok(r) = replies.recv_async().await {
                 if let Ok(sample) = r.result() {
@@ -221,6 +246,8 @@ impl Client {
                 }
             }
         });
+        // (a timeout leaves the task running: dropping its handle detaches it)
+        let _ = tokio::time::timeout(DISCOVERY_WAIT, tokens).await;
         self._watch = watch;
     }
 

@@ -176,3 +176,45 @@ pub enum MetricsError {
         source: std::io::Error,
     },
 }
+
+/// `text` without the ` at /path/file.rs:N.` source locations Zenoh's errors carry.
+pub(crate) fn strip_source_locations(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find(" at /") {
+        out.push_str(&rest[..i]);
+        let tail = &rest[i + 4..];
+        // the location runs to ".rs:<digits>" and an optional "."
+        match tail.find(".rs:") {
+            Some(j) => {
+                let after = &tail[j + 4..];
+                let digits = after.bytes().take_while(u8::is_ascii_digit).count();
+                let skip = digits + usize::from(after[digits..].starts_with('.'));
+                rest = &after[skip..];
+            }
+            None => {
+                out.push_str(" at ");
+                rest = tail;
+            }
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod source_location_tests {
+    use super::strip_source_locations;
+
+    #[test]
+    fn zenoh_source_locations_are_left_out() {
+        let z = "Unable to connect to any of [Single(tcp/127.0.0.1:7999)]!  at /root/.cargo/registry/src/x/zenoh-1.10.2/src/net/runtime/orchestrator.rs:447.";
+        assert_eq!(strip_source_locations(z).trim_end(), "Unable to connect to any of [Single(tcp/127.0.0.1:7999)]!");
+        let nested = "bound to tcp/127.0.0.1:7611: [127.0.0.1:7611: Address already in use (os error 98) at /a/tcp.rs:61.] at /b/unicast.rs:338.";
+        assert_eq!(
+            strip_source_locations(nested),
+            "bound to tcp/127.0.0.1:7611: [127.0.0.1:7611: Address already in use (os error 98)]"
+        );
+        assert_eq!(strip_source_locations("look at /tmp here"), "look at /tmp here");
+    }
+}

@@ -145,7 +145,8 @@ pub fn plan(
     let held = prepared.kernel.peek_index(&prepared.deltas).is_some_and(|i| i.complete());
     let solved = prepared.solve(&request.termination(Some(cancel)));
     registry.kernels.covers(held);
-    let (problem, out) = (prepared.problem, solved?);
+    // the planner that ran (a receding request runs `receding` whatever it named)
+    let (problem, ran, out) = (prepared.problem, prepared.kind, solved?);
     if let (Some(id), Some(t)) = (req.robot_id.as_deref(), out.trajectory.as_ref()) {
         registry.keep_robot_plan(&entry.scene.name, id, Arc::new(t.clone()));
     }
@@ -153,16 +154,27 @@ pub fn plan(
         #[cfg(feature = "service")]
         tracing::error!(
             scene = %entry.scene.name,
-            planner = request.planner.as_str(),
+            planner = ran.as_str(),
             disagreements = n,
             "internal error: the final check rejected a trajectory the fast edge check had accepted (planned again without the fast path)"
         );
         #[cfg(not(feature = "service"))]
         let _ = n;
     }
+    if let Some(n) = out.stats.final_check.as_ref().map(|f| f.invalid).filter(|&n| n > 0) {
+        #[cfg(feature = "service")]
+        tracing::error!(
+            scene = %entry.scene.name,
+            planner = ran.as_str(),
+            invalid = n,
+            "internal error: the planner returned a trajectory that is not valid (planned again without smoothing)"
+        );
+        #[cfg(not(feature = "service"))]
+        let _ = n;
+    }
     if let Some(r @ crate::plan::NoPlanReason::FinalCheckFailed { .. }) = &out.reason {
         #[cfg(feature = "service")]
-        tracing::error!(scene = %entry.scene.name, planner = request.planner.as_str(), "{}", r.message());
+        tracing::error!(scene = %entry.scene.name, planner = ran.as_str(), "{}", r.message());
         #[cfg(not(feature = "service"))]
         let _ = r;
     }
@@ -172,7 +184,7 @@ pub fn plan(
     Ok(PlanReply {
         format: TRAJECTORY_FORMAT.into(),
         pieces: traj.pieces,
-        planner: request.planner.as_str().into(),
+        planner: ran.as_str().into(),
         certified: out.certified,
         stats: out.stats,
         revision: entry.revision,

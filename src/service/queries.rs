@@ -80,7 +80,13 @@ pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<
             }
             Err(e) => {
                 info!(code = e.code(), "error reply: {e}");
-                query.reply_err(codec.encode(&e.reply())).encoding(encoding_of(codec)).await
+                let mut reply = e.reply();
+                if let ServiceError::UnknownScene(name) = &e {
+                    // what this server holds, and the name meant (after the handler: no lock held)
+                    let known = state.registry.list();
+                    reply.message.push_str(&crate::names::scene_hint(name, known.iter().map(|k| k.0.as_str())));
+                }
+                query.reply_err(codec.encode(&reply)).encoding(encoding_of(codec)).await
             }
         };
         if let Err(e) = sent {

@@ -61,6 +61,22 @@ pub struct ServerConfig {
     pub warm_up: bool,
 }
 
+/// The error of a session that did not open, said for its user: an endpoint that is taken
+/// names the flag to choose another, and Zenoh's source locations (`… at /path/x.rs:61.`)
+/// are left out.
+fn session_error(text: &str) -> String {
+    let plain = super::error::strip_source_locations(text);
+    if plain.contains("Address already in use") {
+        // "… bound to tcp/127.0.0.1:7447: [127.0.0.1:7447: Address already in use (os error 98)]"
+        let endpoint = plain.split("bound to ").nth(1).and_then(|r| r.split(": [").next()).unwrap_or("the endpoint");
+        return format!(
+            "cannot listen on {endpoint}: the address is in use (another `riskplan serve`, or another program, \
+             listens there): stop it, or listen elsewhere with --listen (e.g. --listen tcp/127.0.0.1:7448)"
+        );
+    }
+    format!("cannot open the Zenoh session: {plain}")
+}
+
 /// Runs the server until SIGINT or SIGTERM.
 pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
     let store = Store::open(&cfg.data).map_err(|e| format!("--data {}: {e}", cfg.data.display()))?;
@@ -108,7 +124,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         eprintln!("riskplan: metrics on http://{local}{}", metrics_http::PATH);
         info!(%local, "metrics endpoint");
     }
-    let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
+    let session = zenoh::open(cfg.zenoh.clone()).await.map_err(|e| session_error(&e.to_string()))?;
     // Complete queryables: with several servers behind a router, a query goes to one
     // of them (Zenoh's BestMatching), never to all. Only `status` and `echo` are
     // declared now; the rest once the stored scenes are in (see `serve_when_ready`),

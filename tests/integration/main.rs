@@ -14,6 +14,8 @@ mod certify_scenes;
 #[cfg(feature = "cli")]
 mod cli_core;
 #[cfg(feature = "cli")]
+mod cli_first_hour;
+#[cfg(feature = "cli")]
 mod cli_plan;
 mod crowd;
 mod extreme_scales;
@@ -26,6 +28,8 @@ mod proto_examples;
 mod reference_scenes;
 #[cfg(all(feature = "service", feature = "cli"))]
 mod service_failover;
+#[cfg(all(feature = "service", feature = "cli"))]
+mod service_first_hour;
 #[cfg(all(feature = "service", feature = "cli"))]
 mod service_metrics;
 #[cfg(all(feature = "service", feature = "cli"))]
