@@ -4,9 +4,10 @@
 #   libopenblas-dev, libgfortran-12-dev  LAPACK for Clarabel's SDP cones (feature sdp-openblas)
 #   fonts-dejavu-core                    a TrueType font for figure labels
 #   python3-venv                         the Python client's tests run in a virtualenv
+#   prometheus                           its promtool checks the metrics endpoint's text format
 # Rust itself (cargo, rustc >= 1.85 with clippy and rustfmt) comes from rustup.
 set -euo pipefail
-pkgs=(libopenblas-dev libgfortran-12-dev fonts-dejavu-core python3-venv pkg-config)
+pkgs=(libopenblas-dev libgfortran-12-dev fonts-dejavu-core python3-venv pkg-config prometheus)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
