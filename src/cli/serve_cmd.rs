@@ -76,9 +76,10 @@ pub struct ServeArgs {
     #[arg(long, value_parser = ["peer", "client"])]
     mode: Option<String>,
     /// Serve Prometheus metrics on this address: GET http://ADDR/metrics answers the
-    /// OpenMetrics text exposition (request counts, outcomes and latencies per kind, queue
-    /// depth, running jobs, scenes and their revisions, cache hits and misses, build info;
-    /// listed in proto/README.md, "Metrics"). An IP and a port, e.g. 127.0.0.1:9464 (port 0:
+    /// OpenMetrics text exposition, or the Prometheus text format 0.0.4 when the request's
+    /// Accept header prefers text/plain (request counts, outcomes and latencies per kind,
+    /// queue depth, running jobs, scenes and their revisions, cache hits and misses, build
+    /// info; listed in proto/README.md, "Metrics"). An IP and a port, e.g. 127.0.0.1:9464 (port 0:
     /// any free port; the address is printed on stderr). Off by default: no listener. The
     /// endpoint has no authentication: keep it on loopback or a trusted network.
     #[arg(long, value_name = "ADDR")]

@@ -7,8 +7,11 @@
 //! scrapes (a [`Collector`] over a [`Snapshot`] of the server's state), never kept in
 //! step on the hot path.
 //!
-//! The HTTP side is `metrics_http.rs`; this module knows nothing of the server's state
-//! but the [`Snapshot`] its sampler returns (set by `server.rs`).
+//! The registry is written in either of two text formats ([`Format`]): OpenMetrics 1.0.0
+//! or the Prometheus text format 0.0.4, both by prometheus-client's encoders. The HTTP
+//! side, which picks the format from a scrape's `Accept` header, is `metrics_http.rs`;
+//! this module knows nothing of the server's state but the [`Snapshot`] its sampler
+//! returns (set by `server.rs`).
 
 use super::routes::RouteKind;
 use prometheus_client::collector::Collector;
@@ -22,6 +25,39 @@ use prometheus_client::registry::{Registry, Unit};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
+
+/// The text exposition a scrape is answered with (`metrics_http` picks one from the
+/// request's `Accept` header): both carry the same samples under the same names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Format {
+    /// OpenMetrics 1.0.0, the default: a counter's family is named without `_total` (its
+    /// samples carry it), `# UNIT` lines, the `info` type, and a final `# EOF`.
+    OpenMetrics,
+    /// The Prometheus text format 0.0.4, for the classic tools (`promtool check metrics`,
+    /// agents that predate OpenMetrics): `# HELP` and `# TYPE` under the sample names
+    /// (`…_total` for counters), the info family a gauge named `…_info`, no `# UNIT`, no
+    /// `# EOF`.
+    Text,
+}
+
+impl Format {
+    /// The `Content-Type` of a reply in this format.
+    pub(crate) const fn content_type(self) -> &'static str {
+        match self {
+            Format::OpenMetrics => OPENMETRICS_CONTENT_TYPE,
+            Format::Text => TEXT_CONTENT_TYPE,
+        }
+    }
+}
+
+/// The media type of the OpenMetrics 1.0.0 text exposition (OpenMetrics 1.0, "Overall
+/// Structure": `application/openmetrics-text; version=1.0.0; charset=utf-8`).
+pub(crate) const OPENMETRICS_CONTENT_TYPE: &str = "application/openmetrics-text; version=1.0.0; charset=utf-8";
+
+/// The media type of the Prometheus text exposition format 0.0.4 (Prometheus's
+/// "Exposition formats"; what Go's `expfmt.FmtText` and prometheus-client's
+/// `prometheus_text::CONTENT_TYPE` say).
+pub(crate) const TEXT_CONTENT_TYPE: &str = "text/plain; version=0.0.4; charset=utf-8";
 
 /// The prefix of every metric.
 pub(crate) const PREFIX: &str = "riskplan";
@@ -362,10 +398,16 @@ impl Metrics {
         };
     }
 
-    /// The OpenMetrics text exposition of every metric, ending with `# EOF`.
-    pub(crate) fn encode(&self) -> Result<String, std::fmt::Error> {
+    /// The text exposition of every metric in `format`: OpenMetrics 1.0.0 ending with
+    /// `# EOF` (prometheus-client's `encoding::text`), or the Prometheus text format
+    /// 0.0.4 (its `encoding::prometheus_text`, since 0.26: the same registry and the same
+    /// collector, written with the 0.0.4 names and types).
+    pub(crate) fn encode(&self, format: Format) -> Result<String, std::fmt::Error> {
         let mut out = String::with_capacity(8 << 10);
-        prometheus_client::encoding::text::encode(&mut out, &self.registry)?;
+        match format {
+            Format::OpenMetrics => prometheus_client::encoding::text::encode(&mut out, &self.registry)?,
+            Format::Text => prometheus_client::encoding::prometheus_text::encode(&mut out, &self.registry)?,
+        }
         Ok(out)
     }
 
@@ -430,7 +472,7 @@ mod tests {
         // neither a known kind nor a known outcome: still counted
         m.record("future_kind", "future_code", Duration::from_secs(100));
         assert_eq!(m.requests_of("plan", OK), 2);
-        let text = m.encode().unwrap();
+        let text = m.encode(Format::OpenMetrics).unwrap();
         let v = |s: &str| value(&text, s).unwrap_or_else(|| panic!("no {s} in\n{text}"));
         assert_eq!(v(r#"riskplan_requests_total{kind="plan",outcome="ok"}"#), 2.0);
         assert_eq!(v(r#"riskplan_requests_total{kind="plan",outcome="no_plan"}"#), 1.0);
@@ -483,7 +525,7 @@ mod tests {
         let shared = Arc::new(std::sync::Mutex::new(snap));
         let s = shared.clone();
         m.set_sampler(move || s.lock().ok().map(|s| s.clone()));
-        let text = m.encode().unwrap();
+        let text = m.encode(Format::OpenMetrics).unwrap();
         let v = |t: &str, s: &str| value(t, s).unwrap_or_else(|| panic!("no {s} in\n{t}"));
         assert_eq!(v(&text, "riskplan_ready"), 1.0);
         assert_eq!(v(&text, "riskplan_queue_depth"), 3.0);
@@ -509,17 +551,173 @@ mod tests {
         if let Ok(mut s) = shared.lock() {
             s.scenes.retain(|(n, _)| n != "a");
         }
-        let text = m.encode().unwrap();
+        let text = m.encode(Format::OpenMetrics).unwrap();
         assert!(!text.contains(r#"scene="a""#), "{text}");
         assert_eq!(v(&text, "riskplan_scenes"), 1.0);
         assert!(text.ends_with("# EOF\n"), "{text}");
+    }
+
+    /// A Metrics that recorded every pre-made (kind, outcome), a kind and an outcome
+    /// outside the lists, and a full state snapshot: every family the server writes.
+    fn everything() -> Metrics {
+        let m = Metrics::new("primary", "every-1");
+        for (i, &kind) in KINDS.iter().enumerate() {
+            for (j, &outcome) in OUTCOMES.iter().enumerate() {
+                m.record(kind, outcome, Duration::from_micros(((i * OUTCOMES.len() + j) as u64 * 7919) % 40_000_000));
+            }
+        }
+        m.record("future_kind", "future_code", Duration::from_secs(100));
+        let snap = Snapshot {
+            ready: true,
+            queue_depth: 1,
+            jobs_running: 1,
+            workers: 2,
+            queue_capacity: 64,
+            scenes: vec![("a".into(), 3), ("b.c-d_e".into(), 1)],
+            contours: (5, 9, 4),
+            kernels: super::super::registry::KernelCounts {
+                covers_hits: 1,
+                covers_misses: 2,
+                covers_built: 3,
+                body_hits: 4,
+                body_misses: 5,
+                warm_ups_done: 6,
+                warm_ups_stopped: 7,
+                warm_ups_skipped: 8,
+            },
+        };
+        m.set_sampler(move || Some(snap.clone()));
+        m
+    }
+
+    /// The samples of an exposition as series → value, each series written one way: its
+    /// labels sorted, `le` as the number it stands for (the encoders differ in both: the
+    /// OpenMetrics one writes `{le="30.0",kind="plan"}`, the 0.0.4 one, as Go's clients
+    /// do, `{kind="plan",le="30"}`). Label values here hold no `",`.
+    fn samples(text: &str) -> std::collections::BTreeMap<String, f64> {
+        text.lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| {
+                let (series, v) = l.rsplit_once(' ').unwrap_or_else(|| panic!("no value in {l:?}"));
+                let series = match series.split_once('{') {
+                    None => series.to_string(),
+                    Some((name, labels)) => {
+                        let labels = labels.strip_suffix('}').unwrap_or_else(|| panic!("{l:?}"));
+                        let mut labels: Vec<String> = labels
+                            .split("\",")
+                            .map(|p| match p.strip_prefix("le=\"") {
+                                Some(le) => {
+                                    let le: f64 = le.trim_end_matches('"').parse().unwrap_or_else(|_| panic!("{l:?}"));
+                                    format!("le=\"{le}")
+                                }
+                                None => p.trim_end_matches('"').to_string(),
+                            })
+                            .collect();
+                        labels.sort();
+                        format!("{name}{{{}\"}}", labels.join("\","))
+                    }
+                };
+                (series, v.parse().unwrap_or_else(|_| panic!("bad value in {l:?}")))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_text_format_names_every_sample_family_as_prometheus_0_0_4_does() {
+        let m = everything();
+        let text = m.encode(Format::Text).unwrap();
+        // the families in order: (name, type) from each HELP line and the TYPE line after it
+        let lines: Vec<&str> = text.lines().collect();
+        let mut families: Vec<(&str, &str)> = Vec::new();
+        for (i, line) in lines.iter().enumerate() {
+            if let Some(rest) = line.strip_prefix("# HELP ") {
+                let (name, help) = rest.split_once(' ').unwrap_or_else(|| panic!("no help text: {line:?}"));
+                assert!(!help.trim().is_empty(), "empty help: {line:?}");
+                let ty = lines
+                    .get(i + 1)
+                    .and_then(|t| t.strip_prefix("# TYPE "))
+                    .and_then(|t| t.strip_prefix(name))
+                    .and_then(|t| t.strip_prefix(' '))
+                    .unwrap_or_else(|| panic!("no TYPE of {name} after its HELP"));
+                assert!(["counter", "gauge", "histogram"].contains(&ty), "{name}: type {ty}");
+                assert!(!families.iter().any(|f| f.0 == name), "{name} twice");
+                families.push((name, ty));
+            } else if line.starts_with('#') {
+                assert!(line.starts_with("# TYPE "), "not a 0.0.4 comment: {line:?}");
+            }
+        }
+        // every sample belongs to the family declared last, under that family's name (a
+        // histogram's with its _bucket/_sum/_count suffix; a counter's ends in _total)
+        let mut current: Option<(&str, &str)> = None;
+        for line in &lines {
+            if let Some(rest) = line.strip_prefix("# HELP ") {
+                let name = rest.split(' ').next().unwrap_or_default();
+                current = families.iter().copied().find(|f| f.0 == name);
+                continue;
+            }
+            if line.starts_with('#') {
+                continue;
+            }
+            let (name, ty) = current.unwrap_or_else(|| panic!("a sample before any HELP: {line:?}"));
+            let sample = line.split(['{', ' ']).next().unwrap_or_default();
+            let ok = match ty {
+                "histogram" => ["_bucket", "_sum", "_count"].iter().any(|s| sample == format!("{name}{s}")),
+                "counter" => sample == name && name.ends_with("_total"),
+                _ => sample == name && !name.ends_with("_total"),
+            };
+            assert!(ok, "sample {sample} under the {ty} family {name}");
+        }
+        let of = |name: &str| families.iter().find(|f| f.0 == name).map(|f| f.1);
+        assert_eq!(of("riskplan_build_info"), Some("gauge"), "{text}");
+        assert_eq!(of("riskplan_requests_total"), Some("counter"), "{text}");
+        assert_eq!(of("riskplan_request_duration_seconds"), Some("histogram"), "{text}");
+        for c in ["scene_cache_hits", "scene_cache_misses", "covers_built", "scene_warm_ups"] {
+            assert_eq!(of(&format!("riskplan_{c}_total")), Some("counter"), "{c}: {text}");
+        }
+        for g in ["ready", "queue_depth", "jobs_running", "workers", "queue_capacity", "scenes", "scene_revision"] {
+            assert_eq!(of(&format!("riskplan_{g}")), Some("gauge"), "{g}: {text}");
+        }
+        assert_eq!(of("riskplan_contour_cache_entries"), Some("gauge"), "{text}");
+        assert_eq!(families.len(), 15, "{families:?}");
+        assert!(!text.contains(" info\n") && !text.contains("# UNIT") && !text.contains("# EOF"), "{text}");
+        assert!(text.ends_with('\n'), "{text}");
+        // the same samples as the OpenMetrics exposition, value for value
+        let open = m.encode(Format::OpenMetrics).unwrap();
+        let (a, b) = (samples(&text), samples(&open));
+        let differ: Vec<_> = a.iter().filter(|(k, v)| b.get(*k) != Some(v)).take(5).collect();
+        assert!(
+            differ.is_empty() && a.len() == b.len(),
+            "{} vs {} samples; first differing: {differ:?}",
+            a.len(),
+            b.len()
+        );
+        assert_eq!(samples(&text).len(), text.lines().filter(|l| !l.starts_with('#')).count());
+        let requests = samples(&text).keys().filter(|k| k.starts_with("riskplan_requests_total{")).count();
+        assert_eq!(requests, KINDS.len() * OUTCOMES.len() + 1);
+    }
+
+    #[test]
+    fn the_openmetrics_exposition_keeps_its_own_names() {
+        let open = everything().encode(Format::OpenMetrics).unwrap();
+        assert!(open.contains("# TYPE riskplan_build info\n"), "{open}");
+        assert!(open.contains("# TYPE riskplan_requests counter\n"), "{open}");
+        assert!(open.contains("# UNIT riskplan_request_duration_seconds seconds\n"), "{open}");
+        assert!(open.ends_with("# EOF\n"), "{open}");
+    }
+
+    #[test]
+    fn each_format_names_its_media_type() {
+        assert_eq!(Format::OpenMetrics.content_type(), "application/openmetrics-text; version=1.0.0; charset=utf-8");
+        assert_eq!(Format::Text.content_type(), "text/plain; version=0.0.4; charset=utf-8");
+        // the crate's own name for what its 0.0.4 encoder writes
+        assert_eq!(Format::Text.content_type(), prometheus_client::encoding::prometheus_text::CONTENT_TYPE);
     }
 
     #[test]
     fn the_exposition_parses_as_openmetrics_lines() {
         let m = Metrics::new("primary", "x");
         m.record("status", OK, Duration::from_micros(120));
-        let text = m.encode().unwrap();
+        let text = m.encode(Format::OpenMetrics).unwrap();
         for line in text.lines() {
             if line.starts_with('#') {
                 assert!(

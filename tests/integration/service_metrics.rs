@@ -2,15 +2,21 @@
 //! plain TCP socket after requests of known kinds and outcomes sent by the Rust client —
 //! counts per kind and outcome, histogram sample counts, gauges, build info — and bad
 //! HTTP (garbage, other paths and methods, an oversized head, a silent client) answered
-//! with 4xx while the server goes on answering Zenoh queries. Loopback only.
+//! with 4xx while the server goes on answering Zenoh queries; and both expositions
+//! (OpenMetrics by default, the Prometheus text format 0.0.4 for `Accept: text/plain`)
+//! of a server that answered every kind of request checked by Prometheus's `promtool`
+//! (issue 51). Loopback only.
 
 use crate::common;
 use crate::common::server::{free_port, reference_scene, serve, Serve};
-use riskplan::service::proto::{ApplyRequest, Change, Codec, PlanRequest, RiskRequest, Segment, VerifyRequest};
-use riskplan::service::{Client, ClientError};
+use riskplan::service::proto::{
+    ApplyRequest, Change, Codec, ObstaclePut, PlanRequest, RiskRequest, Segment, VerifyRequest, MAX_PAYLOAD_BYTES,
+};
+use riskplan::service::{Client, ClientError, Route, RouteKind};
 use std::collections::BTreeMap;
 use std::io::{Read, Write};
 use std::net::TcpStream;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const SCENE: &str = "illustrative-3";
@@ -65,6 +71,32 @@ fn samples(text: &str) -> BTreeMap<String, f64> {
         .map(|l| {
             let (series, v) = l.rsplit_once(' ').unwrap_or_else(|| panic!("bad line {l:?}"));
             (series.to_string(), v.parse().unwrap_or_else(|_| panic!("bad value in {l:?}")))
+        })
+        .collect()
+}
+
+/// [`samples`] with each series written one way: its labels sorted, `le` as the number
+/// it stands for (the encoders differ in both: the OpenMetrics one writes
+/// `{le="30.0",kind="plan"}`, the 0.0.4 one, as Go's clients do, `{kind="plan",le="30"}`).
+/// Label values here hold no `",`.
+fn samples_by_value(text: &str) -> BTreeMap<String, f64> {
+    samples(text)
+        .into_iter()
+        .map(|(series, v)| {
+            let Some((name, labels)) = series.split_once('{') else { return (series, v) };
+            let labels = labels.strip_suffix('}').unwrap_or_else(|| panic!("{series}"));
+            let mut labels: Vec<String> = labels
+                .split("\",")
+                .map(|p| match p.strip_prefix("le=\"") {
+                    Some(le) => {
+                        let le: f64 = le.trim_end_matches('"').parse().unwrap_or_else(|_| panic!("{series}"));
+                        format!("le=\"{le}")
+                    }
+                    None => p.trim_end_matches('"').to_string(),
+                })
+                .collect();
+            labels.sort();
+            (format!("{name}{{{}\"}}", labels.join("\",")), v)
         })
         .collect()
 }
@@ -279,4 +311,223 @@ fn serve_help_explains_the_metrics_flag() {
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(help.contains("--metrics <ADDR>"), "{help}");
     assert!(help.contains("/metrics"), "{help}");
+}
+
+/// `promtool` (the Debian package `prometheus`, installed by scripts/setup-debian.sh):
+/// whether it runs. Missing, the promtool checks fail in the full tier
+/// (`RISKPLAN_TEST_TIER=full`, what CI runs) and are skipped with a note elsewhere.
+fn promtool_present() -> bool {
+    let found = Command::new("promtool").arg("--version").output().is_ok_and(|o| o.status.success());
+    if !found {
+        assert!(
+            !common::full_tier(),
+            "promtool not found: install the Debian package prometheus (scripts/setup-debian.sh does); the full tier \
+             checks the metrics endpoint's text formats with it"
+        );
+        eprintln!(
+            "note: promtool not found (Debian package prometheus): the promtool checks of the metrics are skipped"
+        );
+    }
+    found
+}
+
+/// Runs `promtool` with `args`, `input` on its standard input: (exit status, what it
+/// printed on stdout and stderr).
+fn promtool(args: &[&str], input: &str) -> (Option<i32>, String) {
+    let mut child = Command::new("promtool")
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run promtool");
+    let mut stdin = child.stdin.take().unwrap();
+    let input = input.to_string();
+    let writer = std::thread::spawn(move || stdin.write_all(input.as_bytes()));
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap().unwrap();
+    let printed = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    (out.status.code(), printed)
+}
+
+/// A Zenoh session of the test's own (client mode, to the server's endpoint): for what
+/// the Rust client cannot send (a key that is no route, an encoding it does not speak).
+async fn raw_session(endpoint: &str) -> zenoh::Session {
+    let mut cfg = zenoh::Config::default();
+    cfg.insert_json5("mode", "\"client\"").unwrap();
+    cfg.insert_json5("connect/endpoints", &serde_json::to_string(&[endpoint]).unwrap()).unwrap();
+    cfg.insert_json5("scouting/multicast/enabled", "false").unwrap();
+    zenoh::open(cfg).await.unwrap()
+}
+
+/// The error code of the one reply to a raw query on `key` (`None`: a success).
+async fn raw_get(session: &zenoh::Session, key: &str, payload: &[u8], encoding: &str) -> Option<String> {
+    let replies = session
+        .get(key)
+        .payload(payload.to_vec())
+        .encoding(zenoh::bytes::Encoding::from(encoding))
+        .timeout(Duration::from_secs(30))
+        .await
+        .unwrap();
+    let reply = replies.recv_async().await.unwrap_or_else(|_| panic!("no reply on {key}"));
+    match reply.result() {
+        Ok(_) => None,
+        Err(e) => {
+            let v: serde_json::Value = serde_json::from_slice(&e.payload().to_bytes()).unwrap();
+            Some(v["code"].as_str().unwrap_or_else(|| panic!("no code in {v}")).to_string())
+        }
+    }
+}
+
+/// The timestamp (Unix seconds, 2023-11-14) given to each sample of the OpenMetrics
+/// scrape for `promtool tsdb create-blocks-from openmetrics`, which refuses samples
+/// without one; any fixed time does.
+const BACKFILL_TIMESTAMP: u64 = 1_700_000_000;
+
+/// The puts sent by `every_kind_of_request`: a scene (ok), an obstacle put and delete
+/// (ok), a scene that is no JSON (an error).
+const PUTS_SENT: f64 = 4.0;
+
+/// Sends every kind of request of proto/README.md (every query kind of `RouteKind`, a
+/// query on a key that is no route, puts and deletes), several of them both answered and
+/// refused.
+fn every_kind_of_request(endpoint: &str) {
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    rt.block_on(async {
+        let c = Client::connect(endpoint, Duration::from_secs(30), Codec::Json).await.unwrap();
+        let code = |r: Result<(usize, Option<String>), ClientError>| r.expect("a reply").1;
+        let empty = c.encode(&serde_json::json!({}));
+        // status, echo, scene
+        c.status().await.expect("a status reply");
+        assert_eq!(code(c.raw_query(&Route::Echo, b"ping".to_vec()).await), None);
+        c.get_scene(SCENE).await.expect("the scene");
+        assert_eq!(server_code(c.get_scene("no-such-scene").await), "unknown_scene");
+        // plan, verify, risk: answered, and refused for each kind of reason
+        assert!(c.plan(SCENE, &PlanRequest::default()).await.expect("a plan").certified);
+        assert_eq!(server_code(c.plan("no-such-scene", &PlanRequest::default()).await), "unknown_scene");
+        let plan = Route::Plan { scene: SCENE.into() };
+        assert_eq!(code(c.raw_query(&plan, b"{not json".to_vec()).await).as_deref(), Some("malformed_payload"));
+        let huge = vec![b' '; MAX_PAYLOAD_BYTES + 1];
+        assert_eq!(code(c.raw_query(&plan, huge).await).as_deref(), Some("payload_too_large"));
+        let seg = |from: Vec<f64>, to: Vec<f64>| VerifyRequest {
+            segment: Some(Segment { from, to, t0: None, t1: None }),
+            ..Default::default()
+        };
+        c.verify(SCENE, &seg(vec![-1.0, -1.0], vec![1.0, 1.0])).await.expect("a verify reply");
+        assert_eq!(server_code(c.verify(SCENE, &seg(vec![0.0], vec![1.0])).await), "invalid_request");
+        let points = RiskRequest { points: Some(vec![vec![0.9, 0.9]]), ..Default::default() };
+        c.risk(SCENE, &points).await.expect("a risk reply");
+        let risk = Route::Risk { scene: SCENE.into() };
+        assert_eq!(code(c.raw_query(&risk, empty.clone()).await).as_deref(), Some("invalid_request"));
+        // apply: a change, and one that is none
+        let change = Change {
+            op: "put".into(),
+            id: "far".into(),
+            poly: Some("0.01 - (x1 - 0.9)^2 - (x2 + 0.9)^2".into()),
+            params: None,
+            pedestrian: None,
+        };
+        let applied = c.apply(SCENE, &ApplyRequest { changes: Some(vec![change]), ..Default::default() }).await;
+        assert_eq!(applied.expect("an apply").revision, 2);
+        let bad = Change { op: "rename".into(), id: "far".into(), poly: None, params: None, pedestrian: None };
+        let refused = c.apply(SCENE, &ApplyRequest { changes: Some(vec![bad]), ..Default::default() }).await;
+        assert!(matches!(refused, Err(ClientError::Server(_))), "{refused:?}");
+        // the replication keys a primary answers
+        assert_eq!(code(c.raw_query(&Route::ReplicationIndex, Vec::new()).await), None);
+        let commit = Route::ReplicationScene { name: SCENE.into() };
+        assert_eq!(code(c.raw_query(&commit, Vec::new()).await), None);
+        // puts and deletes: counted once applied (or refused)
+        let mut other = serde_json::from_str::<serde_json::Value>(&reference_scene(SCENE)).unwrap();
+        other["name"] = "second".into();
+        c.put_scene("second", &other).await.unwrap();
+        let near = ObstaclePut { poly: "0.01 - (x1 + 0.9)^2 - (x2 - 0.9)^2".into(), params: None };
+        c.update_obstacle("second", "near", &near).await.unwrap();
+        c.remove_obstacle("second", "near").await.unwrap();
+        // a key that is no route, a payload in an encoding the server does not speak,
+        // and a scene put that is no JSON
+        let raw = raw_session(endpoint).await;
+        assert_eq!(
+            raw_get(&raw, "riskplan/no/such/key", b"", "application/json").await.as_deref(),
+            Some("invalid_request")
+        );
+        let unsupported = raw_get(&raw, "riskplan/scenes/illustrative-3/plan", b"{}", "text/csv").await;
+        assert_eq!(unsupported.as_deref(), Some("unsupported_encoding"));
+        raw.put("riskplan/scenes/third", "{not json").encoding(zenoh::bytes::Encoding::APPLICATION_JSON).await.unwrap();
+        let _ = raw.close().await;
+        c.close().await;
+    });
+}
+
+#[test]
+fn both_expositions_of_a_server_that_answered_every_kind_of_request_pass_promtool() {
+    if !promtool_present() {
+        return;
+    }
+    let server = start();
+    let addr = server.metrics.as_str();
+    every_kind_of_request(&server.serve.endpoint);
+    // the puts are counted by the put worker once applied: wait for all of them
+    let t = Instant::now();
+    let open = loop {
+        let text = scrape(addr);
+        let s = samples(&text);
+        let puts: f64 =
+            s.iter().filter(|(k, _)| k.starts_with("riskplan_requests_total{kind=\"put\"")).map(|e| e.1).sum();
+        if puts == PUTS_SENT && s.get(r#"riskplan_request_duration_seconds_count{kind="put"}"#) == Some(&PUTS_SENT) {
+            break text;
+        }
+        assert!(t.elapsed() < Duration::from_secs(10), "the puts never all showed: {s:#?}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let s = samples(&open);
+    // every kind a request is recorded under: each kind of route a query is answered on,
+    // a key that is no route, and puts
+    let kinds = RouteKind::ALL.into_iter().filter(|k| k.is_query()).map(RouteKind::label);
+    for kind in kinds.chain(["unknown", "put"]) {
+        let n = value(&s, &format!("riskplan_request_duration_seconds_count{{kind=\"{kind}\"}}"));
+        assert!(n >= 1.0, "no {kind} request was recorded: {s:#?}");
+    }
+    let outcomes: std::collections::BTreeSet<String> = request_counts(&s).into_keys().map(|(_, o)| o).collect();
+    assert!(outcomes.len() >= 6, "{outcomes:?}");
+
+    // the 0.0.4 text, as classic tools ask for it: promtool finds nothing to say
+    let (status, head, text) =
+        http(addr, b"GET /metrics HTTP/1.1\r\nHost: 127.0.0.1\r\nAccept: text/plain; version=0.0.4\r\n\r\n");
+    assert_eq!(status, 200, "{head}\n{text}");
+    let (code, printed) = promtool(&["check", "metrics"], &text);
+    assert!(code == Some(0) && printed.is_empty(), "promtool check metrics: exit {code:?}:\n{printed}\n{head}\n{text}");
+    assert!(head.contains("Content-Type: text/plain; version=0.0.4; charset=utf-8\r\n"), "{head}");
+    assert!(head.contains(&format!("Content-Length: {}\r\n", text.len())), "{head}");
+    assert!(!text.contains("# EOF") && !text.contains("# UNIT") && !text.contains(" info\n"), "{text}");
+    // the same samples as the OpenMetrics scrape (the server is idle: nothing changed)
+    assert_eq!(samples_by_value(&text), samples_by_value(&open));
+
+    // the default, OpenMetrics: `promtool check metrics` reads only the classic text
+    // format (it stops at the `info` type and wants HELP under each `_total` sample name,
+    // which OpenMetrics gives the counter's family name instead), so it is checked by
+    // promtool's OpenMetrics parser, the one Prometheus scrapes with: its backfill reads
+    // an OpenMetrics file whose samples carry timestamps, added here to each sample line
+    let stamped: String = open
+        .lines()
+        .map(|l| if l.starts_with('#') { format!("{l}\n") } else { format!("{l} {BACKFILL_TIMESTAMP}\n") })
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("scrape.om");
+    std::fs::write(&file, &stamped).unwrap();
+    let out = Command::new("promtool")
+        .args(["tsdb", "create-blocks-from", "openmetrics"])
+        .arg(&file)
+        .arg(dir.path().join("blocks"))
+        .output()
+        .unwrap();
+    let printed = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "promtool's OpenMetrics parser refused the default scrape:\n{printed}\n{open}");
+    let series = samples(&open).len();
+    assert!(printed.contains(&format!(" {series} ")), "not every sample was read ({series}):\n{printed}");
+
+    // no Accept at all: OpenMetrics too
+    let (status, head, body) = http(addr, b"GET /metrics HTTP/1.0\r\n\r\n");
+    assert_eq!(status, 200, "{head}");
+    assert!(head.contains("Content-Type: application/openmetrics-text; version=1.0.0; charset=utf-8\r\n"), "{head}");
+    assert!(body.ends_with("# EOF\n"), "{body}");
 }
