@@ -248,6 +248,9 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             risk_mode,
             out,
         } => {
+            if let Some(p) = &out {
+                super::plan_cmd::writable("--out", p)?;
+            }
             let req = PlanRequest {
                 planner: Some(planner),
                 time_limit: Some(time_limit),

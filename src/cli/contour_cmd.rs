@@ -63,6 +63,7 @@ fn parse_slice(s: &str) -> Result<(usize, f64), CliError> {
 }
 
 pub fn run(a: ContourArgs) -> Result<i32, CliError> {
+    super::plan_cmd::writable("--out", &a.out)?;
     let scene = load_scene(&a.scene)?;
     let deltas: Vec<f64> = if a.delta.is_empty() {
         scene.risk_levels.iter().map(RiskLevel::to_f64).collect()

@@ -146,3 +146,22 @@ def test_a_read_waiting_on_a_server_whose_token_goes_is_sent_elsewhere(server):
         assert held, "no read went to the fake server"
         assert max(latencies) > 0.5, latencies  # the read held by the fake
         assert max(latencies) < 2.5, f"a read waited {max(latencies):.2f} s for a server that had gone"
+
+
+def test_one_shot_cli_reads_spread_over_the_servers(four, binary):
+    """A one-shot `riskplan client` command waits briefly for the servers' tokens before its
+    one read (DISCOVERY_WAIT), so that reads of many such commands spread over the servers
+    instead of all going to the shared key, where the primary answers."""
+    import subprocess
+    router, servers = four
+    with riskplan.Client(router.endpoint, timeout=READ_TIMEOUT_S) as c:
+        wait_for(lambda: sorted(c.servers()) == IDS, what="the four servers announced")
+    seen = Counter()
+    for _ in range(16):
+        p = subprocess.run([str(binary), "client", "--endpoint", router.endpoint, "status"],
+                           capture_output=True, text=True, timeout=60)
+        assert p.returncode == 0, p.stderr
+        seen[json.loads(p.stdout)["server_id"]] += 1
+    # 16 reads over four servers by the power of two choices: all on one server has
+    # probability 4·(1/4)^16 < 10⁻⁹
+    assert len(seen) >= 2, f"every one-shot read went to one server: {dict(seen)}"
