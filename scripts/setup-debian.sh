@@ -4,9 +4,10 @@
 #   libopenblas-dev, libgfortran-12-dev  LAPACK for Clarabel's SDP cones (feature sdp-openblas)
 #   fonts-dejavu-core                    a TrueType font for figure labels
 #   python3-venv                         the Python client's tests run in a virtualenv
+#   librsvg2-bin                         rsvg-convert renders the SVG figures in the figure tests
 # Rust itself (cargo, rustc >= 1.85 with clippy and rustfmt) comes from rustup.
 set -euo pipefail
-pkgs=(libopenblas-dev libgfortran-12-dev fonts-dejavu-core python3-venv pkg-config)
+pkgs=(libopenblas-dev libgfortran-12-dev fonts-dejavu-core python3-venv pkg-config librsvg2-bin)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")

@@ -17,6 +17,8 @@ mod cli_core;
 mod cli_plan;
 mod crowd;
 mod extreme_scales;
+#[cfg(feature = "cli")]
+mod figures;
 mod fuzz_replay;
 mod optimisation_planners;
 mod plan_quality;
