@@ -1,8 +1,11 @@
 //! The figures a reader sees: the crowd animation shows its first frame in a static
 //! viewer (rendered with `rsvg-convert` in the full tier) and draws the pedestrians'
-//! Δ-contours one second ahead as its caption says.
+//! Δ-contours one second ahead as its caption says; plan legends print rounded times;
+//! a 3-D plan figure's sections follow the path's height.
 
 use crate::common;
+use riskplan::scene::Piece;
+use serde_json::Value;
 use std::path::Path;
 
 /// The text of every `<text>` element of an SVG file (entities as written).
@@ -171,4 +174,91 @@ fn sim_crowd_animation_shows_its_first_frame_and_contours_ahead() {
     }
     assert!(pairs >= 6, "{pairs} pedestrians with their contour in the first frame");
     assert_first_frame_renders(&svg_path);
+}
+
+/// The significant digits of a printed decimal (`0.784` → 3, `1230` → 3, `0` → 1).
+fn significant_digits(number: &str) -> usize {
+    let digits: String = number.chars().filter(|c| c.is_ascii_digit()).collect();
+    let s = digits.trim_start_matches('0').trim_end_matches('0');
+    s.len().max(1)
+}
+
+fn plan_with_figure(scene: &str, dir: &Path) -> (Value, String) {
+    let (plan, fig) = (dir.join(format!("{scene}.json")), dir.join(format!("{scene}.svg")));
+    let out = common::bin()
+        .env("OPENBLAS_NUM_THREADS", "1")
+        .args(["plan", "--scene"])
+        .arg(common::reference_dir().join(format!("{scene}.json")))
+        .args(["--seed", "1", "--out"])
+        .arg(&plan)
+        .arg("--figure")
+        .arg(&fig)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{scene}: {}", String::from_utf8_lossy(&out.stderr));
+    (serde_json::from_str(&std::fs::read_to_string(plan).unwrap()).unwrap(), std::fs::read_to_string(fig).unwrap())
+}
+
+/// The numbers after `key` (`t=`, `x3=`) in a legend text, up to the next comma.
+fn values_after(text: &str, key: &str) -> Vec<String> {
+    text.match_indices(key)
+        .filter(|(i, _)| *i == 0 || !text.as_bytes()[i - 1].is_ascii_alphanumeric())
+        .map(|(i, _)| text[i + key.len()..].split([',', ' ']).next().unwrap_or("").to_string())
+        .collect()
+}
+
+/// Plan legends print times with at most `viz::LEGEND_DIGITS` significant digits (the
+/// piece times of a moving scene are arbitrary floats).
+#[test]
+fn plan_legend_times_are_rounded() {
+    let dir = tempfile::tempdir().unwrap();
+    for scene in ["example-c-delivery", "example-b-lane-change"] {
+        let (_, svg) = plan_with_figure(scene, dir.path());
+        let mut seen = 0;
+        for text in svg_texts(&svg) {
+            let mut numbers = values_after(&text, "t=");
+            if let Some((_, list)) = text.split_once("at t = ").filter(|_| text.starts_with("waypoints")) {
+                numbers.extend(list.split(", ").map(String::from));
+            }
+            for n in numbers {
+                seen += 1;
+                assert!(n.parse::<f64>().is_ok(), "{scene}: not a number: {n:?} in {text:?}");
+                assert!(
+                    significant_digits(&n) <= riskplan::viz::LEGEND_DIGITS,
+                    "{scene}: the legend prints {n} ({} digits): {text:?}",
+                    significant_digits(&n)
+                );
+            }
+        }
+        assert!(seen >= 4, "{scene}: {seen} times in the legend");
+    }
+}
+
+/// The 3-D plan figure's contours are sections at the path's height: each legend entry
+/// names its time and x3 level, the level is the path's x3 at that time, and the levels
+/// change along the path (the old figure sliced x3 = 0 whatever the path did).
+#[test]
+fn plan_figure_3d_sections_follow_the_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plan, svg) = plan_with_figure("example-d2-cluttered-3d", dir.path());
+    let pieces: Vec<Piece> = serde_json::from_value(plan["pieces"].clone()).unwrap();
+    let x3 = |t: f64| -> f64 {
+        let pc = pieces.iter().find(|p| t <= p.t1).unwrap_or(pieces.last().unwrap());
+        pc.at(t.clamp(pc.t0, pc.t1))[2]
+    };
+    let texts = svg_texts(&svg);
+    assert!(texts.iter().any(|t| t.contains("sections at the path")), "the title says what is sliced: {texts:?}");
+    let mut levels = Vec::new();
+    for text in texts.iter().filter(|t| t.starts_with("Cantelli contour")) {
+        let (t, z) = (values_after(text, "t="), values_after(text, "x3="));
+        assert!(t.len() == 1 && z.len() == 1, "a contour's legend names its time and its x3 level: {text:?}");
+        let (t, z): (f64, f64) = (t[0].parse().unwrap(), z[0].parse().unwrap());
+        // both printed to 3 significant digits: the path moves less than 0.01 in the time's rounding
+        assert!((x3(t) - z).abs() <= 0.01, "{text:?}: the path is at x3 = {} at t = {t}", x3(t));
+        levels.push(z);
+    }
+    assert!(levels.len() >= 3, "{} sections: {texts:?}", levels.len());
+    let spread =
+        levels.iter().copied().fold(f64::NEG_INFINITY, f64::max) - levels.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(spread > 0.5, "the sections stay at one height ({levels:?}) while the path climbs from -1 to 1");
 }
