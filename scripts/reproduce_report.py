@@ -411,8 +411,8 @@ WHY = {
                                "was run in the paper; the other planners are ours.",
     "example-d2-cluttered-3d": "The start is (−1, −1, −1) as in the authors' code (the paper says (−1, −1, 0)). The "
                                "authors' mean constraint omits the noise variance (conservative); ours uses the exact "
-                               "moments. Our figures are the x1–x2 projection with the contours of the slice x3 = 0; "
-                               "the paper's is a 3-D view.",
+                               "moments. Our figures are the x1–x2 projection, each contour the section at the "
+                               "path's x3 at its time; the paper's is a 3-D view.",
 }
 
 

@@ -86,6 +86,7 @@ pub fn run(a: ContourArgs) -> Result<i32, CliError> {
         deltas,
         times,
         slices,
+        slices_at: vec![],
         mc: (a.mc > 0).then_some((a.mc, a.seed)),
         grid: a.grid,
         mc_grid: a.mc_grid,

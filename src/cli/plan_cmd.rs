@@ -127,7 +127,8 @@ pub struct PlanArgs {
     /// Write the trajectory here instead of stdout.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Draw contours, tree and path (.svg or .png); 3-D scenes as the x1–x2 projection.
+    /// Draw contours, tree and path (.svg or .png); 3-D scenes as the x1–x2 projection,
+    /// each contour the section at the path's x3 at its time (legend: t and x3).
     #[arg(long)]
     figure: Option<PathBuf>,
 }
@@ -322,8 +323,28 @@ fn draw_figure(
             if sampled_edges { "tree (edges passed Monte Carlo only)" } else { "tree (certified edges)" }.into(),
         ),
     }];
+    let path = out.trajectory.as_ref().filter(|t| !t.pieces.is_empty());
+    // the contours' times: on a moving scene those of the waypoints
     let mut times = vec![p.horizon.0];
-    if let Some(t) = &out.trajectory {
+    let mut marked: Option<(Vec<Vec<f64>>, String)> = None;
+    if let Some(t) = path.filter(|_| p.is_dynamic()) {
+        times = t.pieces.iter().map(|pc| pc.t0).chain(std::iter::once(p.horizon.1)).collect();
+        let points = t.pieces.iter().map(|pc| pc.at(pc.t0)).chain(std::iter::once(p.goal.clone())).collect();
+        let at: Vec<String> = times.iter().map(|&t| viz::legend_number(t)).collect();
+        marked = Some((points, format!("waypoints, coloured as their contours, at t = {}", at.join(", "))));
+    }
+    let (mut slices, mut slices_at, mut title) = (vec![], vec![], scene.name.clone());
+    if scene.dim == 3 {
+        let s = sections_at_path(p, path, &times);
+        times = s.times;
+        slices = vec![(2, 0.0)];
+        slices_at = s.levels.iter().map(|&z| vec![(2, z)]).collect();
+        title = format!("{} (sections at {})", scene.name, s.what);
+        if marked.is_none() && !s.points.is_empty() {
+            marked = Some((s.points, "the path's points of the sections, coloured as their contours".into()));
+        }
+    }
+    if let Some(t) = path {
         let mut pts: Vec<Vec<f64>> = Vec::new();
         for pc in &t.pieces {
             for k in 0..=16 {
@@ -332,16 +353,15 @@ fn draw_figure(
         }
         let label = if out.certified { "certified path" } else { "path (NOT certified)" };
         overlays.push(Overlay::Path { points: pts, color: (20, 60, 200), width: 3, label: Some(label.into()) });
-        if p.is_dynamic() {
-            times = t.pieces.iter().map(|pc| pc.t0).chain(std::iter::once(p.horizon.1)).collect();
+    }
+    // each marked point in the colour of its time's contour
+    if let Some((points, label)) = marked {
+        for (k, q) in points.into_iter().enumerate() {
             overlays.push(Overlay::Points {
-                points: t.pieces.iter().map(|pc| pc.at(pc.t0)).chain(std::iter::once(p.goal.clone())).collect(),
-                color: (20, 60, 200),
+                points: vec![q],
+                color: viz::time_color(k),
                 size: 4,
-                label: Some(format!(
-                    "waypoints at t = {}",
-                    times.iter().map(|t| format!("{t:.3}")).collect::<Vec<_>>().join(", ")
-                )),
+                label: (k == 0).then(|| label.clone()),
             });
         }
     }
@@ -351,22 +371,65 @@ fn draw_figure(
         size: 5,
         label: Some("start, goal".into()),
     });
-    let slices = if scene.dim == 3 { vec![(2, 0.0)] } else { vec![] };
     let opts = ContourOptions {
         deltas: vec![p.delta.to_f64()],
         times,
         slices,
+        slices_at,
         grid: 250,
-        title: Some(format!(
-            "{}{}",
-            scene.name,
-            if scene.dim == 3 { " (x1–x2 projection; contours: slice x3 = 0)" } else { "" }
-        )),
+        title: Some(title),
         ..Default::default()
     };
     viz::draw(scene, &opts, &overlays, fig).map_err(|e| CliError(e.to_string()))?;
     eprintln!("wrote {}", fig.display());
     Ok(())
+}
+
+/// The sections of a 3-D scene's plan figure (x1–x2 sections at heights x3).
+struct Sections {
+    /// The time of each section's contour.
+    times: Vec<f64>,
+    /// The x3 level of each.
+    levels: Vec<f64>,
+    /// The path's point at each section (empty without a path).
+    points: Vec<Vec<f64>>,
+    /// What the levels are, for the title.
+    what: &'static str,
+}
+
+/// The sections of a 3-D plan figure. With a path: at the path's x3 at each contour's
+/// time (`times`, the waypoints' on a moving scene); on a static scene, where each piece
+/// starts and where the last ends. Without a path: the start's x3 and the goal's.
+fn sections_at_path(p: &Problem, path: Option<&crate::scene::Trajectory>, times: &[f64]) -> Sections {
+    let dynamic = p.is_dynamic();
+    let Some(t) = path else {
+        let times = if dynamic { vec![p.horizon.0, p.horizon.1] } else { vec![p.horizon.0; 2] };
+        return Sections {
+            times,
+            levels: vec![p.start[2], p.goal[2]],
+            points: vec![],
+            what: "the start's and goal's x3",
+        };
+    };
+    let at = |s: f64| -> Vec<f64> {
+        let pc = t.pieces.iter().find(|pc| s <= pc.t1).unwrap_or(&t.pieces[t.pieces.len() - 1]);
+        pc.at(s.clamp(pc.t0, pc.t1))
+    };
+    let (section_times, what) = if dynamic {
+        (times.to_vec(), "the path's x3 at each time")
+    } else {
+        (
+            t.pieces.iter().map(|pc| pc.t0).chain(t.pieces.last().map(|pc| pc.t1)).collect(),
+            "the path's x3 at piece ends",
+        )
+    };
+    let points: Vec<Vec<f64>> = section_times.iter().map(|&s| at(s)).collect();
+    Sections {
+        times: if dynamic { section_times } else { vec![p.horizon.0; points.len()] },
+        levels: points.iter().map(|q| q[2]).collect(),
+        points,
+        what,
+    }
 }
 
 /// A spinner on stderr, shown only on a terminal and only for plans over a second.

@@ -77,11 +77,28 @@ pub fn run(a: SimArgs) -> Result<i32, CliError> {
     }
 }
 
+/// How far ahead of each prediction the animation draws the pedestrians' Δ-contours,
+/// seconds.
+const CONTOUR_AHEAD: f64 = 1.0;
+
 /// One frame of the animation.
 struct Frame {
     robot: [f64; 2],
     plan: Vec<[f64; 2]>,
-    walkers: Vec<([f64; 2], f64, f64)>,
+    walkers: Vec<FrameWalker>,
+}
+
+/// One pedestrian in a frame.
+struct FrameWalker {
+    /// True position now.
+    x: [f64; 2],
+    /// True radius.
+    radius: f64,
+    /// The predicted centre [`CONTOUR_AHEAD`] seconds after the prediction sent now
+    /// (measured position plus nominal velocity times that time).
+    ahead: [f64; 2],
+    /// The radius of the Δ-contour there (see [`delta_radius`]).
+    delta_radius: f64,
 }
 
 fn run_crowd(a: CrowdArgs) -> Result<i32, CliError> {
@@ -155,8 +172,12 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
                 .drain(..)
                 .map(|id| Change { op: "delete".into(), id, poly: None, params: None, pedestrian: None })
                 .collect();
+            let mut ahead: Vec<[f64; 2]> = Vec::with_capacity(world.walkers.len());
             for i in 0..world.walkers.len() {
                 let p = world.prediction(i, t);
+                let (m, n) = (&p["position"], world.walkers[i].nominal);
+                let at = |d: usize| m[d].as_f64().unwrap_or(world.walkers[i].x[d]) + n[d] * CONTOUR_AHEAD;
+                ahead.push([at(0), at(1)]);
                 changes.push(Change {
                     op: "put".into(),
                     id: world.walkers[i].id.clone(),
@@ -236,7 +257,17 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
                 frames.push(Frame {
                     robot: x,
                     plan: plan_pts,
-                    walkers: world.walkers.iter().map(|w| (w.x, w.radius, delta_radius(&params, a, 1.0))).collect(),
+                    walkers: world
+                        .walkers
+                        .iter()
+                        .zip(&ahead)
+                        .map(|(w, c)| FrameWalker {
+                            x: w.x,
+                            radius: w.radius,
+                            ahead: *c,
+                            delta_radius: delta_radius(&params, a, CONTOUR_AHEAD),
+                        })
+                        .collect(),
                 });
             }
             if let Some(id) = world.contact(&follow, t, STEP, a.robot_radius) {
@@ -273,7 +304,8 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
         );
     }
     if let Some(path) = &a.animate {
-        std::fs::write(path, animation(&frames, a)).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+        std::fs::write(path, animation(&frames, a.pedestrians, a.delta, a.robot_radius))
+            .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
     }
     let pct = |v: &mut Vec<f64>, q: f64| -> Option<f64> {
         v.sort_by(f64::total_cmp);
@@ -290,24 +322,41 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
     Ok(0)
 }
 
-/// The radius of a pedestrian's Δ-contour `tau` seconds after its prediction (the
-/// largest radius, the body and κ·√s; for the animation).
+/// The radius of a pedestrian's Δ-contour `tau` seconds after its prediction, for the
+/// robot's centre: the largest body radius, the robot's radius and κ·√s(τ) (the
+/// Gaussian tail bound's sure region, `contour::tail`).
 fn delta_radius(p: &CrowdParams, a: &CrowdArgs, tau: f64) -> f64 {
     let k = crate::contour::tail::tail_kappa(2, &num_rational::BigRational::from_float(a.delta).unwrap_or_default())
         .unwrap_or(0.0);
     p.radius.1 + a.robot_radius + k * (p.position_std.powi(2) + (p.velocity_std * tau).powi(2)).sqrt()
 }
 
-/// An animated SVG of the frames: pedestrians (grey) with their Δ-contour one second
-/// ahead (dashed), the robot (blue) with its body, its current plan (blue line).
-fn animation(frames: &[Frame], a: &CrowdArgs) -> String {
+/// Height of the caption band above the corridor in the animation, pixels.
+const CAPTION_BAND: f64 = 36.0;
+
+/// An animated SVG of the frames, one frame per [`STEP`], looping: each pedestrian (grey
+/// disk, its true position and radius now) with its Δ-contour for the robot's centre
+/// [`CONTOUR_AHEAD`] seconds ahead (dashed red circle around its predicted centre then);
+/// the robot (blue disk, its body) and its current plan (blue line); the goal (green).
+/// The first frame is visible without animation (SMIL hides it after its step), so
+/// static renderers show it; every other frame is hidden except during its step.
+fn animation(frames: &[Frame], pedestrians: usize, delta: f64, robot_radius: f64) -> String {
     let (lo, hi) = crowd::bounds();
     let scale = 50.0;
     let (w, h) = ((hi[0] - lo[0]) * scale, (hi[1] - lo[1]) * scale);
+    let total_h = h + CAPTION_BAND;
     let px = |p: [f64; 2]| ((p[0] - lo[0]) * scale, (hi[1] - p[1]) * scale);
     let dur = frames.len() as f64 * STEP;
     let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n\
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{total_h}\" viewBox=\"0 0 {w} {total_h}\">\n\
+         <title>riskplan sim crowd: a robot crossing a corridor among pedestrians</title>\n\
+         <rect width=\"{w}\" height=\"{total_h}\" fill=\"#fff\"/>\n\
+         <text x=\"8\" y=\"14\" font-family=\"sans-serif\" font-size=\"11\">riskplan sim crowd: {pedestrians} pedestrians, Δ = {delta}, robot radius {robot_radius}. \
+         Blue: the robot and its plan; green: the goal; grey: the pedestrians now.</text>\n\
+         <text x=\"8\" y=\"29\" font-family=\"sans-serif\" font-size=\"11\">Dashed red: each pedestrian's Δ-contour {CONTOUR_AHEAD} s ahead \
+         (around its predicted centre then; for the robot's centre).</text>\n\
+         <clipPath id=\"corridor\"><rect width=\"{w}\" height=\"{h}\"/></clipPath>\n\
+         <g transform=\"translate(0,{CAPTION_BAND})\" clip-path=\"url(#corridor)\">\n\
          <rect width=\"{w}\" height=\"{h}\" fill=\"#fafafa\" stroke=\"#333\"/>\n"
     );
     let (_, goal) = crowd::start_goal();
@@ -318,17 +367,29 @@ fn animation(frames: &[Frame], a: &CrowdArgs) -> String {
     );
     for (k, f) in frames.iter().enumerate() {
         let begin = k as f64 * STEP;
-        s += &format!(
-            "<g visibility=\"hidden\"><set attributeName=\"visibility\" to=\"visible\" begin=\"{begin:.1}s;loop.end+{begin:.1}s\" dur=\"{STEP}s\"/>\n"
-        );
-        for (x, r, dr) in &f.walkers {
-            let c = px(*x);
-            s += &format!("<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" fill=\"#999\"/>", c.0, c.1, r * scale);
+        if k == 0 {
+            // visible by default; hidden from the end of its step to the end of the loop
+            s += "<g id=\"frame-0\">";
+            if frames.len() > 1 {
+                s += &format!(
+                    "<set attributeName=\"visibility\" to=\"hidden\" begin=\"{STEP:.1}s;loop.end+{STEP:.1}s\" dur=\"{:.1}s\"/>",
+                    dur - STEP
+                );
+            }
+            s += "\n";
+        } else {
+            s += &format!(
+                "<g id=\"frame-{k}\" visibility=\"hidden\"><set attributeName=\"visibility\" to=\"visible\" begin=\"{begin:.1}s;loop.end+{begin:.1}s\" dur=\"{STEP}s\"/>\n"
+            );
+        }
+        for p in &f.walkers {
+            let (c, e) = (px(p.x), px(p.ahead));
+            s += &format!("<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" fill=\"#999\"/>", c.0, c.1, p.radius * scale);
             s += &format!(
                 "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" fill=\"none\" stroke=\"#c33\" stroke-dasharray=\"3 3\"/>\n",
-                c.0,
-                c.1,
-                dr * scale
+                e.0,
+                e.1,
+                p.delta_radius * scale
             );
         }
         if f.plan.len() > 1 {
@@ -343,15 +404,56 @@ fn animation(frames: &[Frame], a: &CrowdArgs) -> String {
             "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" fill=\"#1f5fbf\" fill-opacity=\"0.8\"/>\n</g>\n",
             r.0,
             r.1,
-            a.robot_radius * scale
+            robot_radius * scale
         );
     }
     s += &format!(
-        "<rect width=\"0\" height=\"0\"><animate id=\"loop\" attributeName=\"width\" from=\"0\" to=\"0\" begin=\"0s;loop.end\" dur=\"{dur:.1}s\"/></rect>\n"
-    );
-    s += &format!(
-        "<text x=\"8\" y=\"16\" font-family=\"sans-serif\" font-size=\"12\">riskplan sim crowd: {} pedestrians, Δ = {}, robot radius {} (dashed: Δ-contours 1 s ahead)</text>\n</svg>\n",
-        a.pedestrians, a.delta, a.robot_radius
+        "</g>\n<rect width=\"0\" height=\"0\"><animate id=\"loop\" attributeName=\"width\" from=\"0\" to=\"0\" begin=\"0s;loop.end\" dur=\"{dur:.1}s\"/></rect>\n</svg>\n"
     );
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(k: usize) -> Frame {
+        let s = k as f64 * 0.1;
+        Frame {
+            robot: [-7.0 + s, 0.0],
+            plan: vec![[-7.0 + s, 0.0], [0.0, 0.0]],
+            walkers: vec![FrameWalker { x: [s, 1.0], radius: 0.25, ahead: [s + 1.0, 1.0], delta_radius: 0.7 }],
+        }
+    }
+
+    /// The first frame's group is visible without SMIL (a `<set>` hides it after its
+    /// step, each loop); every later frame is hidden until its own `<set>` shows it.
+    #[test]
+    fn first_animation_frame_is_visible_without_smil() {
+        let svg = animation(&[frame(0), frame(1), frame(2)], 1, 0.01, 0.25);
+        let groups: Vec<&str> = svg
+            .split("<g")
+            .skip(1)
+            .filter(|g| !g.starts_with(" transform"))
+            .map(|g| &g[..g.find('>').unwrap()])
+            .collect();
+        assert_eq!(groups.len(), 3, "{svg}");
+        assert!(!groups[0].contains("visibility=\"hidden\""), "frame 0: <g{}>", groups[0]);
+        assert!(svg.contains("to=\"hidden\" begin=\"0.1s;loop.end+0.1s\" dur=\"0.2s\""), "{svg}");
+        for (k, g) in groups.iter().enumerate().skip(1) {
+            assert!(g.contains("visibility=\"hidden\""), "frame {k}: <g{g}>");
+            assert!(svg.contains(&format!("to=\"visible\" begin=\"0.{k}s;loop.end+0.{k}s\"")), "frame {k}");
+        }
+    }
+
+    /// The dashed contour is drawn around the predicted centre ahead, the grey disk at
+    /// the pedestrian's position now.
+    #[test]
+    fn contours_are_drawn_at_the_predicted_centre_ahead() {
+        let svg = animation(&[frame(0)], 1, 0.01, 0.25);
+        let (lo, hi) = crowd::bounds();
+        let px = |p: [f64; 2]| format!("cx=\"{:.1}\" cy=\"{:.1}\"", (p[0] - lo[0]) * 50.0, (hi[1] - p[1]) * 50.0);
+        assert!(svg.contains(&format!("<circle {} r=\"12.5\" fill=\"#999\"/>", px([0.0, 1.0]))), "{svg}");
+        assert!(svg.contains(&format!("<circle {} r=\"35.0\" fill=\"none\" stroke=\"#c33\"", px([1.0, 1.0]))), "{svg}");
+    }
 }

@@ -49,6 +49,10 @@ pub struct ContourOptions {
     pub times: Vec<f64>,
     /// Fixed coordinates `(axis, value)` for scenes of more than two dimensions.
     pub slices: Vec<(usize, f64)>,
+    /// Per entry of `times`, new values of sliced axes at that time (each axis must be
+    /// one of `slices`): a section that moves with the time, for instance at a path's
+    /// height. The legend names each section's values. Empty: `slices` at every time.
+    pub slices_at: Vec<Vec<(usize, f64)>>,
     /// Monte Carlo samples per grid point for the "true" contour, and the seed.
     pub mc: Option<(u64, u64)>,
     /// Grid points per axis for the Cantelli contours.
@@ -90,6 +94,7 @@ impl Default for ContourOptions {
             deltas: vec![],
             times: vec![],
             slices: vec![],
+            slices_at: vec![],
             mc: None,
             grid: 300,
             mc_grid: 90,
@@ -147,11 +152,60 @@ const PALETTE: [(u8, u8, u8); 8] = [
     (90, 90, 90),
 ];
 
+/// The colour of the contours of a figure's `ti`-th time, when it has several times (for
+/// overlays that mark the path at those times).
+pub fn time_color(ti: usize) -> (u8, u8, u8) {
+    PALETTE[ti % PALETTE.len()]
+}
+
 /// The two plotted axes and the full-coordinate template for a scene and its slices.
+#[derive(Clone)]
 struct Axes {
     a: usize,
     b: usize,
     template: Vec<f64>,
+}
+
+impl Axes {
+    /// The same plotted axes with the sliced coordinates `at` set to new values.
+    fn moved(&self, at: &[(usize, f64)]) -> Result<Axes, VizError> {
+        let mut ax = self.clone();
+        for &(axis, v) in at {
+            if axis >= ax.template.len() || axis == ax.a || axis == ax.b {
+                return Err(VizError::Slice(format!("a section at x{} = {v}: x{} is not a sliced axis", axis + 1, axis + 1)));
+            }
+            ax.template[axis] = v;
+        }
+        Ok(ax)
+    }
+}
+
+/// Significant digits of the times and section levels printed in legends.
+pub const LEGEND_DIGITS: usize = 3;
+
+/// `v` rounded to [`LEGEND_DIGITS`] significant digits, without trailing zeros
+/// (`0.7836221802863881` → `0.784`, `1.0` → `1`, `27.456` → `27.5`).
+pub fn legend_number(v: f64) -> String {
+    if !v.is_finite() {
+        return format!("{v}");
+    }
+    if v == 0.0 {
+        return "0".into();
+    }
+    let digits = LEGEND_DIGITS as i32;
+    let mag = v.abs().log10().floor() as i32;
+    let text = if mag >= digits - 1 {
+        let unit = 10f64.powi(mag + 1 - digits);
+        format!("{:.0}", (v / unit).round() * unit)
+    } else {
+        let t = format!("{:.*}", (digits - 1 - mag) as usize, v);
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    };
+    if text == "-0" {
+        "0".into()
+    } else {
+        text
+    }
 }
 
 fn axes(scene: &Scene, slices: &[(usize, f64)]) -> Result<Axes, VizError> {
@@ -319,6 +373,16 @@ fn mc_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64, samples: u64, seed: u64) 
 /// Draws the contours of `scene` with `overlays` on top into `out` (`.svg` or `.png`).
 pub fn draw(scene: &Scene, opts: &ContourOptions, overlays: &[Overlay], out: &Path) -> Result<(), VizError> {
     let ax = axes(scene, &opts.slices)?;
+    if !opts.slices_at.is_empty() && opts.slices_at.len() != opts.times.len() {
+        return Err(VizError::Slice(format!(
+            "{} sections for {} times: give one per time",
+            opts.slices_at.len(),
+            opts.times.len()
+        )));
+    }
+    for at in &opts.slices_at {
+        ax.moved(at)?;
+    }
     font::ensure_registered()?;
     let name = out.to_string_lossy().to_string();
     // Equal scales on both axes (discs look round): size the figure by the window's aspect.
@@ -369,7 +433,9 @@ where
     let (lx, ux, ly, uy) = win;
     let title = opts.title.clone().unwrap_or_else(|| {
         let slices: Vec<String> = opts.slices.iter().map(|(a, v)| format!("x{}={v}", a + 1)).collect();
-        if slices.is_empty() {
+        if !opts.slices_at.is_empty() {
+            format!("{} (a section per time: see the legend)", scene.name)
+        } else if slices.is_empty() {
             scene.name.clone()
         } else {
             format!("{} ({})", scene.name, slices.join(", "))
@@ -391,11 +457,26 @@ where
         .map_err(draw_err)?;
     let g = Grid::new(win, opts.grid);
     let multi_time = opts.times.len() > 1;
+    // each time's axes (its section) and the words naming it in the legend
+    let panels: Vec<Axes> = (0..opts.times.len())
+        .map(|ti| opts.slices_at.get(ti).map_or(Ok(ax.clone()), |at| ax.moved(at)))
+        .collect::<Result<_, _>>()?;
+    let times_differ = opts.times.windows(2).any(|w| w[0] != w[1]);
+    let panel_label = |ti: usize| -> String {
+        let mut parts = Vec::new();
+        if times_differ {
+            parts.push(format!("t={}", legend_number(opts.times[ti])));
+        }
+        for &(a, v) in opts.slices_at.get(ti).map_or(&[][..], |at| &at[..]) {
+            parts.push(format!("x{}={}", a + 1, legend_number(v)));
+        }
+        parts.join(", ")
+    };
     // 1. Monte Carlo "true" contour, shaded (bottom layer).
     if let Some((samples, seed)) = opts.mc {
         let mg = Grid::new(win, opts.mc_grid);
         for (ti, &t) in opts.times.iter().enumerate() {
-            let est = mc_grid(scene, ax, &mg, t, samples, seed)?;
+            let est = mc_grid(scene, &panels[ti], &mg, t, samples, seed)?;
             // Shade the largest true region (smallest Δ): where the estimated risk exceeds it.
             let dmin = opts.deltas.iter().copied().fold(f64::INFINITY, f64::min);
             let shade = RGBColor(60, 170, 90).mix(0.25);
@@ -425,18 +506,25 @@ where
             }
         }
     }
-    // 2. The obstacle at the mean of its parameters, filled grey.
+    // 2. The obstacle at the mean of its parameters, filled grey; when the Cantelli
+    // contours are coloured by time, in its time's colour
+    let by_time = multi_time && opts.curves.is_empty();
+    let fill = |ti: usize, alpha: f64| {
+        if by_time {
+            rgb(PALETTE[ti % PALETTE.len()]).mix(alpha * 0.8)
+        } else {
+            RGBColor(90, 90, 90).mix(alpha)
+        }
+    };
     let mut first = true;
-    for &t in &opts.times {
-        let mean = mean_obstacle_grid(scene, ax, &g, t);
+    for (ti, &t) in opts.times.iter().enumerate() {
+        let mean = mean_obstacle_grid(scene, &panels[ti], &g, t);
         for (ext, holes) in g.regions(&mean, 0.0) {
-            let s = chart
-                .draw_series(std::iter::once(Polygon::new(ext, RGBColor(90, 90, 90).mix(0.35).filled())))
-                .map_err(draw_err)?;
+            let s = chart.draw_series(std::iter::once(Polygon::new(ext, fill(ti, 0.35).filled()))).map_err(draw_err)?;
             if first {
-                s.label("obstacle at E[ω]").legend(|(x, y)| {
-                    Rectangle::new([(x, y - 5), (x + 18, y + 5)], RGBColor(90, 90, 90).mix(0.5).filled())
-                });
+                let swatch = fill(ti, 0.5);
+                let label = if by_time { "obstacle at E[ω], in its time's colour" } else { "obstacle at E[ω]" };
+                s.label(label).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], swatch.filled()));
                 first = false;
             }
             for h in holes {
@@ -448,7 +536,7 @@ where
     // the contours of each bound asked for, one colour per bound
     for (ti, &t) in opts.times.iter().enumerate().filter(|_| !opts.curves.is_empty()) {
         for (ci, &curve) in opts.curves.iter().enumerate() {
-            let b = curve_grid(scene, ax, &g, t, curve);
+            let b = curve_grid(scene, &panels[ti], &g, t, curve);
             let color = rgb(PALETTE[ci % PALETTE.len()]);
             let width = if curve == BoundCurve::Best { 3 } else { 2 };
             for (di, &d) in opts.deltas.iter().enumerate() {
@@ -468,11 +556,12 @@ where
         }
     }
     for (ti, &t) in opts.times.iter().enumerate().filter(|_| opts.curves.is_empty()) {
-        let b = bound_grid(scene, ax, &g, t);
+        let b = bound_grid(scene, &panels[ti], &g, t);
+        let which = panel_label(ti);
         for (di, &d) in opts.deltas.iter().enumerate() {
             let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);
             let label =
-                if multi_time { format!("Cantelli contour Δ={d}, t={t}") } else { format!("Cantelli contour Δ={d}") };
+                if which.is_empty() { format!("Cantelli contour Δ={d}") } else { format!("Cantelli contour Δ={d}, {which}") };
             let mut first = true;
             for line in g.isolines(&b, d) {
                 let s = chart
@@ -556,4 +645,28 @@ where
 /// The plain Cantelli bound helper re-exported for figure code.
 pub fn bound(mean: f64, second: f64) -> f64 {
     cantelli_bound_f64(mean, second)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn legend_numbers_have_three_significant_digits() {
+        for (v, s) in [
+            (0.0, "0"),
+            (-0.0, "0"),
+            (1.0, "1"),
+            (0.5, "0.5"),
+            (0.7836221802863881, "0.784"),
+            (0.22656289844485455, "0.227"),
+            (0.9996, "1"),
+            (27.456, "27.5"),
+            (1234.5, "1230"),
+            (-0.48213, "-0.482"),
+            (0.000123456, "0.000123"),
+        ] {
+            assert_eq!(legend_number(v), s, "{v}");
+        }
+    }
 }

@@ -19,6 +19,8 @@ mod cli_first_hour;
 mod cli_plan;
 mod crowd;
 mod extreme_scales;
+#[cfg(feature = "cli")]
+mod figures;
 mod fuzz_replay;
 mod optimisation_planners;
 mod plan_quality;
