@@ -169,3 +169,22 @@ fn verify_names_a_scene_file_and_warns_of_another_scenes_plan() {
         "{err}"
     );
 }
+
+/// `bench` names the commit of the binary that ran, wherever it runs (outside any git
+/// checkout too: it used to ask git in the working directory, and printed `git ;`).
+#[test]
+fn bench_names_the_binarys_commit_outside_a_checkout() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = dir.path().join("no-scenes");
+    std::fs::create_dir(&scenes).unwrap();
+    let out = common::bin()
+        .current_dir(dir.path())
+        .env("OPENBLAS_NUM_THREADS", "1")
+        .args(["bench", "--scenes", scenes.to_str().unwrap(), "--out", "b.jsonl"])
+        .output()
+        .expect("run riskplan bench");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let rev = stdout.split("; git ").nth(1).and_then(|r| r.split(';').next()).unwrap_or_default();
+    assert!(!rev.is_empty() && rev.chars().all(|c| c.is_ascii_alphanumeric()), "no commit in {stdout:?}");
+}
