@@ -150,27 +150,19 @@ pub fn plan(
     if let (Some(id), Some(t)) = (req.robot_id.as_deref(), out.trajectory.as_ref()) {
         registry.keep_robot_plan(&entry.scene.name, id, Arc::new(t.clone()));
     }
-    if let Some(n) = out.stats.final_check.as_ref().map(|f| f.disagreements).filter(|&n| n > 0) {
-        #[cfg(feature = "service")]
-        tracing::error!(
-            scene = %entry.scene.name,
-            planner = ran.as_str(),
-            disagreements = n,
-            "internal error: the final check rejected a trajectory the fast edge check had accepted (planned again without the fast path)"
-        );
-        #[cfg(not(feature = "service"))]
-        let _ = n;
-    }
-    if let Some(n) = out.stats.final_check.as_ref().map(|f| f.invalid).filter(|&n| n > 0) {
-        #[cfg(feature = "service")]
-        tracing::error!(
-            scene = %entry.scene.name,
-            planner = ran.as_str(),
-            invalid = n,
-            "internal error: the planner returned a trajectory that is not valid (planned again without smoothing)"
-        );
-        #[cfg(not(feature = "service"))]
-        let _ = n;
+    // the final check's internal errors (docs/design.md §5.12): each answered by a re-plan
+    if let Some(fc) = out.stats.final_check.as_ref() {
+        for (n, what) in [
+            (fc.disagreements, "the final check rejected a trajectory the fast edge check had accepted (planned again without the fast path)"),
+            (fc.invalid, "the planner returned a trajectory that is not valid (planned again without smoothing)"),
+        ] {
+            #[cfg(feature = "service")]
+            if n > 0 {
+                tracing::error!(scene = %entry.scene.name, planner = ran.as_str(), count = n, "internal error: {what}");
+            }
+            #[cfg(not(feature = "service"))]
+            let _ = (n, what);
+        }
     }
     if let Some(r @ crate::plan::NoPlanReason::FinalCheckFailed { .. }) = &out.reason {
         #[cfg(feature = "service")]

@@ -2,21 +2,10 @@
 //! `verify` as they are, reproducible by seed, and bad requests rejected with status 2.
 
 use crate::common;
+use crate::common::run;
+use crate::common::scene_arg as scene;
 
 use serde_json::Value;
-
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = common::bin().env("OPENBLAS_NUM_THREADS", "1").args(args).output().expect("run riskplan");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
-
-fn scene(name: &str) -> String {
-    common::reference_dir().join(format!("{name}.json")).to_string_lossy().into()
-}
 
 #[test]
 fn plan_output_verifies_and_is_reproducible() {

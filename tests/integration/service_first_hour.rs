@@ -4,21 +4,13 @@
 //! service in both encodings. Loopback only.
 
 use crate::common;
+use crate::common::run;
 use crate::common::server::{free_port, reference_scene, serve};
 use riskplan::app::PlanRequest as AppPlanRequest;
 use riskplan::service::proto::{Codec, PlanRequest};
 use riskplan::service::{Client, ClientError};
 use std::sync::Arc;
 use std::time::Duration;
-
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = common::bin().env("OPENBLAS_NUM_THREADS", "1").args(args).output().expect("run riskplan");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
 
 /// A client command with nothing listening says how to start a server, without Zenoh's
 /// source paths.

@@ -69,3 +69,20 @@ pub fn scene(name: &str) -> Scene {
 pub fn bin() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_riskplan"))
 }
+
+/// Runs the `riskplan` binary with `args` (OpenBLAS on one thread): (exit status, stdout,
+/// stderr).
+#[cfg(feature = "cli")]
+pub fn run(args: &[&str]) -> (i32, String, String) {
+    let out = bin().env("OPENBLAS_NUM_THREADS", "1").args(args).output().expect("run riskplan");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+/// The path of a reference scene file by stem, as a command-line argument.
+pub fn scene_arg(name: &str) -> String {
+    reference_dir().join(format!("{name}.json")).to_string_lossy().into()
+}
