@@ -181,7 +181,7 @@ pub(crate) fn path_risk_sum(checker: &dyn MotionChecker, pieces: &[Piece], stop:
 /// moved onto that waypoint (docs/design.md §6.8): without it a shortcut could leave a
 /// piece of any shortness beside a waypoint — a segment of 10⁻⁶ of the path, timed over a
 /// horizon of length 1, lasts 5·10⁻⁷ — whose corner no blend can take and whose eased parts
-/// have coefficients of order 10¹⁸ in absolute time. The shortcut gives up at most this
+/// have coefficients of order 10¹³ in absolute time. The shortcut gives up at most this
 /// share of one piece's length.
 pub const SHORTCUT_SNAP_SHARE: f64 = 1e-3;
 
