@@ -18,7 +18,7 @@ const LAYERS: &[&[&str]] = &[
     &["motion"],
     &["certify"],
     &["plan", "verify"],
-    &["app"],
+    &["app", "names"],
     &["service", "viz"],
     &["cli"],
 ];
