@@ -162,47 +162,27 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
                 .into(),
         ));
     }
-    let scene_start = || {
-        scene
-            .start
-            .clone()
-            .ok_or_else(|| CliError(format!("{}: the scene has no start: give --start", a.scene.display())))
-    };
-    let scene_goal = || {
-        scene.goal.clone().ok_or_else(|| CliError(format!("{}: the scene has no goal: give --goal", a.scene.display())))
+    // a point not given: the scene's own, else the flag to give
+    let or_scene = |given: Option<Vec<f64>>, own: &Option<Vec<f64>>, what: &str| {
+        given
+            .or_else(|| own.clone())
+            .ok_or_else(|| CliError(format!("{}: the scene has no {what}: give --{what}", a.scene.display())))
     };
     let (receding, endpoints) = if a.planner == PlannerKind::Receding {
         let t_now = a.t_now.unwrap_or(scene.horizon.0);
         let r = crate::app::RecedingRequest {
             t_now,
-            position: match position.or(start) {
-                Some(p) => p,
-                None => scene_start()?,
-            },
+            position: or_scene(position.or(start), &scene.start, "start")?,
             velocity,
             horizon: a.horizon.unwrap_or(scene.horizon.1 - t_now),
-            goal: match goal {
-                Some(g) => g,
-                None => scene_goal()?,
-            },
+            goal: or_scene(goal, &scene.goal, "goal")?,
             warm_start: None,
         };
         (Some(r), None)
+    } else if start.is_none() && goal.is_none() {
+        (None, None)
     } else {
-        let endpoints = match (start, goal) {
-            (None, None) => None,
-            (s, g) => Some((
-                match s {
-                    Some(s) => s,
-                    None => scene_start()?,
-                },
-                match g {
-                    Some(g) => g,
-                    None => scene_goal()?,
-                },
-            )),
-        };
-        (None, endpoints)
+        (None, Some((or_scene(start, &scene.start, "start")?, or_scene(goal, &scene.goal, "goal")?)))
     };
     let request = PlanRequest {
         planner: a.planner,

@@ -120,6 +120,17 @@ fn expect_counts(pairs: &[(&str, &str, u64)]) -> BTreeMap<(String, String), u64>
     pairs.iter().map(|(k, o, n)| ((k.to_string(), o.to_string()), *n)).collect()
 }
 
+/// A small disk far from the plans' corridor: a change an apply can make.
+fn far_disk() -> Change {
+    Change {
+        op: "put".into(),
+        id: "far".into(),
+        poly: Some("0.01 - (x1 - 0.9)^2 - (x2 + 0.9)^2".into()),
+        params: None,
+        pedestrian: None,
+    }
+}
+
 fn server_code<T: std::fmt::Debug>(r: Result<T, ClientError>) -> String {
     match r {
         Err(ClientError::Server(e)) => e.code,
@@ -176,13 +187,7 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
         let points = RiskRequest { points: Some(vec![vec![0.9, 0.9]]), ..Default::default() };
         c.risk(SCENE, &points).await.expect("a risk reply");
         c.status().await.expect("a status reply");
-        let change = Change {
-            op: "put".into(),
-            id: "far".into(),
-            poly: Some("0.01 - (x1 - 0.9)^2 - (x2 + 0.9)^2".into()),
-            params: None,
-            pedestrian: None,
-        };
+        let change = far_disk();
         let applied = c
             .apply(SCENE, &ApplyRequest { changes: Some(vec![change]), ..Default::default() })
             .await
@@ -420,13 +425,7 @@ fn every_kind_of_request(endpoint: &str) {
         let risk = Route::Risk { scene: SCENE.into() };
         assert_eq!(code(c.raw_query(&risk, empty.clone()).await).as_deref(), Some("invalid_request"));
         // apply: a change, and one that is none
-        let change = Change {
-            op: "put".into(),
-            id: "far".into(),
-            poly: Some("0.01 - (x1 - 0.9)^2 - (x2 + 0.9)^2".into()),
-            params: None,
-            pedestrian: None,
-        };
+        let change = far_disk();
         let applied = c.apply(SCENE, &ApplyRequest { changes: Some(vec![change]), ..Default::default() }).await;
         assert_eq!(applied.expect("an apply").revision, 2);
         let bad = Change { op: "rename".into(), id: "far".into(), poly: None, params: None, pedestrian: None };
