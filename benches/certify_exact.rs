@@ -13,10 +13,10 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use num_rational::BigRational;
-use riskplan::certify::{check, check_exact, check_interval, sturm, Verdict, DEFAULT_MAX_DEPTH};
-use riskplan::contour::{Layout, RiskContour};
-use riskplan::moments::Distribution;
-use riskplan::poly::{parse, parse_decimal, Interval, UPoly, VarTable};
+use riskplan_certify::{check, check_exact, check_interval, sturm, Verdict, DEFAULT_MAX_DEPTH};
+use riskplan_math::contour::{Layout, RiskContour};
+use riskplan_math::moments::Distribution;
+use riskplan_math::poly::{parse, parse_decimal, Interval, UPoly, VarTable};
 use std::hint::black_box;
 
 fn q(text: &str) -> BigRational {

@@ -10,11 +10,11 @@
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use num_rational::BigRational;
-use riskplan::app::crowd::{start_goal, Crowd, CrowdParams};
-use riskplan::app::{PlanRequest, RecedingRequest};
-use riskplan::contour::RiskLevel;
-use riskplan::scene::{ContourCache, Num, Scene, SceneFile};
 use riskplan::SceneKernel;
+use riskplan_app::crowd::{start_goal, Crowd, CrowdParams};
+use riskplan_app::{PlanRequest, RecedingRequest};
+use riskplan_math::contour::RiskLevel;
+use riskplan_scene::{ContourCache, Num, Scene, SceneFile};
 use std::sync::Arc;
 use std::time::Duration;
 

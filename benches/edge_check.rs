@@ -12,10 +12,10 @@
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
-use riskplan::contour::BoundChoice;
-use riskplan::plan::MotionChecker;
-use riskplan::scene::{Piece, Scene};
-use riskplan::verify::{Method, SceneCertifier};
+use riskplan_app::verify::{Method, SceneCertifier};
+use riskplan_math::contour::BoundChoice;
+use riskplan_plan::MotionChecker;
+use riskplan_scene::{Piece, Scene};
 use std::sync::Arc;
 
 mod common;
@@ -50,7 +50,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("kernel");
     let cert = certifier(common::reference_scene("illustrative-3"));
     let near = Piece::segment(&[-1.0, -0.8], &[1.0, -0.8], 0.0, 1.0);
-    assert_eq!(cert.check(&near), riskplan::plan::Motion::Accepted);
+    assert_eq!(cert.check(&near), riskplan_plan::Motion::Accepted);
     g.bench_function("disk_near", |b| b.iter(|| cert.check(black_box(&near))));
     g.finish();
 
@@ -60,7 +60,7 @@ fn bench(c: &mut Criterion) {
         let es = edges(&s, len, 256, 1);
         let cert = certifier(s);
         g.bench_function(stem, |b| {
-            b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count())
+            b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan_plan::Motion::Accepted).count())
         });
     }
     g.finish();
@@ -72,9 +72,9 @@ fn bench(c: &mut Criterion) {
             let es = edges(&s, len, 256, 1);
             let cert = certifier_with(s, bound);
             // warm: the compiled bounds are built by the first check that needs them
-            let _ = es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count();
+            let _ = es.iter().filter(|e| cert.check(e) == riskplan_plan::Motion::Accepted).count();
             g.bench_function(format!("{stem}-{bound}"), |b| {
-                b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count())
+                b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan_plan::Motion::Accepted).count())
             });
         }
     }
@@ -83,7 +83,7 @@ fn bench(c: &mut Criterion) {
     let cert = certifier_with(gauss, BoundChoice::Auto);
     for (name, y) in [("gaussian-disk-cantelli-edge", 3.5), ("gaussian-disk-moment-edge", 0.7)] {
         let e = Piece::segment(&[-1.0, y], &[1.0, y], 0.0, 1.0);
-        assert_eq!(cert.check(&e), riskplan::plan::Motion::Accepted, "{name}");
+        assert_eq!(cert.check(&e), riskplan_plan::Motion::Accepted, "{name}");
         g.bench_function(name, |b| b.iter(|| cert.check(black_box(&e))));
     }
     g.finish();
@@ -100,7 +100,7 @@ fn bench(c: &mut Criterion) {
         let mut c = Vec::new();
         let mut total = 0;
         for e in &es {
-            let bb = riskplan::certify::scene::piece_bbox(riskplan::certify::PieceRef {
+            let bb = riskplan_certify::scene::piece_bbox(riskplan_certify::PieceRef {
                 t0: e.t0,
                 t1: e.t1,
                 coeffs: &e.coeffs,
@@ -115,7 +115,7 @@ fn bench(c: &mut Criterion) {
             total as f64 / es.len() as f64
         );
         g.bench_function(format!("disks-{n}"), |b| {
-            b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan::plan::Motion::Accepted).count())
+            b.iter(|| es.iter().filter(|e| cert.check(e) == riskplan_plan::Motion::Accepted).count())
         });
     }
     g.finish();
@@ -129,11 +129,11 @@ fn bench(c: &mut Criterion) {
     let mut edge_8: [Option<f64>; 2] = [None; 2];
     for n in [8usize, 32, 128, 512] {
         let s = Arc::new(Scene::from_json(&common::disks_scene(n, 1)).expect("disk scene"));
-        let kernel = riskplan::verify::SceneKernel::from(s.clone());
-        let request = riskplan::app::PlanRequest { smooth: false, ..Default::default() };
+        let kernel = riskplan_app::verify::SceneKernel::from(s.clone());
+        let request = riskplan_app::PlanRequest { smooth: false, ..Default::default() };
         let (_, out) = request.run(&kernel, None).expect("plan");
         assert!(out.certified, "disks-{n}: {:?}", out.reason);
-        let smoothed = riskplan::app::PlanRequest::default().run(&kernel, None).expect("plan").1;
+        let smoothed = riskplan_app::PlanRequest::default().run(&kernel, None).expect("plan").1;
         // the whole default plan, warm (issue 21: ≤ 3× its first path; its edges' cost
         // ≤ 5× that on 8 disks), seeds 1–8, medians; then the same eight plans again
         // ("steady": what their searches build on first use is built by then — on a small
@@ -149,7 +149,7 @@ fn bench(c: &mut Criterion) {
             let mut ratios = Vec::new();
             let mut per_edge = Vec::new();
             for seed in 1..=8 {
-                let req = riskplan::app::PlanRequest { seed, ..Default::default() };
+                let req = riskplan_app::PlanRequest { seed, ..Default::default() };
                 let st = req.run(&kernel, None).expect("plan").1.stats;
                 let first = st.time_to_feasible_s.unwrap_or(f64::NAN);
                 let edge = st.checker_time_s / st.edges_checked.max(1) as f64 * 1e6;

@@ -3,7 +3,7 @@
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use num_rational::BigRational;
-use riskplan::scene::Scene;
+use riskplan_scene::Scene;
 
 mod common;
 

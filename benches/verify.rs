@@ -5,9 +5,9 @@
 //! path (the scene certifier, stopping at the first failure).
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use riskplan::plan::MotionChecker;
-use riskplan::scene::{Piece, Trajectory};
-use riskplan::verify::{verify, Method, SceneCertifier, SceneKernel};
+use riskplan_app::verify::{verify, Method, SceneCertifier, SceneKernel};
+use riskplan_plan::MotionChecker;
+use riskplan_scene::{Piece, Trajectory};
 use std::sync::Arc;
 
 mod common;

@@ -11,15 +11,19 @@ cd "$(dirname "$0")/.."
 export OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1}   # small SDPs are faster single-threaded
 export RISKPLAN_TEST_TIER=quick
 export PROPTEST_CASES=${PROPTEST_CASES:-64}
-CORE=(--no-default-features --features test-support)
+# the layer crates below the service, and the root package without the service and CLI
+LAYERS=(-p riskplan-math -p riskplan-scene -p riskplan-certify -p riskplan-plan -p riskplan-app)
+ROOT=(-p riskplan --no-default-features)
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
-echo "== cargo clippy (the core: library, unit tests, integration binary; no transport)"
-cargo clippy "${CORE[@]}" --lib --tests -- -D warnings
+echo "== cargo clippy (the layers below the service: libraries, unit tests; the integration binary; no transport)"
+cargo clippy "${LAYERS[@]}" --lib --tests -- -D warnings
+cargo clippy "${ROOT[@]}" --lib --tests -- -D warnings
 echo "== the API docs (rustdoc: no broken, ambiguous or private intra-doc links; no transport)"
-RUSTDOCFLAGS="-D warnings" cargo doc "${CORE[@]}" --workspace --no-deps
-echo "== library unit/property tests and the integration binary (quick sizes, no transport)"
-cargo test "${CORE[@]}" --lib --test integration
+RUSTDOCFLAGS="-D warnings" cargo doc "${LAYERS[@]}" --no-deps
+echo "== the layers' unit/property tests and doc tests, the integration binary (quick sizes, no transport)"
+cargo test "${LAYERS[@]}"
+cargo test "${ROOT[@]}" --test integration
 echo "== Python client tests that need no server"
 VENV=${RISKPLAN_VENV:-${TMPDIR:-/tmp}/riskplan-venv}
 if ! "$VENV/bin/python" -c 'import riskplan, jsonschema' 2>/dev/null; then

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# The full tier (what CI runs): formatting, clippy once over the workspace (riskplan,
-# crates/riskplan-oracle, crates/riskplan-testkit), its API docs without warnings, a
-# build of the math core alone (no zenoh, tokio, clap or plotters), every Rust test of
-# the workspace once at full sizes, then the Python client's tests against the real
+# The full tier (what CI runs): formatting, clippy once over the workspace (the layer
+# crates, the root package, crates/riskplan-oracle, crates/riskplan-testkit), its API
+# docs without warnings, a build of the layers below the service alone (no zenoh, tokio,
+# clap or plotters), every Rust test of the workspace once at full sizes, then the Python client's tests against the real
 # server binary built by that same test run. Run from anywhere; needs scripts/setup-debian.sh once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,12 +15,12 @@ echo "== cargo clippy (the workspace, all targets, all features)"
 cargo clippy --workspace --all-targets --all-features -- -D warnings
 echo "== the API docs (rustdoc: no broken, ambiguous or private intra-doc links)"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --all-features
-echo "== the shipped build (default features: internal modules private, no test-support)"
+echo "== the shipped build (default features)"
 cargo check --lib --bins
-echo "== the math core builds alone (no service, no CLI)"
+echo "== the layers below the service build alone (no service, no CLI)"
 cargo check --no-default-features --lib
 echo "== the service's messages and handlers without the transport (what fuzz/ builds)"
-cargo check --no-default-features --features proto,test-support --lib
+cargo check -p riskplan-service --lib
 echo "== every Rust test of the workspace: unit, property, integration (full sizes), doc tests"
 cargo test --workspace --all-features
 echo "== Python client tests (against the server binary of the test build)"

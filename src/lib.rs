@@ -43,74 +43,41 @@
 //!
 //! ## Layers
 //!
-//! Bottom to top (docs/architecture.md; `tests/integration/architecture.rs` fails on
-//! any import that runs upward or loops): `poly` → `moments`, `sdp` → `contour`, `relax`
-//! → `mc` → `scene` → `motion` → `certify` → `plan`, `verify` → `app` → `service`,
-//! `viz` → `cli`. The core (below `app`) does no I/O and has no async code. The modules
-//! are internal: public (for the tests, benches and the testkit) only with the feature
-//! `test-support`, which a release build never has.
+//! The library is a workspace whose crates are its layers (docs/architecture.md), bottom
+//! to top: `riskplan-math` (polynomials, moments, SDP, contours, relaxations, Monte Carlo)
+//! → `riskplan-scene` (scenes, trajectories, the planner–checker vocabulary) →
+//! `riskplan-certify` (eq. 15 deciders, covers, the whole-path bound, the scene
+//! certifier) → `riskplan-plan` (the planners) → `riskplan-app` (plan requests,
+//! verification reports, the final check) → `riskplan-service` (the Zenoh service) → this
+//! crate (the CLI and figures). A crate sees only the crates below it: an upward `use`
+//! does not compile. The layers below the service do no I/O and have no async code.
 //!
 //! Section numbers (§) in the doc comments refer to `docs/design.md`, the project's
 //! design document; equation numbers refer to the paper.
 #![warn(missing_docs)]
 
-/// Declares the internal modules: `pub(crate)`, public with the feature
-/// `test-support` (the tests, benches, the testkit and the fuzz targets). Without it,
-/// what only those use is unused here, so `dead_code` and `unused_imports` are not
-/// reported for it; the `test-support` build (`cargo clippy --all-features`, the quick
-/// tier's core clippy) still reports both.
-macro_rules! internal {
-    ($($(#[$attr:meta])* $name:ident;)*) => {
-        $(
-            $(#[$attr])*
-            #[cfg(feature = "test-support")]
-            pub mod $name;
-            $(#[$attr])*
-            #[cfg(not(feature = "test-support"))]
-            #[allow(dead_code, unused_imports)]
-            pub(crate) mod $name;
-        )*
-    };
-}
-
-internal! {
-    app;
-    certify;
-    contour;
-    mc;
-    moments;
-    motion;
-    plan;
-    poly;
-    relax;
-    scene;
-    sdp;
-    verify;
-    #[cfg(feature = "cli")]
-    viz;
-    #[cfg(any(feature = "cli", feature = "proto"))]
-    names;
-}
-
 #[cfg(feature = "cli")]
 pub mod cli;
+#[cfg(feature = "cli")]
+pub mod viz;
+/// The Zenoh service and its Rust client (crate `riskplan-service`).
 #[cfg(feature = "proto")]
-pub mod service;
+pub use riskplan_service as service;
 
-pub use crate::app::{PlanRequest, PreparedPlan, DEFAULT_TIME_LIMIT};
-pub use crate::certify::scene::{Method, SceneKernel};
-pub use crate::certify::sos::SosSettings;
-pub use crate::contour::{RiskContour, RiskLevel, RiskLevelError};
-pub use crate::motion::Termination;
-pub use crate::plan::rrt::smooth::SmoothStats;
-pub use crate::plan::{
+pub use riskplan_app::verify::{
+    audit_trajectory, verify, verify_until, Audit, AuditOptions, ConstraintReport, Exceedance, MethodReport,
+    ObstacleReport, PieceReport, VerifyReport,
+};
+pub use riskplan_app::{PlanRequest, PreparedPlan, DEFAULT_TIME_LIMIT};
+pub use riskplan_certify::scene::{Method, SceneKernel};
+pub use riskplan_certify::sos::SosSettings;
+pub use riskplan_math::contour::{RiskContour, RiskLevel, RiskLevelError};
+pub use riskplan_plan::rrt::smooth::SmoothStats;
+pub use riskplan_plan::{
     FinalCheckStats, Kinematics, LadderStep, NoPlanReason, PlanError, PlanOutcome, PlanStats, PlanStatus, PlannerKind,
     Problem, RiskMode, SdpStats, UnknownName,
 };
-pub use crate::scene::{
+pub use riskplan_scene::motion::Termination;
+pub use riskplan_scene::{
     Obstacle, Param, Piece, Scene, SceneError, SceneErrorKind, SceneFile, Trajectory, TrajectoryError, Workspace,
-};
-pub use crate::verify::{
-    audit_trajectory, verify, verify_until, Audit, AuditOptions, ConstraintReport, Exceedance, MethodReport,
-    ObstacleReport, PieceReport, VerifyReport,
 };

@@ -1,6 +1,6 @@
 //! Shared by the benches: loading a reference scene.
 
-use riskplan::scene::Scene;
+use riskplan_scene::Scene;
 
 /// A reference scene of the repository's `scenes/` by stem (`illustrative-3`).
 pub fn reference_scene(stem: &str) -> Scene {

@@ -5,9 +5,9 @@
 //! not part of this tool.)
 
 use super::util::{load_scene, print_out, time_limit_arg, CliError};
-use crate::app::{PlanRequest, PlannerKind};
-use crate::verify::{audit_trajectory, AuditOptions};
 use clap::{Args, ValueEnum};
+use riskplan_app::verify::{audit_trajectory, AuditOptions};
+use riskplan_app::{PlanRequest, PlannerKind};
 use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
@@ -63,7 +63,7 @@ pub struct BenchArgs {
     /// Which risk bounds may prove safety (auto or cantelli) [default: the scene's
     /// planner.bound, else the default of `plan`].
     #[arg(long)]
-    bound: Option<crate::contour::BoundChoice>,
+    bound: Option<riskplan_math::contour::BoundChoice>,
     /// Risk level Δ of every run, and of the audit (default: each scene's risk).
     #[arg(long)]
     delta: Option<String>,
@@ -99,7 +99,7 @@ pub fn run(a: BenchArgs) -> Result<i32, CliError> {
 /// git checkout), shortened to 12 hex digits: the bench's runs are of this binary,
 /// whatever directory it runs in.
 fn git_rev() -> String {
-    env!("RISKPLAN_GIT_COMMIT").chars().take(12).collect()
+    riskplan_app::GIT_COMMIT.chars().take(12).collect()
 }
 
 fn run_paper(a: BenchArgs) -> Result<i32, CliError> {
@@ -135,7 +135,7 @@ fn run_paper(a: BenchArgs) -> Result<i32, CliError> {
         }
         // one kernel per scene, as the service keeps one per stored scene: the first seed
         // builds the compiled contours and covers (cold), the others reuse them (warm)
-        let kernel = crate::verify::SceneKernel::new(scene.clone());
+        let kernel = riskplan_app::verify::SceneKernel::new(scene.clone());
         let paper = scene.file.expected.as_ref().map(|e| e["run_time_s"].clone()).unwrap_or_default();
         let paper_t = |k: &str| paper[k]["paper"].as_f64().map(|v| format!("{v}")).unwrap_or_else(|| "–".into());
         // every planner, with the runs of the paper's table it makes on this scene

@@ -1,9 +1,9 @@
 //! `riskplan client ...`: talk to a running `riskplan serve`.
 
 use super::util::{print_out, write_json, CliError};
-use crate::service::proto::*;
-use crate::service::{Client, ClientError, Route};
 use clap::{Args, Subcommand};
+use riskplan_service::proto::*;
+use riskplan_service::{Client, ClientError, Route};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -296,7 +296,7 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
                     let text = std::fs::read_to_string(&p)
                         .map_err(|e| CliError(format!("{}: cannot read: {e}", p.display())))?;
                     req.trajectory = Some(
-                        crate::scene::Trajectory::from_json(&text)
+                        riskplan_scene::Trajectory::from_json(&text)
                             .map_err(|e| CliError(format!("{}: {e}", p.display())))?,
                     )
                 }

@@ -1,10 +1,10 @@
 //! `riskplan contour`: figures of the Δ-risk contours.
 
 use super::util::{delta_arg, exact_arg, load_scene, CliError};
-use crate::contour::RiskLevel;
-use crate::poly::rational_to_f64;
 use crate::viz::{self, ContourOptions};
 use clap::Args;
+use riskplan_math::contour::RiskLevel;
+use riskplan_math::poly::rational_to_f64;
 use std::path::PathBuf;
 
 /// Draw the Δ-risk contours of a scene (like the paper's Figs. 1–3, 6–8).
@@ -97,7 +97,7 @@ pub fn run(a: ContourArgs) -> Result<i32, CliError> {
             _ => return Err(CliError("--window: expected X0 X1 Y0 Y1 with X0 < X1 and Y0 < Y1".into())),
         },
         curves: {
-            use crate::contour::BoundKind;
+            use riskplan_math::contour::BoundKind;
             use viz::BoundCurve;
             match a.bound.as_str() {
                 "auto" => vec![BoundCurve::Kind(BoundKind::Cantelli), BoundCurve::Best],

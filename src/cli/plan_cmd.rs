@@ -1,12 +1,12 @@
 //! `riskplan plan`: RRT-SOS (static or time-layered) and the Monte Carlo baseline.
 
 use super::util::{delta_arg, load_scene, method_parser, planner_parser, print_out, time_limit_arg, CliError};
-use crate::app::{PlanRequest, PlannerKind};
-use crate::plan::{PlanStatus, Problem, Termination};
-use crate::scene::{Scene, TrajectoryFile, TRAJECTORY_FORMAT};
-use crate::verify::Method;
 use crate::viz::{self, ContourOptions, Overlay};
 use clap::Args;
+use riskplan_app::verify::Method;
+use riskplan_app::{PlanRequest, PlannerKind};
+use riskplan_plan::{PlanStatus, Problem, Termination};
+use riskplan_scene::{Scene, TrajectoryFile, TRAJECTORY_FORMAT};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -111,10 +111,10 @@ pub struct PlanArgs {
     no_smooth: bool,
     /// What Δ bounds: per-obstacle (the paper's), joint (any obstacle; Δ split evenly), joint-weighted (more of Δ to obstacles near the start–goal line) or trajectory (any obstacle at any time along the plan).
     #[arg(long, default_value = "per-obstacle")]
-    risk_mode: crate::app::RiskMode,
+    risk_mode: riskplan_app::RiskMode,
     /// Which risk bounds may prove safety: auto (the tightest sound one: Cantelli, zero risk from bounded support, shifted moment bounds of orders 4–8, on sub-intervals) or cantelli (the paper's). Default: the scene's planner.bound, else auto.
     #[arg(long)]
-    bound: Option<crate::contour::BoundChoice>,
+    bound: Option<riskplan_math::contour::BoundChoice>,
     /// Time limit in seconds.
     #[arg(long, default_value_t = 120.0)]
     time_limit: f64,
@@ -170,7 +170,7 @@ pub fn run(a: PlanArgs) -> Result<i32, CliError> {
     };
     let (receding, endpoints) = if a.planner == PlannerKind::Receding {
         let t_now = a.t_now.unwrap_or(scene.horizon.0);
-        let r = crate::app::RecedingRequest {
+        let r = riskplan_app::RecedingRequest {
             t_now,
             position: or_scene(position.or(start), &scene.start, "start")?,
             velocity,
@@ -291,7 +291,7 @@ pub(crate) fn writable(flag: &str, path: &std::path::Path) -> Result<(), CliErro
 fn draw_figure(
     scene: &Scene,
     p: &Problem,
-    out: &crate::plan::PlanOutcome,
+    out: &riskplan_plan::PlanOutcome,
     sampled_edges: bool,
     fig: &std::path::Path,
 ) -> Result<(), CliError> {
@@ -380,7 +380,7 @@ struct Sections {
 /// The sections of a 3-D plan figure. With a path: at the path's x3 at each contour's
 /// time (`times`, the waypoints' on a moving scene); on a static scene, where each piece
 /// starts and where the last ends. Without a path: the start's x3 and the goal's.
-fn sections_at_path(p: &Problem, path: Option<&crate::scene::Trajectory>, times: &[f64]) -> Sections {
+fn sections_at_path(p: &Problem, path: Option<&riskplan_scene::Trajectory>, times: &[f64]) -> Sections {
     let dynamic = p.is_dynamic();
     let Some(t) = path else {
         let times = if dynamic { vec![p.horizon.0, p.horizon.1] } else { vec![p.horizon.0; 2] };

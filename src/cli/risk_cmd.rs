@@ -1,10 +1,10 @@
 //! `riskplan risk`: the risk bound at a point, per obstacle, optionally with Monte Carlo.
 
 use super::util::{delta_arg, exact_arg, load_scene, print_out, CliError};
-use crate::mc::DEFAULT_CONFIDENCE;
-use crate::poly::rational_to_f64;
 use clap::Args;
 use num_rational::BigRational;
+use riskplan_math::mc::DEFAULT_CONFIDENCE;
+use riskplan_math::poly::rational_to_f64;
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -43,7 +43,7 @@ pub struct RiskArgs {
     delta: Option<String>,
     /// Which bound `bound` reports: auto (the smallest proven one: Cantelli, zero risk from bounded support, shifted moment bounds of orders 4–8) or cantelli. Every bound is listed under `bounds` either way.
     #[arg(long, default_value = "auto")]
-    bound: crate::contour::BoundChoice,
+    bound: riskplan_math::contour::BoundChoice,
 }
 
 pub fn run(a: RiskArgs) -> Result<i32, CliError> {
@@ -62,7 +62,7 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
     let mut xt: Vec<BigRational> = a.point.iter().map(|s| exact_arg("--point", s)).collect::<Result<_, _>>()?;
     let t = match &a.time {
         Some(s) => exact_arg("--time", s)?,
-        None => crate::poly::f64_shortest_decimal(scene.horizon.0).unwrap_or_default(),
+        None => riskplan_math::poly::f64_shortest_decimal(scene.horizon.0).unwrap_or_default(),
     };
     xt.push(t.clone());
     let delta = a.delta.as_deref().map(delta_arg).transpose()?;
@@ -86,10 +86,12 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
     let mut obstacles = Vec::new();
     for (i, o) in scene.obstacles.iter().enumerate() {
         let r = o.contour.risk_at(&xt);
-        let all = crate::certify::bounds::point_bounds_proven(&o.contour, &xt);
+        let all = riskplan_certify::bounds::point_bounds_proven(&o.contour, &xt);
         let (kind, best) = match a.bound {
-            crate::contour::BoundChoice::Auto => all.best(),
-            crate::contour::BoundChoice::Cantelli => (crate::contour::BoundKind::Cantelli, r.bound.clone()),
+            riskplan_math::contour::BoundChoice::Auto => all.best(),
+            riskplan_math::contour::BoundChoice::Cantelli => {
+                (riskplan_math::contour::BoundKind::Cantelli, r.bound.clone())
+            }
         };
         let bound = rational_to_f64(&best);
         max_bound = max_bound.max(bound);
@@ -103,7 +105,7 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
         }
         for m in &all.moments {
             each.insert(
-                crate::contour::BoundKind::Moment(m.order).as_str().into(),
+                riskplan_math::contour::BoundKind::Moment(m.order).as_str().into(),
                 json!({"value": rational_to_f64(&m.value), "exact": m.value.to_string(), "shift": m.shift}),
             );
         }

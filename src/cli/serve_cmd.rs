@@ -1,8 +1,8 @@
 //! `riskplan serve`: the Zenoh planning service (the main job).
 
 use super::util::CliError;
-use crate::service::{serve, ServerConfig};
 use clap::Args;
+use riskplan_service::{serve, ServerConfig};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -125,7 +125,7 @@ pub fn run_router(a: RouterArgs) -> Result<i32, CliError> {
     rt.block_on(async move {
         let session = zenoh::open(cfg).await.map_err(|e| CliError(format!("cannot open the Zenoh router: {e}")))?;
         eprintln!("riskplan: router listening on {}", listen.join(", "));
-        crate::service::server::shutdown_signal().await;
+        riskplan_service::server::shutdown_signal().await;
         let _ = session.close().await;
         Ok::<(), CliError>(())
     })?;
@@ -209,7 +209,7 @@ pub fn run(a: ServeArgs) -> Result<i32, CliError> {
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
-        .max_blocking_threads(workers.max(1) + crate::service::WRITE_LANES + 4)
+        .max_blocking_threads(workers.max(1) + riskplan_service::WRITE_LANES + 4)
         .build()
         .map_err(|e| CliError(e.to_string()))?;
     let served = rt.block_on(serve(config));

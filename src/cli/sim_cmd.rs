@@ -2,11 +2,11 @@
 //! over Zenoh, exactly as a robot would use it (docs/design.md §6.10).
 
 use super::util::CliError;
-use crate::app::crowd::{self, Crowd, CrowdParams, STEP};
-use crate::scene::{Trajectory, TRAJECTORY_FORMAT};
-use crate::service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
-use crate::service::Client;
 use clap::{Args, Subcommand};
+use riskplan_app::crowd::{self, Crowd, CrowdParams, STEP};
+use riskplan_scene::{Trajectory, TRAJECTORY_FORMAT};
+use riskplan_service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
+use riskplan_service::Client;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -232,7 +232,7 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
                         eprintln!("episode {ep} t = {t:.1}: no plan: {e}");
                     }
                     let code = match &e {
-                        crate::service::ClientError::Server(r) => r.code.clone(),
+                        riskplan_service::ClientError::Server(r) => r.code.clone(),
                         other => other.to_string(),
                     };
                     *reasons.entry(code).or_insert(0usize) += 1;
@@ -326,8 +326,11 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
 /// robot's centre: the largest body radius, the robot's radius and κ·√s(τ) (the
 /// Gaussian tail bound's sure region, `contour::tail`).
 fn delta_radius(p: &CrowdParams, a: &CrowdArgs, tau: f64) -> f64 {
-    let k = crate::contour::tail::tail_kappa(2, &num_rational::BigRational::from_float(a.delta).unwrap_or_default())
-        .unwrap_or(0.0);
+    let k = riskplan_math::contour::tail::tail_kappa(
+        2,
+        &num_rational::BigRational::from_float(a.delta).unwrap_or_default(),
+    )
+    .unwrap_or(0.0);
     p.radius.1 + a.robot_radius + k * (p.position_std.powi(2) + (p.velocity_std * tau).powi(2)).sqrt()
 }
 

@@ -1,9 +1,9 @@
 //! Helpers shared by subcommands: loading scenes, parsing exact numbers.
 
-use crate::app::PlannerKind;
-use crate::contour::RiskLevel;
-use crate::scene::{parse_num_text, Scene};
-use crate::verify::Method;
+use riskplan_app::verify::Method;
+use riskplan_app::PlannerKind;
+use riskplan_math::contour::RiskLevel;
+use riskplan_scene::{parse_num_text, Scene};
 use std::path::Path;
 
 /// A user-facing error: one line, printed as `error: ...`, exit status 2.
@@ -69,7 +69,7 @@ fn missing_scene_hint(path: &Path) -> String {
             .filter(|p| p.extension().is_some_and(|x| x == "json"))
             .collect();
         let stems: Vec<&str> = files.iter().filter_map(|p| p.file_stem().and_then(|s| s.to_str())).collect();
-        if let Some(c) = crate::names::closest(stem, stems.iter().copied()) {
+        if let Some(c) = riskplan_app::names::closest(stem, stems.iter().copied()) {
             return format!(": did you mean {}?", d.join(format!("{c}.json")).display());
         }
     }
@@ -89,8 +89,8 @@ pub fn delta_arg(s: &str) -> Result<RiskLevel, CliError> {
 
 /// `--time-limit`: positive, finite seconds.
 pub fn time_limit_arg(seconds: f64) -> Result<std::time::Duration, CliError> {
-    crate::app::time_limit(seconds).map_err(|e| match e {
-        crate::plan::PlanError::InvalidRequest { message, .. } => CliError(format!("--time-limit: {message}")),
+    riskplan_app::time_limit(seconds).map_err(|e| match e {
+        riskplan_plan::PlanError::InvalidRequest { message, .. } => CliError(format!("--time-limit: {message}")),
         other => CliError(other.to_string()),
     })
 }

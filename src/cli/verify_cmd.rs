@@ -1,9 +1,9 @@
 //! `riskplan verify`: certify a trajectory against a scene.
 
 use super::util::{delta_arg, load_scene, method_parser, write_json, CliError};
-use crate::scene::Trajectory;
-use crate::verify::{Detail, Method, VerifyOptions};
 use clap::Args;
+use riskplan_app::verify::{Detail, Method, VerifyOptions};
+use riskplan_scene::Trajectory;
 use std::path::PathBuf;
 
 /// Certify a trajectory against a scene, continuously in time (eq. 15).
@@ -35,7 +35,7 @@ pub struct VerifyArgs {
     delta: Option<String>,
     /// Which risk bounds may prove a piece: auto (Cantelli, then zero risk from bounded support and shifted moment bounds of orders 4–8 on sub-intervals; the report names the bound of each part) or cantelli (the paper's).
     #[arg(long, default_value = "auto")]
-    bound: crate::contour::BoundChoice,
+    bound: riskplan_math::contour::BoundChoice,
     /// Print the report on one line instead of pretty-printed.
     #[arg(long)]
     compact: bool,
@@ -48,7 +48,7 @@ pub struct VerifyArgs {
     /// Threads for trajectories of at least 4096 pieces: contiguous runs of pieces are
     /// verified at once and the report is the same as with one thread (default: the
     /// machine's cores; at most 64).
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=crate::verify::MAX_VERIFY_THREADS as i64))]
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=riskplan_app::verify::MAX_VERIFY_THREADS as i64))]
     threads: Option<u16>,
     /// Also bound the probability that the trajectory meets any obstacle at any time
     /// (ω drawn once; docs/design.md §5.14), beyond the per-instant risk of eq. (13):
@@ -62,7 +62,7 @@ pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
     let scene = load_scene(&a.scene)?;
     let text = std::fs::read_to_string(&a.trajectory)
         .map_err(|e| CliError(format!("{}: cannot read: {e}", a.trajectory.display())))?;
-    let file = crate::scene::TrajectoryFile::from_json(&text)
+    let file = riskplan_scene::TrajectoryFile::from_json(&text)
         .map_err(|e| CliError(format!("{}: {e}", a.trajectory.display())))?;
     if let Some(other) = file.scene.as_deref().filter(|n| *n != scene.name) {
         eprintln!(
@@ -72,21 +72,21 @@ pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
         );
     }
     let traj = Trajectory::new(file.pieces);
-    let diag = crate::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
-    traj.validate_up_to(scene.dim, scene.horizon, diag, crate::verify::MAX_VERIFY_PIECES)
+    let diag = riskplan_plan::dist(&scene.workspace.lower, &scene.workspace.upper);
+    traj.validate_up_to(scene.dim, scene.horizon, diag, riskplan_app::verify::MAX_VERIFY_PIECES)
         .map_err(|e| CliError(format!("{}: {e}", a.trajectory.display())))?;
     let delta = match &a.delta {
         Some(d) => delta_arg(d)?,
         None => scene.risk.clone(),
     };
-    let kernel = crate::verify::SceneKernel::new(std::sync::Arc::new(scene));
+    let kernel = riskplan_app::verify::SceneKernel::new(std::sync::Arc::new(scene));
     let detail = if a.summary { Detail::FirstNotSafe } else { Detail::Every };
     let threads = a.threads.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
-    if a.whole_path && traj.pieces.len() > crate::verify::MAX_WHOLE_PATH_PIECES {
+    if a.whole_path && traj.pieces.len() > riskplan_app::verify::MAX_WHOLE_PATH_PIECES {
         return Err(CliError(format!(
             "{}: --whole-path takes at most {} pieces, the trajectory has {}",
             a.trajectory.display(),
-            crate::verify::MAX_WHOLE_PATH_PIECES,
+            riskplan_app::verify::MAX_WHOLE_PATH_PIECES,
             traj.pieces.len()
         )));
     }
@@ -98,7 +98,7 @@ pub fn run(a: VerifyArgs) -> Result<i32, CliError> {
         threads,
         whole_path: a.whole_path,
     };
-    let report = crate::verify::verify_with(&kernel, &traj.pieces, &delta, &opts, &|| false)
+    let report = riskplan_app::verify::verify_with(&kernel, &traj.pieces, &delta, &opts, &|| false)
         .map_err(|_| CliError("verification interrupted".into()))?
         .report;
     write_json(&report, !a.compact)?;

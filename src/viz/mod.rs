@@ -9,10 +9,10 @@
 
 mod font;
 
-use crate::contour::cantelli_bound_f64;
-use crate::scene::Scene;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use riskplan_math::contour::cantelli_bound_f64;
+use riskplan_scene::Scene;
 use std::path::Path;
 use thiserror::Error;
 
@@ -73,7 +73,7 @@ pub struct ContourOptions {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum BoundCurve {
     /// One bound (Cantelli, zero risk from the support, a moment bound of one order).
-    Kind(crate::contour::BoundKind),
+    Kind(riskplan_math::contour::BoundKind),
     /// The smallest of them at each point (what `bound: auto` certifies, up to the
     /// sub-interval proofs).
     Best,
@@ -172,7 +172,11 @@ impl Axes {
         let mut ax = self.clone();
         for &(axis, v) in at {
             if axis >= ax.template.len() || axis == ax.a || axis == ax.b {
-                return Err(VizError::Slice(format!("a section at x{} = {v}: x{} is not a sliced axis", axis + 1, axis + 1)));
+                return Err(VizError::Slice(format!(
+                    "a section at x{} = {v}: x{} is not a sliced axis",
+                    axis + 1,
+                    axis + 1
+                )));
             }
             ax.template[axis] = v;
         }
@@ -310,7 +314,7 @@ fn curve_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64, curve: BoundCurve) -> 
                 .obstacles
                 .iter()
                 .map(|o| {
-                    let each = crate::certify::bounds::point_bounds_f64(&o.contour, &p);
+                    let each = riskplan_certify::bounds::point_bounds_f64(&o.contour, &p);
                     match curve {
                         BoundCurve::Kind(k) => each.iter().find(|(kk, _)| *kk == k).map_or(1.0, |x| x.1),
                         BoundCurve::Best => each.iter().map(|x| x.1).fold(1.0, f64::min),
@@ -329,18 +333,18 @@ fn mean_obstacle_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64) -> Vec<f64> {
     let means: Vec<(u16, f64)> = scene
         .params
         .iter()
-        .filter_map(|p| p.dist.mean().ok().map(|m| (p.var, crate::poly::rational_to_f64(&m))))
+        .filter_map(|p| p.dist.mean().ok().map(|m| (p.var, riskplan_math::poly::rational_to_f64(&m))))
         .collect();
-    let polys: Vec<crate::poly::Poly<f64>> = scene
+    let polys: Vec<riskplan_math::poly::Poly<f64>> = scene
         .obstacles
         .iter()
         .map(|o| {
-            let mut q = o.poly.map_coeffs(crate::poly::rational_to_f64);
+            let mut q = o.poly.map_coeffs(riskplan_math::poly::rational_to_f64);
             // a pedestrian's polynomial is in its own parameters (scene::Pedestrian)
             let own: Vec<(u16, f64)> = o
                 .own_params()
                 .iter()
-                .filter_map(|p| p.dist.mean().ok().map(|m| (p.var, crate::poly::rational_to_f64(&m))))
+                .filter_map(|p| p.dist.mean().ok().map(|m| (p.var, riskplan_math::poly::rational_to_f64(&m))))
                 .collect();
             let params = if o.pedestrian.is_some() { &own } else { &means };
             for (v, m) in params {
@@ -560,8 +564,11 @@ where
         let which = panel_label(ti);
         for (di, &d) in opts.deltas.iter().enumerate() {
             let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);
-            let label =
-                if which.is_empty() { format!("Cantelli contour Δ={d}") } else { format!("Cantelli contour Δ={d}, {which}") };
+            let label = if which.is_empty() {
+                format!("Cantelli contour Δ={d}")
+            } else {
+                format!("Cantelli contour Δ={d}, {which}")
+            };
             let mut first = true;
             for line in g.isolines(&b, d) {
                 let s = chart

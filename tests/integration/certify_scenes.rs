@@ -7,9 +7,9 @@ use crate::common;
 use crate::common::oracle;
 use num_rational::BigRational;
 use rand::{Rng, SeedableRng};
-use riskplan::contour::RiskLevel;
-use riskplan::scene::{Piece, Scene, Trajectory};
-use riskplan::verify::{audit_trajectory, verify, AuditOptions, Method, Status};
+use riskplan_app::verify::{audit_trajectory, verify, AuditOptions, Method, Status};
+use riskplan_math::contour::RiskLevel;
+use riskplan_scene::{Piece, Scene, Trajectory};
 
 fn dec(s: &str) -> RiskLevel {
     RiskLevel::parse(s).unwrap()
@@ -36,7 +36,7 @@ fn illustrative_3_straight_line_is_unsafe_with_witness() {
             &risk > s.risk.rational(),
             "{method:?}: witness t={} at {x:?} has bound {} ≤ Δ",
             w.t,
-            riskplan::poly::rational_to_f64(&risk)
+            riskplan_math::poly::rational_to_f64(&risk)
         );
     }
 }
@@ -71,13 +71,18 @@ fn authors_tv_sos_trajectory_is_rejected_at_0_1_and_certified_at_0_1001() {
     traj.validate(2, s.horizon, 3.0).unwrap();
     for method in [Method::Exact, Method::Sos] {
         // the paper's bound: the claim is about Cantelli's contour
-        let kernel: riskplan::verify::SceneKernel = (&s).into();
-        let cantelli = riskplan::contour::BoundChoice::Cantelli;
-        let r =
-            riskplan::verify::verify_until(&kernel, &traj, &dec("0.1"), method, &Default::default(), cantelli, &|| {
-                false
-            })
-            .unwrap();
+        let kernel: riskplan_app::verify::SceneKernel = (&s).into();
+        let cantelli = riskplan_math::contour::BoundChoice::Cantelli;
+        let r = riskplan_app::verify::verify_until(
+            &kernel,
+            &traj,
+            &dec("0.1"),
+            method,
+            &Default::default(),
+            cantelli,
+            &|| false,
+        )
+        .unwrap();
         assert!(!r.safe, "{method:?} certified the authors' trajectory at Δ = 0.1");
         assert!(r.pieces[0].safe, "{method:?}: piece 1 is safe");
         let p2 = &r.pieces[1].obstacles[0];
@@ -175,12 +180,12 @@ fn grazing_segments_certified_safe_pass_the_independent_check() {
     let mut grazing = 0;
     for name in common::PLANNING_SCENES {
         let s = common::scene(name);
-        let diag = riskplan::plan::dist(&s.workspace.lower, &s.workspace.upper);
+        let diag = riskplan_plan::dist(&s.workspace.lower, &s.workspace.upper);
         for (k, ob) in s.obstacles.iter().enumerate() {
             let single = Scene { obstacles: vec![ob.clone()], ..s.clone() };
             let decide = |pc: &Piece, method| {
-                let pr = riskplan::certify::PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
-                riskplan::verify::verify_obstacle(ob, pr, &s.risk, method, &settings).status
+                let pr = riskplan_certify::PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
+                riskplan_app::verify::verify_obstacle(ob, pr, &s.risk, method, &settings).status
             };
             let mut found = 0;
             for _ in 0..2000 {
@@ -239,8 +244,8 @@ fn grazing_segments_certified_safe_pass_the_independent_check() {
 /// test fails.
 #[test]
 fn long_segments_the_planners_checker_accepts_among_many_disks_pass_the_oracle() {
-    use riskplan::certify::scene::SceneCertifier;
-    use riskplan::plan::MotionChecker;
+    use riskplan_certify::scene::SceneCertifier;
+    use riskplan_plan::MotionChecker;
     let n = 128;
     let s = std::sync::Arc::new(Scene::from_json(&common::growth::disks_scene(n, 3)).unwrap());
     let kernel = riskplan::SceneKernel::from(s.clone());
@@ -273,7 +278,7 @@ fn long_segments_the_planners_checker_accepts_among_many_disks_pass_the_oracle()
             let b: Vec<f64> = (0..2).map(|i| (a[i] + dir[i] * len).clamp(lo[i], hi[i])).collect();
             Piece::segment(&a, &b, h0, h1)
         };
-        let accepted = |len: f64| checker.check(&seg(len)) == riskplan::plan::Motion::Accepted;
+        let accepted = |len: f64| checker.check(&seg(len)) == riskplan_plan::Motion::Accepted;
         if !accepted(0.0) || room < 1e-3 * side {
             continue;
         }

@@ -35,7 +35,7 @@ fn risk_exact_cantelli_value_and_centre() {
     let bound = (&m2 - &m * &m) / &m2;
     let o = &v["obstacles"][0];
     assert_eq!(o["bound_exact"].as_str().unwrap(), bound.to_string());
-    assert_eq!(o["bound"].as_f64().unwrap(), riskplan::poly::rational_to_f64(&bound));
+    assert_eq!(o["bound"].as_f64().unwrap(), riskplan_math::poly::rational_to_f64(&bound));
     assert_eq!(v["max_bound"], o["bound"]);
     // by default (auto) the best bound: zero risk from the support (w ≤ 0.4 < |x| = 0.71),
     // with Cantelli's still listed

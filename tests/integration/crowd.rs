@@ -4,10 +4,10 @@
 //! path), a per-instant check of the pedestrians' tail with statrs's χ² distribution,
 //! and Monte Carlo audits of body contact on the obstacles themselves (not grown).
 
-use riskplan::app::{PlanRequest, RecedingRequest};
-use riskplan::scene::{Piece, Scene, Trajectory};
-use riskplan::verify::{audit_trajectory, verify, AuditOptions, Method};
 use riskplan::{PlanError, PlanStatus, RiskLevel, SceneKernel};
+use riskplan_app::verify::{audit_trajectory, verify, AuditOptions, Method};
+use riskplan_app::{PlanRequest, RecedingRequest};
+use riskplan_scene::{Piece, Scene, Trajectory};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::sync::Arc;
 use std::time::Duration;
@@ -45,12 +45,12 @@ fn corridor(n: usize, seed: u64, body: f64, delta: f64) -> String {
 fn pedestrian_oracle(scene: &Scene, pieces: &[Piece], delta: f64, n: usize) -> Result<(), String> {
     let chi = ChiSquared::new(scene.dim as f64).unwrap();
     let kappa = chi.inverse_cdf(1.0 - delta).sqrt();
-    let body = riskplan::poly::rational_to_f64(&scene.body);
+    let body = riskplan_math::poly::rational_to_f64(&scene.body);
     for o in &scene.obstacles {
         let Some(p) = &o.pedestrian else { continue };
         let f = &p.file;
-        let num = |x: &riskplan::scene::Num| x.f64();
-        let r_max = riskplan::poly::rational_to_f64(&p.r_max);
+        let num = |x: &riskplan_scene::Num| x.f64();
+        let r_max = riskplan_math::poly::rational_to_f64(&p.r_max);
         let (sp, sv) = (f.position_std.as_ref().map_or(0.0, num), f.velocity_std.as_ref().map_or(0.0, num));
         for pc in pieces {
             for j in 0..n {
@@ -258,12 +258,12 @@ fn bad_receding_input_is_a_typed_error() {
 #[test]
 fn an_update_rebuilds_only_the_updated_pedestrian() {
     let text = corridor(20, 9, 0.0, 0.05);
-    let file: riskplan::scene::SceneFile = serde_json::from_str(&text).unwrap();
-    let cache = riskplan::scene::ContourCache::default();
+    let file: riskplan_scene::SceneFile = serde_json::from_str(&text).unwrap();
+    let cache = riskplan_scene::ContourCache::default();
     let s1 = Scene::from_file_cached(file.clone(), &cache).unwrap();
     let mut f2 = file.clone();
     f2.obstacles[4].pedestrian.as_mut().unwrap().position[0] =
-        riskplan::scene::Num(num_rational::BigRational::from_float(0.5).unwrap());
+        riskplan_scene::Num(num_rational::BigRational::from_float(0.5).unwrap());
     let s2 = Scene::from_file_reusing(f2.clone(), &cache, Some(&s1)).unwrap();
     for (i, (a, b)) in s1.obstacles.iter().zip(&s2.obstacles).enumerate() {
         let same = Arc::ptr_eq(a.pedestrian.as_ref().unwrap(), b.pedestrian.as_ref().unwrap());
@@ -277,10 +277,10 @@ fn an_update_rebuilds_only_the_updated_pedestrian() {
     let k2 = k1.successor(s2.clone());
     let fresh = SceneKernel::from(Arc::new(Scene::from_file(f2).unwrap()));
     use rand::{Rng, SeedableRng};
-    use riskplan::plan::MotionChecker;
+    use riskplan_plan::MotionChecker;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-    let c2 = riskplan::certify::scene::SceneCertifier::with_deltas(&k2, d.clone(), Method::Exact);
-    let cf = riskplan::certify::scene::SceneCertifier::with_deltas(&fresh, d, Method::Exact);
+    let c2 = riskplan_certify::scene::SceneCertifier::with_deltas(&k2, d.clone(), Method::Exact);
+    let cf = riskplan_certify::scene::SceneCertifier::with_deltas(&fresh, d, Method::Exact);
     for _ in 0..300 {
         let a = [rng.random_range(-8.0..8.0), rng.random_range(-3.0..3.0)];
         let b = [rng.random_range(-8.0..8.0), rng.random_range(-3.0..3.0)];

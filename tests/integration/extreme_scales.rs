@@ -9,11 +9,11 @@
 
 use crate::common;
 use crate::common::oracle;
-use riskplan::contour::BoundChoice;
+use riskplan_math::contour::BoundChoice;
 
-use riskplan::app::{PlanRequest, PlannerKind};
-use riskplan::scene::Scene;
-use riskplan::verify::{verify, Method};
+use riskplan_app::verify::{verify, Method};
+use riskplan_app::{PlanRequest, PlannerKind};
+use riskplan_scene::Scene;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
@@ -75,12 +75,19 @@ fn plan_and_check_with(name: &str, planner: PlannerKind, seed: u64, bound: Bound
     }
     let Some(t) = out.trajectory.filter(|_| out.certified) else { return false };
     // what `verify` takes as input: finite, contiguous, pieces that meet
-    let diag = riskplan::plan::dist(&s.workspace.lower, &s.workspace.upper);
+    let diag = riskplan_plan::dist(&s.workspace.lower, &s.workspace.upper);
     t.validate(s.dim, s.horizon, diag)
         .unwrap_or_else(|e| panic!("{name} {planner} seed {seed}: a certified plan is not a valid trajectory: {e}"));
-    let r =
-        riskplan::verify::verify_until(&(&s).into(), &t, &s.risk, Method::Exact, &Default::default(), bound, &|| false)
-            .expect("never interrupted");
+    let r = riskplan_app::verify::verify_until(
+        &(&s).into(),
+        &t,
+        &s.risk,
+        Method::Exact,
+        &Default::default(),
+        bound,
+        &|| false,
+    )
+    .expect("never interrupted");
     assert!(
         r.safe,
         "{name} {planner} seed {seed}: a certified plan fails verify: {}",
@@ -124,18 +131,18 @@ fn the_default_planner_plans_the_scenes_with_a_path() {
 /// fast path with a bug.
 struct Lying;
 
-impl riskplan::plan::MotionChecker for Lying {
+impl riskplan_plan::MotionChecker for Lying {
     fn name(&self) -> &str {
         "lying"
     }
     fn sound(&self) -> bool {
         true
     }
-    fn check(&self, _: &riskplan::scene::Piece) -> riskplan::plan::Motion {
-        riskplan::plan::Motion::Accepted
+    fn check(&self, _: &riskplan_scene::Piece) -> riskplan_plan::Motion {
+        riskplan_plan::Motion::Accepted
     }
-    fn check_point(&self, _: &[f64], _: f64) -> riskplan::plan::Motion {
-        riskplan::plan::Motion::Accepted
+    fn check_point(&self, _: &[f64], _: f64) -> riskplan_plan::Motion {
+        riskplan_plan::Motion::Accepted
     }
 }
 

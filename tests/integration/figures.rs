@@ -4,7 +4,7 @@
 //! a 3-D plan figure's sections follow the path's height.
 
 use crate::common;
-use riskplan::scene::Piece;
+use riskplan_scene::Piece;
 use serde_json::Value;
 use std::path::Path;
 

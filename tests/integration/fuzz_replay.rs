@@ -66,7 +66,7 @@ fn scene_seeds() -> Vec<Vec<u8>> {
 
 #[cfg(feature = "proto")]
 fn request_seeds() -> Vec<Vec<u8>> {
-    use riskplan::service::proto::*;
+    use riskplan_service::proto::*;
     use riskplan_testkit::fuzzing::REQUEST_KINDS;
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("proto").join("examples");
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();

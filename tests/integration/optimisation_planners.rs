@@ -5,10 +5,10 @@
 
 use crate::common;
 use crate::common::oracle;
-use riskplan::app::{PlanRequest, PlannerKind};
-use riskplan::plan::{NoPlanReason, PlanError};
-use riskplan::scene::{Scene, Trajectory};
-use riskplan::verify::{audit_trajectory, verify, AuditOptions, Method};
+use riskplan_app::verify::{audit_trajectory, verify, AuditOptions, Method};
+use riskplan_app::{PlanRequest, PlannerKind};
+use riskplan_plan::{NoPlanReason, PlanError};
+use riskplan_scene::{Scene, Trajectory};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -131,7 +131,7 @@ fn tv_sos_keeps_a_speed_limit() {
     let (_, out) = PlanRequest { max_speed: Some(v), ..tv_sos(1) }.run(s.clone(), None).unwrap();
     let t = out.trajectory.unwrap_or_else(|| panic!("no plan: {:?}", out.reason));
     for p in &t.pieces {
-        let len = riskplan::plan::dist(&p.at(p.t0), &p.at(p.t1));
+        let len = riskplan_plan::dist(&p.at(p.t0), &p.at(p.t1));
         assert!(len <= v * (p.t1 - p.t0) * (1.0 + 1e-12), "piece speed {} > {v}", len / (p.t1 - p.t0));
     }
     reverify(&s, &t, "illustrative-3 with max_speed");
@@ -220,9 +220,9 @@ fn moment_bad_options_get_typed_errors() {
 /// every piece accepted by the sound checker).
 #[test]
 fn optimisation_planners_pass_the_conformance_harness() {
-    use riskplan::plan::testing::conformance;
-    use riskplan::plan::{MomentParams, MomentPlanner, Problem, TvSos, TvSosParams};
-    use riskplan::verify::SceneCertifier;
+    use riskplan_app::verify::SceneCertifier;
+    use riskplan_plan::testing::conformance;
+    use riskplan_plan::{MomentParams, MomentPlanner, Problem, TvSos, TvSosParams};
     for name in ["illustrative-3", "illustrative-4"] {
         let s = Arc::new(common::scene(name));
         let p = Problem::from_scene(s.clone(), 3).unwrap();
@@ -265,7 +265,7 @@ fn a_cancelled_plan_stops_inside_a_solve() {
     let (_, out) = req.run(s, Some(flag)).unwrap();
     let returned = std::time::Instant::now();
     let cancelled_at = setter.join().unwrap();
-    assert_eq!(out.status, riskplan::plan::PlanStatus::Cancelled, "{:?}", out.reason);
+    assert_eq!(out.status, riskplan_plan::PlanStatus::Cancelled, "{:?}", out.reason);
     let late = returned.duration_since(cancelled_at).as_secs_f64();
     assert!(late < per_solve, "returned {late} s after the cancel; a solve takes {per_solve} s on average");
 }

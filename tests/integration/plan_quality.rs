@@ -5,10 +5,10 @@
 
 use crate::common;
 use crate::common::oracle;
-use riskplan::app::{PlanRequest, PlannerKind, RiskMode};
-use riskplan::plan::smooth::max_velocity_jump;
-use riskplan::scene::{Scene, Trajectory};
-use riskplan::verify::{audit_trajectory_joint, AuditOptions};
+use riskplan_app::verify::{audit_trajectory_joint, AuditOptions};
+use riskplan_app::{PlanRequest, PlannerKind, RiskMode};
+use riskplan_plan::smooth::max_velocity_jump;
+use riskplan_scene::{Scene, Trajectory};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -16,7 +16,7 @@ use std::time::Duration;
 /// the blend coefficients are expanded in absolute time.
 const VELOCITY_JUMP_TOLERANCE: f64 = 1e-6;
 
-fn plan(s: &Arc<Scene>, request: PlanRequest) -> (Trajectory, riskplan::plan::PlanStats) {
+fn plan(s: &Arc<Scene>, request: PlanRequest) -> (Trajectory, riskplan_plan::PlanStats) {
     let (_, out) = request.run(s.clone(), None).unwrap_or_else(|e| panic!("{}: {e}", s.name));
     let t = out.trajectory.unwrap_or_else(|| panic!("{}: no plan: {:?} {:?}", s.name, out.reason, out.stats));
     assert!(out.certified, "{}", s.name);
@@ -155,7 +155,7 @@ fn joint_risk_bounds_the_probability_of_any_collision() {
             let request = PlanRequest { risk_mode: mode, ..PlanRequest::default() };
             let (t, stats) = match request.run(s.clone(), None) {
                 Err(e) => {
-                    assert!(matches!(e, riskplan::plan::PlanError::UnsafeEndpoint { .. }), "{name}: {e}");
+                    assert!(matches!(e, riskplan_plan::PlanError::UnsafeEndpoint { .. }), "{name}: {e}");
                     println!("{name} {mode:?}: refused: {e}");
                     continue;
                 }
@@ -174,7 +174,7 @@ fn joint_risk_bounds_the_probability_of_any_collision() {
             for (o, (id, d)) in s.obstacles.iter().zip(&alloc) {
                 assert_eq!(&o.id, id);
                 let single = Scene { obstacles: vec![o.clone()], ..(*s).clone() };
-                let di = riskplan::contour::RiskLevel::from_f64(*d).unwrap();
+                let di = riskplan_math::contour::RiskLevel::from_f64(*d).unwrap();
                 oracle::check_trajectory(&single, &t.pieces, &di)
                     .unwrap_or_else(|e| panic!("{name} {mode:?}: obstacle {id} at Δᵢ = {d}: {e}"));
             }
@@ -199,7 +199,7 @@ const SOS_RELATIVE_MARGIN: f64 = 1e-4;
 /// segments passing the obstacle at several distances.
 #[test]
 fn sos_certifies_pieces_away_from_the_origin() {
-    use riskplan::verify::{verify, Method, Status};
+    use riskplan_app::verify::{verify, Method, Status};
     let text = r#"{
         "format": "riskplan-scene/1", "name": "quartic-at-12", "dim": 2,
         "workspace": {"lower": [10, -2], "upper": [14, 2]}, "horizon": [10, 13], "risk": 0.1,
@@ -214,8 +214,8 @@ fn sos_certifies_pieces_away_from_the_origin() {
         // horizontal and slanted segments passing above and below the obstacle, nearer and nearer
         let y = 1.95 - 1.1 * (k / 2) as f64 / 19.0;
         let y = if k % 2 == 0 { y } else { -y };
-        let seg = riskplan::scene::Piece::segment(&[10.0, y], &[14.0, y * (1.0 - 0.01 * k as f64)], 10.0, 13.0);
-        pieces.push(riskplan::plan::smooth::inside(seg, &s.workspace.lower, &s.workspace.upper));
+        let seg = riskplan_scene::Piece::segment(&[10.0, y], &[14.0, y * (1.0 - 0.01 * k as f64)], 10.0, 13.0);
+        pieces.push(riskplan_plan::smooth::inside(seg, &s.workspace.lower, &s.workspace.upper));
     }
     let (mut asked, mut sos_ok) = (0, 0);
     for p in &pieces {

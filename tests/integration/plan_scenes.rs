@@ -4,11 +4,11 @@
 use crate::common;
 use crate::common::oracle;
 
-use riskplan::app::{PlanRequest, PlannerKind};
-use riskplan::plan::testing::{conformance, conformance_without_plan};
-use riskplan::plan::{Kinematics, McChecker, McCheckerParams, Planner, Problem};
-use riskplan::scene::{Scene, Trajectory};
-use riskplan::verify::{audit_trajectory, verify, AuditOptions, Method, SceneCertifier};
+use riskplan_app::verify::{audit_trajectory, verify, AuditOptions, Method, SceneCertifier};
+use riskplan_app::{PlanRequest, PlannerKind};
+use riskplan_plan::testing::{conformance, conformance_without_plan};
+use riskplan_plan::{Kinematics, McChecker, McCheckerParams, Planner, Problem};
+use riskplan_scene::{Scene, Trajectory};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -16,10 +16,10 @@ const SCENES: [&str; 6] = common::PLANNING_SCENES;
 
 /// The default planner (smoothed) and the paper's.
 fn planners_for(p: &Problem) -> Vec<Box<dyn Planner>> {
-    let smooth = riskplan::plan::PlanOptions { kinematics: Kinematics::SMOOTH, ..Default::default() };
+    let smooth = riskplan_plan::PlanOptions { kinematics: Kinematics::SMOOTH, ..Default::default() };
     vec![
-        riskplan::plan::rrt_planner(p, false, &smooth).expect("valid planner options"),
-        riskplan::plan::rrt_planner(p, true, &Default::default()).expect("valid planner options"),
+        riskplan_plan::rrt_planner(p, false, &smooth).expect("valid planner options"),
+        riskplan_plan::rrt_planner(p, true, &Default::default()).expect("valid planner options"),
     ]
 }
 
@@ -109,7 +109,7 @@ fn conformance_of_every_planner_kind() {
         if kind == PlannerKind::Receding {
             // the same problem as a receding-horizon request over the whole horizon
             request.endpoints = None;
-            request.receding = Some(riskplan::app::RecedingRequest {
+            request.receding = Some(riskplan_app::RecedingRequest {
                 t_now: s.horizon.0,
                 position: endpoints.0.clone(),
                 velocity: None,
@@ -143,7 +143,7 @@ fn seeds_that_split_the_end_piece_plan_without_an_internal_error() {
         assert!(out.certified, "seed {seed}: {:?}", out.reason);
         assert_eq!((fc.invalid, fc.disagreements), (0, 0), "seed {seed}");
         let t = out.trajectory.expect("a trajectory");
-        let diag = riskplan::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
+        let diag = riskplan_plan::dist(&scene.workspace.lower, &scene.workspace.upper);
         t.validate(scene.dim, problem.horizon, diag).expect("a valid trajectory");
         oracle::check_trajectory(&scene, &t.pieces, &scene.risk).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
     }
@@ -160,19 +160,19 @@ impl Planner for Jumping {
     fn solve(
         &mut self,
         p: &Problem,
-        _checker: &dyn riskplan::plan::MotionChecker,
-        _term: &riskplan::plan::Termination,
-    ) -> Result<riskplan::plan::PlanOutcome, riskplan::plan::PlanError> {
+        _checker: &dyn riskplan_plan::MotionChecker,
+        _term: &riskplan_plan::Termination,
+    ) -> Result<riskplan_plan::PlanOutcome, riskplan_plan::PlanError> {
         let (t0, t1) = p.horizon;
         let tm = 0.5 * (t0 + t1);
         let mid: Vec<f64> = p.start.iter().zip(&p.goal).map(|(a, b)| 0.5 * (a + b)).collect();
         let off: Vec<f64> = mid.iter().map(|m| m + 0.25).collect();
         let pieces = vec![
-            riskplan::scene::Piece::segment(&p.start, &mid, t0, tm),
-            riskplan::scene::Piece::segment(&off, &p.goal, tm, t1),
+            riskplan_scene::Piece::segment(&p.start, &mid, t0, tm),
+            riskplan_scene::Piece::segment(&off, &p.goal, tm, t1),
         ];
-        Ok(riskplan::plan::PlanOutcome {
-            status: riskplan::plan::PlanStatus::Exact,
+        Ok(riskplan_plan::PlanOutcome {
+            status: riskplan_plan::PlanStatus::Exact,
             trajectory: Some(Trajectory::new(pieces)),
             certified: true,
             stats: Default::default(),
@@ -196,6 +196,6 @@ fn an_invalid_trajectory_is_planned_again_without_smoothing() {
     assert_eq!(out.stats.final_check.as_ref().map(|f| f.invalid), Some(1));
     let t = out.trajectory.expect("a trajectory");
     assert!(t.pieces.iter().all(|pc| pc.degree() <= 1), "the re-plan is not smoothed");
-    let diag = riskplan::plan::dist(&scene.workspace.lower, &scene.workspace.upper);
+    let diag = riskplan_plan::dist(&scene.workspace.lower, &scene.workspace.upper);
     t.validate(scene.dim, scene.horizon, diag).expect("a valid trajectory");
 }

@@ -3,7 +3,7 @@
 //! versus float spelling), and round-trips through bincode unchanged — the same files
 //! the Python tests validate against the JSON Schemas.
 
-use riskplan::service::proto::*;
+use riskplan_service::proto::*;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use serde_json::Value;

@@ -5,9 +5,9 @@ use crate::common;
 
 use num_rational::BigRational;
 use rand::{Rng, SeedableRng};
-use riskplan::mc::clopper_pearson;
-use riskplan::poly::{parse, rational_to_f64};
-use riskplan::scene::Scene;
+use riskplan_math::mc::clopper_pearson;
+use riskplan_math::poly::{parse, rational_to_f64};
+use riskplan_scene::Scene;
 
 #[test]
 fn every_reference_scene_loads() {
@@ -47,7 +47,8 @@ fn spot_values_match_the_files() {
         for p in points {
             let mut xt: Vec<f64> = p["x"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
             xt.push(p["t"].as_f64().unwrap_or(0.0));
-            let xq: Vec<BigRational> = xt.iter().map(|&v| riskplan::poly::f64_shortest_decimal(v).unwrap()).collect();
+            let xq: Vec<BigRational> =
+                xt.iter().map(|&v| riskplan_math::poly::f64_shortest_decimal(v).unwrap()).collect();
             for (id, want) in p["per_obstacle"].as_object().unwrap() {
                 let o = s.obstacle(id).unwrap_or_else(|| panic!("{}: no obstacle {id}", f.display()));
                 let r = o.contour.risk_at(&xq);

@@ -8,8 +8,8 @@
 //! Loopback only.
 
 use crate::common::server::{reference_scene, serve};
-use riskplan::service::proto::Codec;
-use riskplan::service::Client;
+use riskplan_service::proto::Codec;
+use riskplan_service::Client;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 

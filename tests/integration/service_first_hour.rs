@@ -6,9 +6,9 @@
 use crate::common;
 use crate::common::run;
 use crate::common::server::{free_port, reference_scene, serve};
-use riskplan::app::PlanRequest as AppPlanRequest;
-use riskplan::service::proto::{Codec, PlanRequest};
-use riskplan::service::{Client, ClientError};
+use riskplan_app::PlanRequest as AppPlanRequest;
+use riskplan_service::proto::{Codec, PlanRequest};
+use riskplan_service::{Client, ClientError};
 use std::sync::Arc;
 use std::time::Duration;
 

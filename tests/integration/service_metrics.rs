@@ -9,10 +9,10 @@
 
 use crate::common;
 use crate::common::server::{free_port, reference_scene, serve, Serve};
-use riskplan::service::proto::{
+use riskplan_service::proto::{
     ApplyRequest, Change, Codec, ObstaclePut, PlanRequest, RiskRequest, Segment, VerifyRequest, MAX_PAYLOAD_BYTES,
 };
-use riskplan::service::{Client, ClientError, Route, RouteKind};
+use riskplan_service::{Client, ClientError, Route, RouteKind};
 use std::collections::BTreeMap;
 use std::io::{Read, Write};
 use std::net::TcpStream;

@@ -8,8 +8,8 @@
 
 use crate::common::growth;
 use crate::common::server::{free_port, serve, sigterm_and_wait};
-use riskplan::service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
-use riskplan::service::Client;
+use riskplan_service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
+use riskplan_service::Client;
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};

@@ -5,10 +5,10 @@
 //! path from quadrant II to quadrant IV turns there, and every blend (the smallest reaches
 //! about 2·10⁻³ into the turn) cuts the far obstacle.
 
-use riskplan::app::PlanRequest;
-use riskplan::plan::testing::sampled_peak_speed;
-use riskplan::plan::{within_speed, ConnectParams, ConnectRrt, Kinematics, PlanStats, Termination};
-use riskplan::scene::{Piece, Scene, Trajectory};
+use riskplan_app::PlanRequest;
+use riskplan_plan::testing::sampled_peak_speed;
+use riskplan_plan::{within_speed, ConnectParams, ConnectRrt, Kinematics, PlanStats, Termination};
+use riskplan_scene::{Piece, Scene, Trajectory};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -102,7 +102,7 @@ fn smooth_default_planner_keeps_max_speed_on_the_neck() {
                 planned += 1;
             }
             None => assert!(
-                matches!(out.reason, Some(riskplan::plan::NoPlanReason::OutOfReach { .. })),
+                matches!(out.reason, Some(riskplan_plan::NoPlanReason::OutOfReach { .. })),
                 "seed {seed}: {:?}",
                 out.reason
             ),
@@ -118,7 +118,7 @@ fn smooth_default_planner_keeps_max_speed_on_the_neck() {
 fn smooth_layered_planner_keeps_max_speed() {
     let s = Arc::new(crate::common::scene("example-b-lane-change"));
     let (start, goal) = (s.start.clone().unwrap(), s.goal.clone().unwrap());
-    let v = 1.3 * riskplan::plan::dist(&start, &goal) / (s.horizon.1 - s.horizon.0);
+    let v = 1.3 * riskplan_plan::dist(&start, &goal) / (s.horizon.1 - s.horizon.0);
     for seed in 1..=3 {
         let request =
             PlanRequest { seed, max_speed: Some(v), time_limit: Duration::from_secs(60), ..PlanRequest::default() };

@@ -10,10 +10,10 @@
 use super::common::{self, size};
 use rand::SeedableRng;
 use rand_chacha::ChaCha12Rng;
-use riskplan::app::PlanRequest;
-use riskplan::contour::{BoundChoice, RiskLevel};
-use riskplan::scene::{Scene, Trajectory};
-use riskplan::verify::{point_status, verify_until, Method, PointStatus, SceneKernel};
+use riskplan_app::verify::{point_status, verify_until, Method, PointStatus, SceneKernel};
+use riskplan_app::PlanRequest;
+use riskplan_math::contour::{BoundChoice, RiskLevel};
+use riskplan_scene::{Scene, Trajectory};
 use riskplan_testkit::riskplan_oracle::bounds::{binomial_lower_limit, SceneBounds};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -82,7 +82,7 @@ fn illustrative_3_at_1e_3_is_planned_no_longer_than_3() {
         .iter()
         .map(|pc| {
             let pts: Vec<Vec<f64>> = (0..=200).map(|k| pc.at(pc.t0 + (pc.t1 - pc.t0) * k as f64 / 200.0)).collect();
-            pts.windows(2).map(|w| riskplan::plan::dist(&w[0], &w[1])).sum::<f64>()
+            pts.windows(2).map(|w| riskplan_plan::dist(&w[0], &w[1])).sum::<f64>()
         })
         .sum();
     assert!(length <= 3.0, "illustrative-3 at Δ = 0.001: length {length}");
@@ -137,9 +137,9 @@ fn certified_safe_regions_start_near_the_truth() {
 /// moment bound, and the independent Monte Carlo audit keeps the risk below Δ.
 #[test]
 fn the_final_check_proves_a_grazing_piece_far_from_the_origin_as_the_planner_does() {
-    use riskplan::plan::MotionChecker;
-    use riskplan::scene::Piece;
-    use riskplan::verify::{final_check, SceneCertifier};
+    use riskplan_app::verify::{final_check, SceneCertifier};
+    use riskplan_plan::MotionChecker;
+    use riskplan_scene::Piece;
     let side = 10.0 * 512f64.sqrt();
     let text = serde_json::json!({
         "format": "riskplan-scene/1",
@@ -168,7 +168,7 @@ fn the_final_check_proves_a_grazing_piece_far_from_the_origin_as_the_planner_doe
     let kernel = SceneKernel::new(s.clone());
     let deltas = vec![s.risk.clone()];
     let checker = SceneCertifier::with_deltas(&kernel, deltas.clone(), Method::Exact);
-    assert_eq!(checker.check(&piece), riskplan::plan::Motion::Accepted, "the planners' checker");
+    assert_eq!(checker.check(&piece), riskplan_plan::Motion::Accepted, "the planners' checker");
     let t = Trajectory::new(vec![piece.clone()]);
     let start = piece.at(piece.t0);
     let fc = final_check(&kernel, &t, (&start, None), piece.t0, &deltas, BoundChoice::default(), &|| false).unwrap();

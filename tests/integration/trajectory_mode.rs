@@ -6,10 +6,10 @@
 //! Clopper–Pearson ends at 98 % two-sided, i.e. 99 % one-sided.
 
 use crate::common::{scene, size};
-use riskplan::app::{PlanRequest, RiskMode};
-use riskplan::contour::RiskLevel;
-use riskplan::scene::Scene;
-use riskplan::verify::{audit_whole_path, AuditOptions};
+use riskplan_app::verify::{audit_whole_path, AuditOptions};
+use riskplan_app::{PlanRequest, RiskMode};
+use riskplan_math::contour::RiskLevel;
+use riskplan_scene::Scene;
 use std::sync::Arc;
 
 fn audit_options(seed: u64) -> AuditOptions {
@@ -17,7 +17,7 @@ fn audit_options(seed: u64) -> AuditOptions {
     AuditOptions { times_per_piece: 100, samples, seed, confidence: 0.98 }
 }
 
-fn plan(s: &Arc<Scene>, mode: RiskMode, delta: f64) -> riskplan::plan::PlanOutcome {
+fn plan(s: &Arc<Scene>, mode: RiskMode, delta: f64) -> riskplan_plan::PlanOutcome {
     let req = PlanRequest {
         risk_mode: mode,
         delta: Some(RiskLevel::from_f64(delta).unwrap()),
@@ -110,12 +110,12 @@ fn a_corridor_of_uncertain_disks_is_refused_per_path_and_taken_per_instant() {
 fn the_paper_planner_refuses_trajectory_mode() {
     let s = Arc::new(scene("illustrative-3"));
     let req = PlanRequest {
-        planner: riskplan::app::PlannerKind::RrtSosPaper,
+        planner: riskplan_app::PlannerKind::RrtSosPaper,
         risk_mode: RiskMode::Trajectory,
         ..Default::default()
     };
     match req.run(s, None) {
-        Err(riskplan::plan::PlanError::InvalidOption { option, .. }) => assert_eq!(option, "risk_mode"),
+        Err(riskplan_plan::PlanError::InvalidOption { option, .. }) => assert_eq!(option, "risk_mode"),
         other => panic!("{:?}", other.map(|o| o.1.status)),
     }
 }

@@ -14,12 +14,12 @@
 //! as the full report does.
 
 use crate::common::{oracle, scene, size};
-use riskplan::certify::sos::SosSettings;
-use riskplan::contour::RiskLevel;
-use riskplan::scene::Piece;
-use riskplan::verify::{
+use riskplan_app::verify::{
     verify_with, Detail, Method, SceneKernel, VerifyOptions, INDEX_MIN_PIECES, PARALLEL_MIN_PIECES,
 };
+use riskplan_certify::sos::SosSettings;
+use riskplan_math::contour::RiskLevel;
+use riskplan_scene::Piece;
 use std::sync::Arc;
 
 /// A seeded random trajectory of `n` straight pieces through uniform points of the box
@@ -160,7 +160,7 @@ fn pieces_after_the_horizon_are_not_skipped_by_the_index() {
             "obstacles": [{}], "start": [2, 2], "goal": [8, 8]}}"#,
         obstacles.join(", ")
     );
-    let s = riskplan::scene::Scene::from_json(&text).unwrap();
+    let s = riskplan_scene::Scene::from_json(&text).unwrap();
     let delta = s.risk.clone();
     let kernel = SceneKernel::new(Arc::new(s.clone()));
     let index = kernel.index(&vec![delta.clone(); s.obstacles.len()], &|| false);
@@ -169,7 +169,7 @@ fn pieces_after_the_horizon_are_not_skipped_by_the_index() {
     let piece = Piece::segment(&[5.0, 0.0], &[5.0, 10.0], 1.5, 2.0);
     let r = verify_with(&kernel, std::slice::from_ref(&piece), &delta, &VerifyOptions::default(), &|| false).unwrap();
     let late = r.report.pieces[0].obstacles.iter().find(|o| o.id == "late").unwrap();
-    assert!(!r.report.safe && late.status != riskplan::verify::Status::Safe, "{late:?}");
+    assert!(!r.report.safe && late.status != riskplan_app::verify::Status::Safe, "{late:?}");
 }
 
 /// A piece running backwards in time (t0 > t1) is no piece: the motion checker refuses it,
@@ -177,12 +177,12 @@ fn pieces_after_the_horizon_are_not_skipped_by_the_index() {
 /// the review of issue 21 (a `clamp` with min > max), reachable through the library only.
 #[test]
 fn a_piece_backwards_in_time_is_refused_without_a_panic() {
-    use riskplan::motion::{Motion, MotionChecker};
+    use riskplan_scene::motion::{Motion, MotionChecker};
     let s = Arc::new(scene("example-d1-cluttered-2d"));
     let kernel = SceneKernel::new(s.clone());
     let deltas = vec![s.risk.clone(); s.obstacles.len()];
     kernel.index(&deltas, &|| false);
-    let cert = riskplan::verify::SceneCertifier::with_deltas(&kernel, deltas, Method::Exact);
+    let cert = riskplan_app::verify::SceneCertifier::with_deltas(&kernel, deltas, Method::Exact);
     let backwards = Piece { t0: 0.9, t1: 0.1, coeffs: vec![vec![0.05, 5.0], vec![0.05, 5.0]] };
     assert_eq!(cert.check(&backwards), Motion::Rejected);
     // the same check accepts a piece that stays at the scene's start (a certified point)
@@ -193,7 +193,7 @@ fn a_piece_backwards_in_time_is_refused_without_a_panic() {
 
 /// The 128 disks of the tests below: the scene, each disk's nominal centre and radius, and
 /// the side of the square workspace.
-type Disks = (Arc<riskplan::scene::Scene>, Vec<(f64, f64, f64)>, f64);
+type Disks = (Arc<riskplan_scene::Scene>, Vec<(f64, f64, f64)>, f64);
 
 fn disks_128(rng: &mut rand_chacha::ChaCha8Rng) -> Disks {
     use rand::Rng;
@@ -218,7 +218,7 @@ fn disks_128(rng: &mut rand_chacha::ChaCha8Rng) -> Disks {
         "params": params, "obstacles": obstacles, "start": [0.5, 0.5], "goal": [side - 0.5, side - 0.5],
     })
     .to_string();
-    (Arc::new(riskplan::scene::Scene::from_json(&text).unwrap()), disks, side)
+    (Arc::new(riskplan_scene::Scene::from_json(&text).unwrap()), disks, side)
 }
 
 /// The distance from point `c` to the segment `a`–`b`, in closed form.
@@ -239,10 +239,10 @@ fn segment_distance(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
 #[test]
 fn checker_refuses_every_piece_through_a_disk_among_many() {
     use rand::{Rng, SeedableRng};
-    use riskplan::motion::{Motion, MotionChecker};
+    use riskplan_scene::motion::{Motion, MotionChecker};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(128);
     let (s, disks, side) = disks_128(&mut rng);
-    let checker = riskplan::certify::scene::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
+    let checker = riskplan_certify::scene::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
     let dist = segment_distance;
     let (mut through, mut accepted) = (0, 0);
     for _ in 0..3000 {
@@ -268,10 +268,10 @@ fn checker_refuses_every_piece_through_a_disk_among_many() {
 #[test]
 fn the_guess_never_refuses_an_accepted_piece_and_finds_pieces_through_disks() {
     use rand::{Rng, SeedableRng};
-    use riskplan::motion::{Motion, MotionChecker};
+    use riskplan_scene::motion::{Motion, MotionChecker};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(129);
     let (s, disks, side) = disks_128(&mut rng);
-    let checker = riskplan::certify::scene::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
+    let checker = riskplan_certify::scene::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
     // the index (and its grid) is built by the first check
     let _ = checker.check(&Piece::segment(&[1.0, 1.0], &[1.5, 1.0], 0.0, 1.0));
     let (mut accepted, mut through, mut caught) = (0, 0, 0);
@@ -304,18 +304,18 @@ fn the_whole_path_bound_computed_beside_the_check_is_the_plans_own() {
     use rand::SeedableRng;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(130);
     let (s, _, _) = disks_128(&mut rng);
-    assert!(s.obstacles.len() >= riskplan::app::WHOLE_PATH_BESIDE_MIN_OBSTACLES);
-    let kernel = riskplan::verify::SceneKernel::from(s.clone());
+    assert!(s.obstacles.len() >= riskplan_app::WHOLE_PATH_BESIDE_MIN_OBSTACLES);
+    let kernel = riskplan_app::verify::SceneKernel::from(s.clone());
     for seed in 1..=3 {
-        let req = riskplan::app::PlanRequest { seed, ..Default::default() };
+        let req = riskplan_app::PlanRequest { seed, ..Default::default() };
         let (problem, out) = req.run(&kernel, None).expect("plan");
         assert!(out.certified, "seed {seed}: {:?}", out.reason);
         let traj = out.trajectory.as_ref().expect("a trajectory");
-        let slack = riskplan::app::WHOLE_PATH_SLACK_SHARE * riskplan::plan::rrt::delta_floor(&problem.delta);
-        let again = riskplan::verify::plan_whole_path_risk(
+        let slack = riskplan_app::WHOLE_PATH_SLACK_SHARE * riskplan_plan::rrt::delta_floor(&problem.delta);
+        let again = riskplan_app::verify::plan_whole_path_risk(
             &kernel,
             &traj.pieces,
-            riskplan::certify::path_risk::CellEffort::PLAN,
+            riskplan_certify::path_risk::CellEffort::PLAN,
             slack,
             false,
             &|| false,
@@ -338,12 +338,12 @@ fn the_whole_path_bound_computed_beside_the_check_is_the_plans_own() {
 #[test]
 fn a_whole_path_bound_shared_by_two_threads_is_the_one_found_alone() {
     use rand::SeedableRng;
-    use riskplan::certify::path_risk::{add_up, cells_path_risk_in, CellEffort, PieceBoxes};
-    use riskplan::certify::PieceRef;
-    use riskplan::verify::WholePathWork;
+    use riskplan_app::verify::WholePathWork;
+    use riskplan_certify::path_risk::{add_up, cells_path_risk_in, CellEffort, PieceBoxes};
+    use riskplan_certify::PieceRef;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(131);
     let (s, _, _) = disks_128(&mut rng);
-    let kernel = riskplan::verify::SceneKernel::from(s.clone());
+    let kernel = riskplan_app::verify::SceneKernel::from(s.clone());
     let alone = |pieces: &[Piece], slack: f64| -> Option<f64> {
         let refs: Vec<PieceRef<'_>> =
             pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
@@ -376,10 +376,10 @@ fn a_whole_path_bound_shared_by_two_threads_is_the_one_found_alone() {
     };
     let (mut compared, mut failed) = (0, 0);
     for seed in 1..=4 {
-        let req = riskplan::app::PlanRequest { seed, ..Default::default() };
+        let req = riskplan_app::PlanRequest { seed, ..Default::default() };
         let (problem, out) = req.run(&kernel, None).expect("plan");
         let Some(traj) = out.trajectory.as_ref() else { continue };
-        let slack = riskplan::app::WHOLE_PATH_SLACK_SHARE * riskplan::plan::rrt::delta_floor(&problem.delta);
+        let slack = riskplan_app::WHOLE_PATH_SLACK_SHARE * riskplan_plan::rrt::delta_floor(&problem.delta);
         let truth = alone(&traj.pieces, slack);
         assert!(truth.is_some(), "seed {seed}: a bound");
         let new = || Arc::new(WholePathWork::new(kernel.clone(), traj.pieces.clone(), CellEffort::PLAN, slack, false));

@@ -7,9 +7,9 @@
 //! trajectory's d_min (not the sum over pieces).
 
 use crate::common::{scene, size};
-use riskplan::app::PlanRequest;
-use riskplan::scene::Piece;
-use riskplan::verify::{audit_whole_path, verify_with, AuditOptions, Detail, SceneKernel, VerifyOptions};
+use riskplan_app::verify::{audit_whole_path, verify_with, AuditOptions, Detail, SceneKernel, VerifyOptions};
+use riskplan_app::PlanRequest;
+use riskplan_scene::Piece;
 use std::sync::Arc;
 
 /// The smallest distance from the origin of the segment a → b.
@@ -146,12 +146,12 @@ fn whole_path_bound_in_obstacle_frames_covers_the_audit() {
         "start": [x0 + 1.0, y0 + 1.0], "goal": [x0 + side - 1.0, y0 + side - 1.0],
     })
     .to_string();
-    let s = Arc::new(riskplan::scene::Scene::from_json(&text).unwrap());
+    let s = Arc::new(riskplan_scene::Scene::from_json(&text).unwrap());
     let kernel = SceneKernel::new(s.clone());
     let (_, out) = PlanRequest::default().run(&kernel, None).unwrap();
     let traj = out.trajectory.expect("a plan");
     let frames = kernel.path_frames(&|| false).unwrap();
-    let scene_frame = riskplan::certify::scene::scene_frame(&s);
+    let scene_frame = riskplan_certify::scene::scene_frame(&s);
     assert!(frames.iter().all(|f| *f != scene_frame), "every static obstacle gets its own frame");
     let reported = out.stats.whole_path_risk.expect("every certified plan reports it");
     let opts = VerifyOptions { whole_path: true, detail: Detail::FirstNotSafe, ..Default::default() };
@@ -212,7 +212,7 @@ fn review_whole_path_bounds_in_obstacle_frames_cover_the_closed_form_of_each_dis
         "params": params, "obstacles": obstacles,
     })
     .to_string();
-    let s = Arc::new(riskplan::scene::Scene::from_json(&text).unwrap());
+    let s = Arc::new(riskplan_scene::Scene::from_json(&text).unwrap());
     let kernel = SceneKernel::new(s.clone());
     let frames = kernel.path_frames(&|| false).unwrap();
     for (f, &(cx, cy, _)) in frames.iter().zip(&disks) {
@@ -262,7 +262,7 @@ fn review_whole_path_bounds_in_obstacle_frames_cover_the_closed_form_of_each_dis
                 ((1.1 - d / r) / 0.2).clamp(0.0, 1.0)
             })
             .collect();
-        let w = riskplan::verify::whole_path_risk(&kernel, &pieces, &|| false).unwrap();
+        let w = riskplan_app::verify::whole_path_risk(&kernel, &pieces, &|| false).unwrap();
         for (k, (o, &p)) in w.obstacles.iter().zip(&truths).enumerate() {
             // (1e-6: the closed form's own float rounding)
             assert!(
@@ -273,8 +273,8 @@ fn review_whole_path_bounds_in_obstacle_frames_cover_the_closed_form_of_each_dis
             met += (p > 0.0) as usize;
             grazing += (p > 0.0 && p < 0.5) as usize;
         }
-        let effort = riskplan::certify::path_risk::CellEffort::PLAN;
-        let plan = riskplan::verify::plan_whole_path_risk(&kernel, &pieces, effort, 0.01 * 0.1, false, &|| false)
+        let effort = riskplan_certify::path_risk::CellEffort::PLAN;
+        let plan = riskplan_app::verify::plan_whole_path_risk(&kernel, &pieces, effort, 0.01 * 0.1, false, &|| false)
             .unwrap()
             .unwrap();
         let top = truths.iter().copied().fold(0.0, f64::max);

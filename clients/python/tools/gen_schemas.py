@@ -35,14 +35,14 @@ OUT = ROOT / "proto" / "schemas"
 
 def planner_names() -> list[str]:
     """The planners' wire names, in `PlannerKind::ALL` order, read from the one place
-    that names them (`PlannerKind::as_str` in src/plan/mod.rs): a new planner reaches
+    that names them (`PlannerKind::as_str` in crates/riskplan-plan/src/lib.rs): a new planner reaches
     the schemas when they are regenerated, and `--check` fails until they are."""
-    src = (ROOT / "src" / "plan" / "mod.rs").read_text(encoding="utf-8")
+    src = (ROOT / "crates" / "riskplan-plan" / "src" / "lib.rs").read_text(encoding="utf-8")
     body = src[src.index("pub fn as_str(self) -> &'static str {"):]
     body = body[: body.index("\n    }\n")]
     names = re.findall(r'PlannerKind::\w+ => "([a-z0-9-]+)"', body)
     if not names:
-        raise SystemExit("no planner names found in src/plan/mod.rs (PlannerKind::as_str)")
+        raise SystemExit("no planner names found in crates/riskplan-plan/src/lib.rs (PlannerKind::as_str)")
     return names
 
 

@@ -15,8 +15,8 @@
 //!
 //! A target's assertions are how it reports a bug to libFuzzer: they panic on purpose.
 
-use riskplan::poly::{parse, PolyError, VarTable, MAX_DECIMAL_DIGITS, MAX_PARSE_DEGREE, MAX_PARSE_TERMS};
-use riskplan::scene::Scene;
+use riskplan_math::poly::{parse, PolyError, VarTable, MAX_DECIMAL_DIGITS, MAX_PARSE_DEGREE, MAX_PARSE_TERMS};
+use riskplan_scene::Scene;
 
 /// The variables a fuzzed polynomial may use (a 3-D space, time and two parameters).
 const POLY_VARS: [&str; 6] = ["x1", "x2", "x3", "t", "w", "v"];
@@ -56,11 +56,11 @@ pub fn scene_json(data: &[u8]) {
 pub use request_target::{request, REQUEST_KINDS};
 
 mod request_target {
-    use riskplan::service::error::ServiceError;
-    use riskplan::service::handlers;
-    use riskplan::service::proto::*;
-    use riskplan::service::registry::Registry;
-    use riskplan::service::store::Store;
+    use riskplan_service::error::ServiceError;
+    use riskplan_service::handlers;
+    use riskplan_service::proto::*;
+    use riskplan_service::registry::Registry;
+    use riskplan_service::store::Store;
     use std::sync::atomic::AtomicBool;
     use std::sync::{Arc, OnceLock};
     use std::time::{Duration, Instant};

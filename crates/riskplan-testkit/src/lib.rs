@@ -16,10 +16,10 @@
 //! cargo run --release -p riskplan-testkit --bin robustness -- --count 120 --suite-seed 1 --out bench-robustness.jsonl
 //! ```
 //!
-//! riskplan is used with its `test-support` (Sturm oracle, planner conformance harness)
-//! and `proto` (the service's messages and handlers without the transport) features.
-//! riskplan's own crate lists this crate as a dev-dependency only (its integration
-//! tests and benches), so a release build of riskplan never contains it.
+//! It uses riskplan's layer crates through their public APIs (the service's messages and
+//! handlers without the transport). riskplan's crates list this crate as a
+//! dev-dependency only (their integration tests and benches), so a release build never
+//! contains it.
 #![warn(missing_docs)]
 
 pub mod fuzzing;

@@ -7,16 +7,16 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha12Rng;
-use riskplan::app::{no_plan_reason, PlanRequest, RiskMode};
-use riskplan::contour::{BoundChoice, RiskLevel, RiskLevelError};
-use riskplan::mc::{clopper_pearson, McEstimate};
-use riskplan::plan::{PlanError, PlanStatus};
-use riskplan::scene::{Scene, Trajectory};
-use riskplan::verify::{
+use riskplan_app::verify::{
     audit_trajectory, audit_whole_path, verify_until, AuditOptions, Method, SceneKernel, Status, VerifyReport,
 };
+use riskplan_app::{no_plan_reason, PlanRequest, RiskMode};
+use riskplan_math::contour::{BoundChoice, RiskLevel, RiskLevelError};
+use riskplan_math::mc::{clopper_pearson, McEstimate};
 use riskplan_oracle::generate::{GeneratedScene, Intent, ObstacleSpec, Shape};
 use riskplan_oracle::oracle::{judge, InfeasibleReason, Judgement, ObstacleMoments, OracleOptions, OracleReport};
+use riskplan_plan::{PlanError, PlanStatus};
+use riskplan_scene::{Scene, Trajectory};
 use serde::Serialize;
 use serde_json::Value;
 use std::sync::Arc;

@@ -1,6 +1,6 @@
 //! Seeded random univariate polynomials for testing and benchmarking riskplan's
 //! positivity checkers (docs/design.md §5.8, generator 1; formerly
-//! `riskplan::certify::testgen`). Not part of the stable API.
+//! `riskplan_certify::testgen`). Not part of the stable API.
 //!
 //! Each [`Case`] is built in a time variable `t` on a random interval `[t1, t2]` as
 //!
@@ -25,7 +25,7 @@ use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use riskplan::poly::{Interval, UPoly};
+use riskplan_math::poly::{Interval, UPoly};
 
 /// Smallest and largest generated degree.
 pub const DEGREES: std::ops::RangeInclusive<usize> = 1..=10;
@@ -183,7 +183,7 @@ impl IntPoly {
     /// `max |c_i| / den` as an f64.
     fn size(&self) -> f64 {
         let big = self.c.iter().map(|x| x.abs()).max().unwrap_or_default();
-        riskplan::poly::rational_to_f64(&BigRational::new(big, self.den.clone()))
+        riskplan_math::poly::rational_to_f64(&BigRational::new(big, self.den.clone()))
     }
 }
 

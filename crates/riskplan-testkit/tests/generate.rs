@@ -6,8 +6,8 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha12Rng;
-use riskplan::scene::Scene;
 use riskplan_oracle::generate::{generate, Shape, MAX_PARAMS, MAX_PEDESTRIAN_PARAMS, MOMENTS_SCENE_EVERY};
+use riskplan_scene::Scene;
 use std::collections::BTreeSet;
 use std::f64::consts::PI;
 
@@ -111,7 +111,7 @@ fn structure_matches_text_and_shapes_are_bounded() {
 
 /// Evaluates a riskplan polynomial exactly at named values (test only: checks the
 /// text against the structure).
-fn eval_qpoly(scene: &Scene, p: &riskplan::poly::QPoly, assign: &[(String, f64)]) -> f64 {
+fn eval_qpoly(scene: &Scene, p: &riskplan_math::poly::QPoly, assign: &[(String, f64)]) -> f64 {
     use num_rational::BigRational;
     use num_traits::Zero;
     let mut vals = vec![BigRational::zero(); scene.vars.len()];
@@ -120,5 +120,5 @@ fn eval_qpoly(scene: &Scene, p: &riskplan::poly::QPoly, assign: &[(String, f64)]
             vals[i as usize] = BigRational::from_float(*v).unwrap();
         }
     }
-    riskplan::poly::rational_to_f64(&p.eval(&vals))
+    riskplan_math::poly::rational_to_f64(&p.eval(&vals))
 }

@@ -9,7 +9,7 @@ pub mod oracle;
 #[cfg(all(feature = "service", feature = "cli"))]
 pub mod server;
 
-use riskplan::scene::Scene;
+use riskplan_scene::Scene;
 use std::path::PathBuf;
 
 /// The reference scenes with a start and a goal.

@@ -17,9 +17,9 @@
 
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
-use riskplan::contour::RiskLevel;
-use riskplan::poly::QPoly;
-use riskplan::scene::{Piece, Scene};
+use riskplan_math::contour::RiskLevel;
+use riskplan_math::poly::QPoly;
+use riskplan_scene::{Piece, Scene};
 use riskplan_testkit::riskplan_oracle::bounds::{ObstacleBounds, SceneBounds};
 
 /// The floating-point sign of a polynomial value is trusted when the value exceeds
@@ -60,7 +60,7 @@ const F64_TERM_FLOOR: f64 = 1e-250;
 fn f64_terms(p: &QPoly, xt: &[f64]) -> Option<(f64, f64)> {
     let (mut v, mut a) = (0.0, 0.0);
     for (m, c) in p.terms() {
-        let mut term = riskplan::poly::rational_to_f64(c);
+        let mut term = riskplan_math::poly::rational_to_f64(c);
         if !(term.is_finite() && term.abs() >= F64_TERM_FLOOR) {
             return None;
         }
@@ -245,7 +245,7 @@ pub fn check_piece_with(
                         m
                     } else {
                         let xq = xq.get_or_insert_with(|| exact_point(piece, &tq));
-                        riskplan::poly::rational_to_f64(&exact_terms(&o.contour.mean, xq))
+                        riskplan_math::poly::rational_to_f64(&exact_terms(&o.contour.mean, xq))
                     };
                     let best = best_bound(ob, &xt[..xt.len() - 1], t, crate_mean)?;
                     if best <= delta.to_f64() * (1.0 + BOUND_ORACLE_SLACK) {
@@ -310,7 +310,7 @@ fn exact_terms_is_the_reduced_sum() {
         for _ in 0..rng.random_range(0..12) {
             let pairs: Vec<(u16, u32)> = (0..4u16).map(|v| (v, rng.random_range(0..4u32))).collect();
             let c = q(rng.random_range(-10_000..10_000), rng.random_range(1..5_000));
-            p.add_term(riskplan::poly::Monomial::from_pairs(pairs), c);
+            p.add_term(riskplan_math::poly::Monomial::from_pairs(pairs), c);
         }
         let xt: Vec<BigRational> = (0..4)
             .map(|_| match rng.random_range(0..4) {

@@ -14,8 +14,8 @@
 //! Exit status: 0 success, 2 bad usage or an I/O error (one line on stderr).
 
 use clap::Parser;
-use riskplan::app::RiskMode;
-use riskplan::contour::{BoundChoice, RiskLevel};
+use riskplan_app::RiskMode;
+use riskplan_math::contour::{BoundChoice, RiskLevel};
 use riskplan_oracle::generate;
 use riskplan_oracle::oracle::OracleOptions;
 use riskplan_testkit::runner::{
@@ -134,8 +134,8 @@ fn parse_risk_mode(s: &str) -> Result<RiskMode, String> {
 }
 
 fn time_limit(seconds: f64) -> Result<Duration, BenchError> {
-    riskplan::app::time_limit(seconds).map_err(|e| match e {
-        riskplan::plan::PlanError::InvalidRequest { message, .. } => BenchError::TimeLimit(message),
+    riskplan_app::time_limit(seconds).map_err(|e| match e {
+        riskplan_plan::PlanError::InvalidRequest { message, .. } => BenchError::TimeLimit(message),
         other => BenchError::TimeLimit(other.to_string()),
     })
 }
