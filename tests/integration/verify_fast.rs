@@ -311,7 +311,7 @@ fn the_whole_path_bound_computed_beside_the_check_is_the_plans_own() {
         let (problem, out) = req.run(&kernel, None).expect("plan");
         assert!(out.certified, "seed {seed}: {:?}", out.reason);
         let traj = out.trajectory.as_ref().expect("a trajectory");
-        let slack = riskplan_app::WHOLE_PATH_SLACK_SHARE * riskplan_plan::rrt::delta_floor(&problem.delta);
+        let slack = riskplan_app::WHOLE_PATH_SLACK_SHARE * problem.delta.floor_f64();
         let again = riskplan_app::verify::plan_whole_path_risk(
             &kernel,
             &traj.pieces,
@@ -379,7 +379,7 @@ fn a_whole_path_bound_shared_by_two_threads_is_the_one_found_alone() {
         let req = riskplan_app::PlanRequest { seed, ..Default::default() };
         let (problem, out) = req.run(&kernel, None).expect("plan");
         let Some(traj) = out.trajectory.as_ref() else { continue };
-        let slack = riskplan_app::WHOLE_PATH_SLACK_SHARE * riskplan_plan::rrt::delta_floor(&problem.delta);
+        let slack = riskplan_app::WHOLE_PATH_SLACK_SHARE * problem.delta.floor_f64();
         let truth = alone(&traj.pieces, slack);
         assert!(truth.is_some(), "seed {seed}: a bound");
         let new = || Arc::new(WholePathWork::new(kernel.clone(), traj.pieces.clone(), CellEffort::PLAN, slack, false));

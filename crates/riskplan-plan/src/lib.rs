@@ -218,6 +218,21 @@ impl Setup<'_> {
     }
 }
 
+/// The checker a plan is made again with when its final check refuses a piece the
+/// planner's checker accepted (docs/design.md §5.12): the exact decision with the plan's
+/// bounds and risk levels, without the fast path, and in trajectory mode with the
+/// plan's whole-path budget. Every certifying planner's checker is a scene certifier, so
+/// this one replaces it for any of them.
+pub fn fallback_checker(s: &Setup<'_>) -> Box<dyn MotionChecker> {
+    let mut checker = riskplan_certify::scene::SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), Method::Exact)
+        .with_bounds(s.options.bounds)
+        .without_fast_path();
+    if let Some(budget) = rrt::path_budget(s.problem, s.options) {
+        checker = checker.with_path_risk(budget * rrt::PATH_RISK_NEGLIGIBLE_SHARE);
+    }
+    Box::new(checker)
+}
+
 /// A planner with the motion checker it consults.
 pub struct Built {
     /// The planner.

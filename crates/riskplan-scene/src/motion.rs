@@ -7,6 +7,7 @@
 //! certifier is one), so that neither has to import the other.
 
 use crate::Piece;
+use riskplan_math::moments::cdf::add_up;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -49,6 +50,12 @@ pub trait MotionChecker: Send + Sync {
     /// steps (`None` when it said yes: the caller counts the piece as 1).
     fn path_risk(&self, _piece: &Piece, _stop: &dyn Fn() -> bool) -> Option<f64> {
         None
+    }
+    /// The sum over `pieces` of their whole-path bounds ([`MotionChecker::path_risk`], 1
+    /// for a piece it gives none), each addition rounded up: what a path spends of a
+    /// whole-path budget (Boole's inequality, docs/design.md §5.14).
+    fn path_risk_sum(&self, pieces: &[Piece], stop: &dyn Fn() -> bool) -> f64 {
+        pieces.iter().fold(0.0, |acc, pc| add_up(acc, self.path_risk(pc, stop).unwrap_or(1.0)))
     }
     /// A cheap guess that [`MotionChecker::check`] would reject `piece` (docs/design.md
     /// §6.8): post-processing does not try a shortcut so guessed. Never an acceptance —

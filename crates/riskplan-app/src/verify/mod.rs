@@ -813,9 +813,9 @@ pub struct VerifyOptions {
     /// How much of the report to build.
     pub detail: Detail,
     /// Threads for a call of at least [`PARALLEL_MIN_PIECES`] pieces (0 and 1: the
-    /// calling thread only; at most [`MAX_VERIFY_THREADS`]): contiguous chunks are
-    /// verified at once and their reports merged in order, the same report as one
-    /// thread's.
+    /// calling thread only; at most [`MAX_VERIFY_THREADS`]): that many contiguous chunks
+    /// are verified as tasks on the rayon pool (at most one thread per core at once) and
+    /// their reports merged in order, the same report as one thread's.
     pub threads: usize,
     /// Also the whole-path bound ([`VerifyReport::whole_path_risk`], at most
     /// [`MAX_WHOLE_PATH_PIECES`] pieces; more are left without it).
@@ -981,11 +981,10 @@ pub fn verify_with(
     let mut out = if threads > 1 && pieces.len() >= PARALLEL_MIN_PIECES {
         // contiguous chunks at once, merged in order: the same reports as one thread
         let size = pieces.len().div_ceil(threads);
-        let parts: Vec<Result<VerifyOutcome, Interrupted>> = std::thread::scope(|sc| {
-            let handles: Vec<_> =
-                pieces.chunks(size).enumerate().map(|(c, chunk)| sc.spawn(move || run(c * size, chunk))).collect();
-            handles.into_iter().map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))).collect()
-        });
+        let parts: Vec<Result<VerifyOutcome, Interrupted>> = {
+            use rayon::prelude::*;
+            pieces.par_chunks(size).enumerate().map(|(c, chunk)| run(c * size, chunk)).collect()
+        };
         let mut all = empty(if opts.detail == Detail::Every { pieces.len() } else { 1 });
         for part in parts {
             let part = part?;

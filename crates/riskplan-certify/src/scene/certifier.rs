@@ -190,9 +190,9 @@ impl SceneCertifier {
                 self.kernel.lazy_index(&self.deltas)
             } else {
                 // a plan's first check on a crowded scene waits for every cover: built on
-                // the machine's cores (the service's warm-up builds them on one thread
-                // beforehand, `app::warm_up`)
-                let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+                // the rayon pool's threads, one per core (the service's warm-up builds them
+                // on one thread beforehand, `app::warm_up`)
+                let cores = rayon::current_num_threads();
                 self.kernel.index_on(&self.deltas, stop, cores)
             }
         })

@@ -298,13 +298,13 @@ impl SceneIndex {
         }
     }
 
-    /// [`Self::ensure_all`] on up to `threads` threads (the calling one and scoped ones,
-    /// at most `MAX_COVER_BUILD_THREADS`) when at least `PARALLEL_COVERS_MIN` obstacles
-    /// lack covers: each thread claims the next obstacle not claimed (an atomic counter)
-    /// and builds its covers, the same covers as one thread builds (each depends only on
-    /// its obstacle). Every thread asks `stop` between obstacles (and a moving obstacle's
-    /// slabs), and all stop once one has been told to; a thread the system refuses to
-    /// start leaves its share to the others, and a panic on any thread stops the others.
+    /// [`Self::ensure_all`] as up to `threads` tasks on the rayon pool (at most
+    /// `MAX_COVER_BUILD_THREADS`) when at least `PARALLEL_COVERS_MIN` obstacles lack
+    /// covers: each task claims the next obstacle not claimed (an atomic counter) and
+    /// builds its covers, the same covers as one thread builds (each depends only on its
+    /// obstacle). Every task asks `stop` between obstacles (and a moving obstacle's
+    /// slabs), and all stop once one has been told to; a task the pool does not get to
+    /// leaves its share to the others, and a panic in any task stops the others.
     pub fn ensure_all_on(&self, scene: &Scene, stop: &(dyn Fn() -> bool + Sync), threads: usize) {
         use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
         let missing = self.covers.iter().filter(|c| c.get().is_none()).count();
@@ -327,10 +327,9 @@ impl SceneIndex {
             let mut guard = Halt(&halted, false);
             guard.1 = self.claim_all(scene, &|| halted.load(Ordering::Relaxed) || stop(), &next);
         };
-        std::thread::scope(|sc| {
+        rayon::scope(|sc| {
             for _ in 1..threads {
-                // (a thread not started leaves its share to the others)
-                let _ = std::thread::Builder::new().spawn_scoped(sc, work);
+                sc.spawn(|_| work());
             }
             work();
         });

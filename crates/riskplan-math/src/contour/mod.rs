@@ -574,6 +574,16 @@ impl RiskLevel {
     pub fn to_f64(&self) -> f64 {
         rational_to_f64(&self.0)
     }
+    /// The largest float at or below Δ: what sums of upper bounds are compared with
+    /// (a whole-path budget, `risk_mode: trajectory`), so that a sum within it is within Δ.
+    pub fn floor_f64(&self) -> f64 {
+        let d = self.to_f64();
+        if BigRational::from_float(d).is_some_and(|e| e > self.0) {
+            d.next_down()
+        } else {
+            d
+        }
+    }
 }
 
 impl std::fmt::Display for RiskLevel {

@@ -10,9 +10,7 @@
 //! the problem's [`Scale`]: the step is about the spacing of the obstacles.
 
 use super::scale::Scale;
-use super::smooth::{
-    add_up, blend, path_risk_sum, shortcut, straight, time_at_constant_speed, Limits, SmoothStats, WorkBudget,
-};
+use super::smooth::{add_up, blend, shortcut, straight, time_at_constant_speed, Limits, SmoothStats, WorkBudget};
 use crate::{
     dist, nearest, within_speed, CheckCounter, Kinematics, Motion, MotionChecker, NoPlanReason, PlanError, PlanOutcome,
     PlanStats, PlanStatus, Planner, Problem, Termination,
@@ -233,7 +231,7 @@ impl Planner for ConnectRrt {
                 .then(|| if budget.is_some() { checker.path_risk(&piece, &stop).unwrap_or(1.0) } else { 0.0 })
                 .filter(|&r| budget.is_none_or(|d| r <= d))
         };
-        let within_budget = |pieces: &[Piece]| budget.is_none_or(|d| path_risk_sum(checker, pieces, &stop) <= d);
+        let within_budget = |pieces: &[Piece]| budget.is_none_or(|d| checker.path_risk_sum(pieces, &stop) <= d);
         let ws = &p.scene.workspace;
         let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
         let mut tree_edges = Vec::new();

@@ -438,9 +438,7 @@ impl Planner for LayeredRrt {
                 // a smoothed plan beyond the whole-path budget gives way to the next (the
                 // layered pieces themselves are within it)
                 let within_budget = |pcs: &[Piece]| {
-                    self.params
-                        .path_budget
-                        .is_none_or(|d| super::smooth::path_risk_sum(checker, pcs, &|| term.should_stop()) <= d)
+                    self.params.path_budget.is_none_or(|d| checker.path_risk_sum(pcs, &|| term.should_stop()) <= d)
                 };
                 let smoothed = blend(&short, bounds, limits, true, checker, &counter, &mut sm, term)
                     .filter(|b| within_budget(b))

@@ -16,7 +16,6 @@ pub use connect::{ConnectParams, ConnectRrt};
 pub use layered::{LayeredParams, LayeredRrt};
 pub use paper_static::{RrtParams, StaticRrt};
 pub use sampling::StripeSampler;
-pub use smooth::path_risk_sum;
 
 use crate::{Built, Kinematics, PaperRun, PlanError, PlanOptions, Planner, PlannerSpec, Problem, RiskMode, Setup};
 use riskplan_certify::scene::SceneCertifier;
@@ -63,17 +62,7 @@ pub const PATH_RISK_NEGLIGIBLE_SHARE: f64 = 1e-4;
 /// The whole-path budget of a `risk_mode: trajectory` request: Δ rounded down to a float
 /// (the planners compare sums of upper bounds with it); `None` in the other modes.
 pub fn path_budget(p: &Problem, o: &PlanOptions) -> Option<f64> {
-    (o.risk_mode == RiskMode::Trajectory).then(|| delta_floor(&p.delta))
-}
-
-/// Δ as the largest float at or below it.
-pub fn delta_floor(delta: &riskplan_math::contour::RiskLevel) -> f64 {
-    let d = delta.to_f64();
-    if num_rational::BigRational::from_float(d).is_some_and(|e| &e > delta.rational()) {
-        d.next_down()
-    } else {
-        d
-    }
+    (o.risk_mode == RiskMode::Trajectory).then(|| p.delta.floor_f64())
 }
 
 /// The planner a problem calls for. `paper`: the paper's RRT-SOS (static tree, or the

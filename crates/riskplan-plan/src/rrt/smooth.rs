@@ -171,12 +171,6 @@ pub fn inside(mut piece: Piece, lower: &[f64], upper: &[f64]) -> Piece {
     piece
 }
 
-/// The sum over `pieces` of their whole-path bounds ([`MotionChecker::path_risk`], 1 when
-/// the checker gives none), rounded up.
-pub fn path_risk_sum(checker: &dyn MotionChecker, pieces: &[Piece], stop: &dyn Fn() -> bool) -> f64 {
-    pieces.iter().fold(0.0, |acc, pc| add_up(acc, checker.path_risk(pc, stop).unwrap_or(1.0)))
-}
-
 /// A random shortcut's end closer to an end of its piece than this share of the piece is
 /// moved onto that waypoint (docs/design.md §6.8): without it a shortcut could leave a
 /// piece of any shortness beside a waypoint — a segment of 10⁻⁶ of the path, timed over a
