@@ -1,5 +1,6 @@
-//! Millisecond obstacle updates and receding-horizon replanning (issue 20), library-level
-//! (the service round trip is `riskplan sim crowd`, docs/benchmarks.md "Issue 20"):
+//! Millisecond obstacle updates and receding-horizon replanning, library-level (the
+//! service round trip is `riskplan sim crowd`, docs/benchmarks.md "Robots among moving
+//! people"):
 //!
 //! - `update/one_of_<n>`: one pedestrian's new prediction in a corridor of n pedestrians —
 //!   the scene rebuilt from the previous revision (`Scene::from_file_reusing`), the kernel's

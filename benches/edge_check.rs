@@ -1,4 +1,4 @@
-//! The planner's edge check (issue 10): the scene certifier on straight edges.
+//! The planner's edge check: the scene certifier on straight edges.
 //!
 //! - `kernel/disk_near`: one degree-4 contour (illustrative-3), an edge that passes near
 //!   the obstacle (inside its cover, so the compiled restriction and both proofs run);
@@ -6,7 +6,7 @@
 //!   batch, divide by 256 for an edge and by the obstacle count for an obstacle;
 //! - `growth/disks-<n>`: the same on the constant-density disk family (8 … 512 disks);
 //! - `first_plan/disks-<n>`: the default planner's first certified plan on that family;
-//! - `bounds/*` (issue 19): the same random edges with `bound: cantelli` and `auto`, and on
+//! - `bounds/*`: the same random edges with `bound: cantelli` and `auto`, and on
 //!   a disk of radius 0.3 with a Gaussian centre (σ = 0.05) at Δ = 10⁻³ one edge that
 //!   Cantelli proves (3.5 from the centre) and one that only the moment bounds prove (0.7).
 
@@ -134,13 +134,14 @@ fn bench(c: &mut Criterion) {
         let (_, out) = request.run(&kernel, None).expect("plan");
         assert!(out.certified, "disks-{n}: {:?}", out.reason);
         let smoothed = riskplan_app::PlanRequest::default().run(&kernel, None).expect("plan").1;
-        // the whole default plan, warm (issue 21: ≤ 3× its first path; its edges' cost
-        // ≤ 5× that on 8 disks), seeds 1–8, medians; then the same eight plans again
-        // ("steady": what their searches build on first use is built by then — on a small
-        // scene the covers, built per obstacle where edges go; from 64 obstacles every
-        // cover is built by the first plan, and a first pass still compiles each obstacle's
-        // contour and moment bounds when an edge first comes near it, 0.8–2.2 ms of some
-        // first paths on 512 disks; a service answering the same robots reaches this state)
+        // the whole default plan, warm (targets: ≤ 3× its first path; its edges' cost
+        // ≤ 5× that on 8 disks; docs/benchmarks.md, "In process"), seeds 1–8, medians; then
+        // the same eight plans again ("steady": what their searches build on first use is
+        // built by then — on a small scene the covers, built per obstacle where edges go;
+        // from 64 obstacles every cover is built by the first plan, and a first pass still
+        // compiles each obstacle's contour and moment bounds when an edge first comes near
+        // it, a share of some first paths on 512 disks; a service answering the same robots
+        // reaches this state)
         let median = |v: &mut Vec<f64>| {
             v.sort_by(f64::total_cmp);
             0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2])

@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
-"""Throughput of a cluster behind one router (issue 21, docs/benchmarks.md "Issue 21").
+"""Throughput of a cluster behind one router (docs/benchmarks.md, "A fleet's planning service:
+load sharing").
 
 Starts, in turn and on this host only: a router and one server with 1 worker; a primary and
 a replica with 1 worker each; one server with 2 workers; a primary and three replicas with
 1 worker each — every server in client mode behind the router, the scene preloaded on the
 primary (the replicas receive it by replication). Against each, through the router:
 `riskplan client load --mix --clients N --seconds S --scene SCENE`, whose Rust client spreads
-reads over the live servers (proto/README.md, "Discovery"). Prints one JSON object: each
-configuration's throughput, outcomes and replies per query, and the ratios the issue asks for.
+reads over the live servers (proto/README.md, "Discovery and load sharing"). Prints one JSON
+object: each configuration's throughput, outcomes and replies per query, and the two ratios
+the targets are stated in (the pair over one server with 1 and with 2 workers).
 
     python3 scripts/cluster_bench.py [--bin target/release/riskplan] [--clients 8] [--seconds 12]
 """

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Cold start of the CLI planner (issue 21): the time to the first certified path of
-`riskplan plan` (stats.time_to_feasible_s: from the planner's start, the scene parsed,
-nothing built) against the project's uncertified `mc-rrt` in the same run, median of the
-seeds, and the CLI call's wall time (process start included) beside it.
+"""Cold start of the CLI planner (docs/benchmarks.md, "Cold start"): the time to the first
+certified path of `riskplan plan` (stats.time_to_feasible_s: from the planner's start, the
+scene parsed, nothing built) against the project's uncertified `mc-rrt` in the same run,
+median of the seeds, and the CLI call's wall time (process start included) beside it.
 
     OPENBLAS_NUM_THREADS=1 python3 scripts/cold_start.py [--bin target/release/riskplan]
         [--seeds 5] [--scenes illustrative-3 example-d1-cluttered-2d] [--reps 3]

@@ -1,4 +1,5 @@
-"""One pedestrian's update through the service, end to end (issue 20, docs/benchmarks.md).
+"""One pedestrian's update through the service, end to end (docs/benchmarks.md, "Robots
+among moving people").
 
 Run `riskplan serve` first, then
 `python scripts/crowd_update_rtt.py [--pedestrians N] [--updates K] [--endpoint E]`.

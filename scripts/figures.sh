@@ -11,8 +11,8 @@ mkdir -p docs/figures
 "${RP[@]}" contour --scene "$S/example-a1-2d.json" --mc 5000 --out docs/figures/example-a1-2d-contours.svg
 "${RP[@]}" contour --scene "$S/illustrative-2.json" --time 0 0.5 1 --mc 5000 --out docs/figures/illustrative-2-contours.svg
 "${RP[@]}" contour --scene "$S/example-a2-3d.json" --slice x3=0 --mc 5000 --out docs/figures/example-a2-3d-slice-x3-0.svg
-# the Δ-contours of every bound (issue 19): illustrative-1 at three Δ, a disk with a Gaussian
-# centre, a pedestrian with velocity error at three instants
+# the Δ-contours of every bound: illustrative-1 at three Δ, a disk with a Gaussian centre,
+# a pedestrian with velocity error at three instants
 mkdir -p docs/figures/bounds
 for d in 0.1 0.01 0.001; do
   "${RP[@]}" contour --scene "$S/illustrative-1.json" --delta "$d" --bound each --mc 20000 --grid 200 --mc-grid 80 \

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""The service's load test (issue 9): one server with the repository's scenes, N
-concurrent clients for S seconds of mixed plan/verify/risk/apply
-(`riskplan client load --mix`), the server's resident memory sampled twice a second.
+"""The service's load test (docs/benchmarks.md, "Mixed load, 64 clients, 60 s"): one
+server with the repository's scenes, N concurrent clients for S seconds of mixed
+plan/verify/risk/apply (`riskplan client load --mix`), the server's resident memory
+sampled twice a second.
 
 Checks: every query got exactly one reply from the server (ok, busy or a typed error;
 never a local timeout), and the resident memory after the warm-up stays within 20 %

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Default plans on a crowded scene through the service, end to end (issue 21,
-docs/benchmarks.md): what a robot sees, beside what the server's own statistics say.
+"""Default plans on a crowded scene through the service, end to end (docs/benchmarks.md,
+"The service on 512 disks"): what a robot sees, beside what the server's own statistics say.
 
 Run `riskplan serve` first (release build, OPENBLAS_NUM_THREADS=1), then
 `python scripts/plan_rtt_disks.py [--disks 512] [--seeds 8] [--passes 3] [--endpoint E]`.

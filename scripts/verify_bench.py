@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Edge verification at the kernel's speed (issue 21, docs/benchmarks.md "Issue 21").
+"""Edge verification at the kernel's speed (docs/benchmarks.md, "`verify`").
 
 Measures, on this host and in one run:
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The peer a user would pick for the whole-path risk of a plan (issue 22): Monte Carlo in
+"""The peer a user would pick for the whole-path risk of a plan: Monte Carlo in
 numpy — one draw of every parameter per scenario, the obstacles' polynomials evaluated at
 dense times of every piece, the scenario counted when some obstacle's P >= 0 at some time.
 An estimate (with a Clopper–Pearson interval), not a bound: it misses contacts between the

@@ -13,7 +13,7 @@ pub fn reference_text(stem: &str) -> String {
     std::fs::read_to_string(format!("{dir}/{stem}.json")).expect("reference scene")
 }
 
-/// The growth family of issue 10: `n` uncertain disks at constant density (workspace
+/// The growth family: `n` uncertain disks at constant density (workspace
 /// side `10·√n`), seeded, start and goal at opposite corners. Each disk has a radius
 /// uncertain by a uniform scale and a centre uncertain by a normal offset; disks that
 /// would cover the corners are moved. Returns scene JSON.

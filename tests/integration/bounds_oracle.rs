@@ -1,11 +1,11 @@
 //! Every risk bound against an oracle that shares no code with the crate's moments,
-//! contours or certifiers (issue 19, item 7): `riskplan_oracle::bounds` parses the scene's
-//! polynomial text itself, integrates with its own Gauss rules (exact to order 8) and
-//! samples the parameters itself.
+//! contours or certifiers: `riskplan_oracle::bounds` parses the scene's polynomial text
+//! itself, integrates with its own Gauss rules (exact to order 8) and samples the
+//! parameters itself.
 //!
-//! At random points (x, t) of every reference scene and of the two uncertainty shapes of
-//! the issue (a Gaussian-centre disk, a pedestrian with velocity error) — half uniform in
-//! the workspace and horizon, half where the oracle's Cantelli bound of some obstacle is
+//! At random points (x, t) of every reference scene and of two more uncertainty shapes (a
+//! Gaussian-centre disk, a pedestrian with velocity error) — half uniform in the
+//! workspace and horizon, half where the oracle's Cantelli bound of some obstacle is
 //! between 10⁻⁶ and ½ (near the contours, where the bounds matter) — and every obstacle:
 //! - Cantelli's bound is the oracle's (relative 10⁻⁹);
 //! - every shifted moment bound's proven value is at least the oracle's value of the same
@@ -33,8 +33,8 @@ const CANTELLI_REL: f64 = 1e-9;
 /// How far above the oracle's value of the same formula a proven moment bound may be, where
 /// that value is at least [`TIGHT_FROM`]: the proven value is the upper end of an interval
 /// computation at the point (the central moments formed there, `central_at_point`;
-/// measured ≤ 2·10⁻⁶ relative). Evaluating the expanded cⱼ(x, t) instead was 30× too high on
-/// example-B (the dependency problem), which this catches.
+/// measured ≤ 2·10⁻⁶ relative). Evaluating the expanded cⱼ(x, t) in intervals instead
+/// overestimates many times over on example-B (the dependency problem), which this catches.
 const FORMULA_ABOVE_REL: f64 = 1e-5;
 /// Smallest formula value whose proven value must be within [`FORMULA_ABOVE_REL`] (below any
 /// risk level a user sets).

@@ -1,4 +1,4 @@
-//! The differential test of issue "continuous-time certification": the SOS
+//! The differential test of the two continuous-time certifiers: the SOS
 //! certificate (eq. 15 on Clarabel, re-checked) against the exact checker
 //! (Bernstein, interval with exact fallback) over 100 000 random polynomials of
 //! degree 1–10 on random intervals (double roots, barely positive and barely
@@ -91,8 +91,8 @@ fn sos_and_exact_never_disagree_and_never_certify_a_negative_polynomial() {
         "SOS certifies too little to be a meaningful comparison"
     );
     // The stated share: SOS proves at least SOS_SHARE_OF_EXACT of the polynomials the
-    // exact checker proves positive (84 % was measured on 100 000 cases; what it misses
-    // are near-tangent cases within its acceptance threshold, docs/design.md §5.6).
+    // exact checker proves positive (what it misses are near-tangent cases within its
+    // acceptance threshold, docs/design.md §5.6).
     let exact_safe = counts.get(&("exact", "safe")).copied().unwrap_or(0);
     let both_safe = counts.get(&("sos on exact-safe", "safe")).copied().unwrap_or(0);
     println!("  sos certifies {both_safe} of the {exact_safe} that exact certifies");

@@ -234,14 +234,13 @@ fn grazing_segments_certified_safe_pass_the_independent_check() {
     assert!(grazing >= 20, "too few grazing segments were found ({grazing})");
 }
 
-/// Long segments among many disks as the planners' checker judges them (issue 21, session
-/// 37; docs/design.md §5.10): a long piece is split into parts in time, each with its own
-/// proven box, and only the obstacles whose covers meet a part's box are decided. From random
-/// points in random directions, the longest accepted segment is found by bisection on its
-/// length (it ends grazing some obstacle's contour and passes others on the way); it, and
-/// its first half, must pass the independent oracle. Candidates that left out a part's
-/// obstacles (say, only the first part's kept) accept segments through disks, and this
-/// test fails.
+/// Long segments among many disks as the planners' checker judges them (docs/design.md
+/// §5.10): a long piece is split into parts in time, each with its own proven box, and only
+/// the obstacles whose covers meet a part's box are decided. From random points in random
+/// directions, the longest accepted segment is found by bisection on its length (it ends
+/// grazing some obstacle's contour and passes others on the way); it, and its first half,
+/// must pass the independent oracle. A checker that leaves out a part's obstacles (say,
+/// keeps only the first part's) accepts segments through disks, and this test fails.
 #[test]
 fn long_segments_the_planners_checker_accepts_among_many_disks_pass_the_oracle() {
     use riskplan_certify::scene::SceneCertifier;

@@ -160,7 +160,8 @@ fn verify_names_a_scene_file_and_warns_of_another_scenes_plan() {
 }
 
 /// `bench` names the commit of the binary that ran, wherever it runs (outside any git
-/// checkout too: it used to ask git in the working directory, and printed `git ;`).
+/// checkout too: the commit is the binary's own, not asked of git in the working directory,
+/// so the header never reads `git ;`).
 #[test]
 fn bench_names_the_binarys_commit_outside_a_checkout() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,4 +1,4 @@
-//! Robots among moving people (issue 20): pedestrians certified by their Gaussian tail
+//! Robots among moving people: pedestrians certified by their Gaussian tail
 //! bound, receding-horizon plans from the robot's state, a robot body. Every plan is
 //! checked by oracles that share no code with what they test: `verify` (the exact
 //! path), a per-instant check of the pedestrians' tail with statrs's χ² distribution,
@@ -290,10 +290,10 @@ fn an_update_rebuilds_only_the_updated_pedestrian() {
     }
 }
 
-/// The review's reproducer (issue 20): a warm start whose first piece begins after
-/// `t_now` must not make a plan — nothing would prove the robot safe before it. A
-/// pedestrian crosses the robot's position at t ≈ 3; a constant warm piece on [5, 10]
-/// there is safe, the robot waiting at (3, 0) from 0 to 5 is not.
+/// A warm start whose first piece begins after `t_now` must not make a plan — nothing
+/// would prove the robot safe before it. A pedestrian crosses the robot's position at
+/// t ≈ 3; a constant warm piece on [5, 10] there is safe, the robot waiting at (3, 0) from
+/// 0 to 5 is not.
 #[test]
 fn a_warm_start_that_begins_later_certifies_nothing_before_it() {
     let text = serde_json::json!({"format": "riskplan-scene/1", "name": "late", "dim": 2,

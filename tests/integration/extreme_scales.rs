@@ -1,5 +1,5 @@
-//! Issue 17: the scenes of the adversarial review, at numeric scales where the old error
-//! model of the compiled edge check (docs/design.md §5.10) certified unsafe pieces —
+//! Scenes at extreme numeric scales, where an error model of the compiled edge check
+//! (docs/design.md §5.10) that ignores underflow would certify unsafe pieces —
 //! coefficients of E[P²] that are subnormal (10⁻³²⁰) or underflow to zero (10⁻³³⁶), and a
 //! subnormal coefficient in the obstacle itself. Every planner that accepts a scene, on
 //! seeds 1–5 (1–2 in the quick tier): a plan called certified must pass `verify` (exact
@@ -18,11 +18,10 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// The scenes, in `tests/scenes/extreme/`: the four of issue 17, and two from the
-/// adversarial review of its fix — a horizon of 10⁻³⁰⁰ (blends whose coefficients
-/// overflow to ∞ and NaN were read as 0 by the exact fallback and certified) and a
-/// horizon at t ≈ 10¹⁸ (pieces rounded apart, a certified trajectory that jumped and
-/// missed its endpoints).
+/// The scenes, in `tests/scenes/extreme/`: three superellipses at 10²⁰–10⁴¹ and a subnormal
+/// coefficient, a horizon of 10⁻³⁰⁰ (blends whose coefficients overflow to ∞ and NaN, which
+/// the exact fallback must not read as 0 and certify) and a horizon at t ≈ 10¹⁸ (pieces
+/// rounded apart: a trajectory that jumps and misses its endpoints must not be certified).
 const SCENES: [&str; 6] = [
     "superellipse-at-1e21",
     "superellipse-at-1e20-grazing",
@@ -118,8 +117,8 @@ fn certified_plans_at_extreme_scales_pass_exact_verification() {
     }
 }
 
-/// The default planner still plans the three scenes that have a path (the fix refuses
-/// the compiled path where its model does not hold, it does not refuse to plan).
+/// The default planner plans the scenes that have a path (where the compiled path's error
+/// model does not hold, the compiled path is refused, not the plan).
 #[test]
 fn the_default_planner_plans_the_scenes_with_a_path() {
     for name in PLANNED {

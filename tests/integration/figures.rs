@@ -236,7 +236,7 @@ fn plan_legend_times_are_rounded() {
 
 /// The 3-D plan figure's contours are sections at the path's height: each legend entry
 /// names its time and x3 level, the level is the path's x3 at that time, and the levels
-/// change along the path (the old figure sliced x3 = 0 whatever the path did).
+/// change along the path (not one slice at x3 = 0 whatever the path does).
 #[test]
 fn plan_figure_3d_sections_follow_the_path() {
     let dir = tempfile::tempdir().unwrap();

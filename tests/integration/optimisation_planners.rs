@@ -1,7 +1,7 @@
-//! Issue 11: the paper's optimisation planners. Every plan is re-verified by both
-//! certification methods, by the independent exact oracle (the contours evaluated in
-//! rationals at many times of every piece) and by a seeded Monte Carlo audit (the
-//! probability of collision with each obstacle at each audited point ≤ Δ at 99 %).
+//! The paper's optimisation planners. Every plan is re-verified by both certification
+//! methods, by the independent exact oracle (the contours evaluated in rationals at
+//! many times of every piece) and by a seeded Monte Carlo audit (the probability of
+//! collision with each obstacle at each audited point ≤ Δ at 99 %).
 
 use crate::common;
 use crate::common::oracle;
@@ -241,8 +241,8 @@ fn optimisation_planners_pass_the_conformance_harness() {
 /// SDPs on illustrative-3 take seconds each, and a plan cancelled 0.3 s in answers
 /// `cancelled` sooner than one of its solves takes on average (measured on the same plan
 /// run uncancelled in this test, so a slow machine moves both). Without the callback
-/// the plan ran its solve to the end: 4.8 s after the cancel, against 0.52 s per solve
-/// (tried once by disabling `stop_when` in `plan/opt/mod.rs`).
+/// (`stop_when` in `plan/opt/mod.rs`) the plan would run its solve to the end, seconds
+/// after the cancel.
 #[test]
 fn a_cancelled_plan_stops_inside_a_solve() {
     use std::sync::atomic::{AtomicBool, Ordering};

@@ -1,7 +1,7 @@
-//! Issue 10's guarantees for the default planner: any scale and placement, smooth
-//! output, short paths, and the joint risk mode — each checked against an oracle that
-//! does not share the planner's code (exact evaluation of the contours at many times of
-//! every piece, and Monte Carlo audits).
+//! The default planner's guarantees: any scale and placement, smooth output, short
+//! paths, and the joint risk mode — each checked against an oracle that does not share
+//! the planner's code (exact evaluation of the contours at many times of every piece,
+//! and Monte Carlo audits).
 
 use crate::common;
 use crate::common::oracle;
@@ -187,16 +187,16 @@ fn joint_risk_bounds_the_probability_of_any_collision() {
     assert!(planned >= 4, "joint-weighted planned on {planned} of 6 scenes");
 }
 
-/// Relative margins below this are not asked of the SOS method (issue 10): its
+/// Relative margins below this are not asked of the SOS method: its
 /// certificate is a floating-point SDP solution re-checked rigorously, so a margin at
 /// the solver's tolerance may be lost.
 const SOS_RELATIVE_MARGIN: f64 = 1e-4;
 
-/// Issue 10, item 6: on a static scene with a quartic obstacle, the workspace near
-/// x ≈ 12 and the horizon [10, 13], the SOS method certifies every piece that the exact
-/// method certifies with a relative margin ≥ 1e-4 (the restriction is centred before the
-/// SDP; it used to be rejected by the re-check). Pieces: the default plan's, and straight
-/// segments passing the obstacle at several distances.
+/// On a static scene with a quartic obstacle, the workspace near x ≈ 12 and the horizon
+/// [10, 13], the SOS method certifies every piece that the exact method certifies with a
+/// relative margin ≥ 1e-4 (the restriction is centred before the SDP, else the re-check
+/// would reject it). Pieces: the default plan's, and straight segments passing the
+/// obstacle at several distances.
 #[test]
 fn sos_certifies_pieces_away_from_the_origin() {
     use riskplan_app::verify::{verify, Method, Status};

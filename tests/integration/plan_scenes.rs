@@ -88,8 +88,9 @@ fn conformance_rrt_sos_and_mc_rrt_static_and_dynamic() {
 
 /// The planners known not to solve [`conformance_of_every_planner_kind`]'s problem:
 /// moment-poly's relaxation is not flat at the orders it can afford (its moment matrix
-/// side reaches the limit first; docs/benchmarks.md), on this problem as on the
-/// scenes'. Any other planner, a new one included, must plan it.
+/// side reaches the limit first; docs/benchmarks.md, "The paper's optimisation
+/// planners"), on this problem as on the scenes'. Any other planner, a new one included,
+/// must plan it.
 const KNOWN_NOT_TO_PLAN: [PlannerKind; 1] = [PlannerKind::MomentPoly];
 
 /// Every planner a request can name ([`PlannerKind::ALL`]: a new planner is in at

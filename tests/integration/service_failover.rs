@@ -1,4 +1,4 @@
-//! Failover of the Rust client's reads (issue 21, proto/README.md "Failover"): a read sent
+//! Failover of the Rust client's reads (proto/README.md "Failover"): a read sent
 //! to a server's own key is waited for only while that server's liveliness token is up. A
 //! fake server — a token and a queryable on its own keys that holds every query without
 //! answering, in a Zenoh session of the test — stands beside a real `riskplan serve`; its

@@ -4,8 +4,8 @@
 //! HTTP (garbage, other paths and methods, an oversized head, a silent client) answered
 //! with 4xx while the server goes on answering Zenoh queries; and both expositions
 //! (OpenMetrics by default, the Prometheus text format 0.0.4 for `Accept: text/plain`)
-//! of a server that answered every kind of request checked by Prometheus's `promtool`
-//! (issue 51). Loopback only.
+//! of a server that answered every kind of request checked by Prometheus's `promtool`.
+//! Loopback only.
 
 use crate::common;
 use crate::common::server::{free_port, reference_scene, serve, Serve};
@@ -241,9 +241,8 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
         + value(&s, "riskplan_scene_cache_misses_total{cache=\"covers\"}");
     assert_eq!(covers, 2.0, "{s:#?}");
     // the plan checks the scene's one obstacle directly, and builds its cover once it has
-    // been checked LAZY_COVER_CHECKS times; since issue 21's smaller shortcut budget
-    // (session 25) the default plan here may stop short of that: at most that one cover,
-    // and nothing else built any
+    // been checked LAZY_COVER_CHECKS times; with the default shortcut budget the plan here
+    // may stop short of that: at most that one cover, and nothing else built any
     let built = value(&s, "riskplan_covers_built_total");
     assert!(built == 0.0 || built == 1.0, "{s:#?}");
     assert_eq!(value(&s, "riskplan_scene_cache_hits_total{cache=\"body\"}"), 0.0);

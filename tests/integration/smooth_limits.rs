@@ -1,9 +1,9 @@
-//! Issue 17, item 4: the speed limit is kept by every piece the default planner returns,
-//! blends and eased parts included (docs/design.md §6.8) — by the planners' own check,
-//! `within_speed`, and by sampled speeds — on a scene whose corner must stop: two
-//! hyperbolic obstacles `x1·x2 ≥ 10⁻⁶·w` leave a neck about 3·10⁻³ wide at the origin, the
-//! path from quadrant II to quadrant IV turns there, and every blend (the smallest reaches
-//! about 2·10⁻³ into the turn) cuts the far obstacle.
+//! The speed limit is kept by every piece the default planner returns, blends and eased
+//! parts included (docs/design.md §6.8) — by the planners' own check, `within_speed`, and
+//! by sampled speeds — on a scene whose corner must stop: two hyperbolic obstacles
+//! `x1·x2 ≥ 10⁻⁶·w` leave a neck about 3·10⁻³ wide at the origin, the path from quadrant II
+//! to quadrant IV turns there, and every blend (the smallest reaches about 2·10⁻³ into the
+//! turn) cuts the far obstacle.
 
 use riskplan_app::PlanRequest;
 use riskplan_plan::testing::sampled_peak_speed;

@@ -1,6 +1,6 @@
-//! Issue 19's "done when": with default options (`bound: auto`) the paper's scenes plan at
-//! the risk levels robots use, and the certified safe regions of the issue's examples start
-//! where the truth says they may.
+//! With default options (`bound: auto`) the paper's scenes plan at the risk levels robots
+//! use, and the certified safe regions of a uniform-radius disk and of a Gaussian-centre
+//! disk start where the truth says they may.
 //!
 //! Every plan is re-verified at its Δ and audited by the independent oracle's own Monte Carlo
 //! (`riskplan_oracle::bounds`: its own parser and sampler), 2·10⁵ scenarios per audited
@@ -127,14 +127,14 @@ fn certified_safe_regions_start_near_the_truth() {
 }
 
 /// The final check proves what the planners' higher-moment cover proves far from the
-/// origin (issue 21, session 16). On the 512-disk benchmark scene (workspace 226 wide) a
-/// blend grazes a disk near x ≈ 145: Cantelli's g₁ fails there (the exact witness is
-/// negative), the fast path covers the piece with the fourth-moment bound on a
-/// sub-interval, and the final check's compiled fallback — composing the central moments in
-/// intervals rather than as the fast path does — found no cover. The plan was counted as a
-/// disagreement and made again without the fast path, 10 s instead of 0.2 s, on 2 seeds of
-/// 12. Here: the checker accepts the piece, the final check passes it, `verify` reports a
-/// moment bound, and the independent Monte Carlo audit keeps the risk below Δ.
+/// origin. On the 512-disk benchmark scene (workspace 226 wide) a blend grazes a disk near
+/// x ≈ 145: Cantelli's g₁ fails there (the exact witness is negative), and the fast path
+/// covers the piece with the fourth-moment bound on a sub-interval; the final check's
+/// compiled fallback composes the central moments in intervals rather than as the fast path
+/// does, and must find a cover too — else the plan counts as a disagreement and is made
+/// again without the fast path, far slower. Here: the checker accepts the piece, the final
+/// check passes it, `verify` reports a moment bound, and the independent Monte Carlo audit
+/// keeps the risk below Δ.
 #[test]
 fn the_final_check_proves_a_grazing_piece_far_from_the_origin_as_the_planner_does() {
     use riskplan_app::verify::{final_check, SceneCertifier};

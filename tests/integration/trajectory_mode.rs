@@ -1,4 +1,4 @@
-//! `risk_mode: trajectory` (issue 22, docs/design.md §5.14): Δ bounds the probability that
+//! `risk_mode: trajectory` (docs/design.md §5.14): Δ bounds the probability that
 //! the plan meets any obstacle at any time, the parameters drawn once. Every plan is checked
 //! against a seeded Monte Carlo audit of that whole-path event (`audit_whole_path`: one
 //! draw of every parameter per scenario, shared by 100 times per piece and every obstacle;
@@ -30,7 +30,7 @@ fn plan(s: &Arc<Scene>, mode: RiskMode, delta: f64) -> riskplan_plan::PlanOutcom
 /// Every reference planning scene at Δ = 0.1 and 0.01 in trajectory mode: a certified
 /// plan, its whole-path bound (reported by the final check) ≤ Δ and at least the audit's
 /// lower end, and the audit ≤ Δ at 99 % (its upper end). Prints the conservatism (bound ÷
-/// estimate) for docs/benchmarks.md.
+/// estimate; docs/benchmarks.md, "The whole-path bound and trajectory mode").
 #[test]
 fn reference_scenes_in_trajectory_mode_keep_the_whole_path_within_delta() {
     for name in [

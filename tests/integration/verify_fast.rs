@@ -1,4 +1,4 @@
-//! `verify` at the kernel's speed (issue 21): the verify path decides as the planners'
+//! `verify` at the kernel's speed: the verify path decides as the planners'
 //! checker does (compiled restriction, covers of the scene index, a Bernstein witness
 //! instead of the SDP), so its "safe" answers are checked here against oracles that share
 //! no code with it, on random trajectories large enough to build the index:
@@ -139,10 +139,10 @@ fn verify_safe_pieces_pass_the_independent_oracle_on_d1() {
 }
 
 /// A piece outside the horizon is checked against every obstacle, whatever the index says
-/// (review of issue 21: with 16 obstacles or more the index files a moving obstacle by
-/// its slabs, which end with the horizon, so one that is out of the workspace until then
-/// was skipped for a later piece). Only the library takes such pieces: the CLI and the
-/// service refuse them as input.
+/// (with 16 obstacles or more the index files a moving obstacle by its slabs, which end
+/// with the horizon: one that is out of the workspace until then must not be skipped for a
+/// later piece). Only the library takes such pieces: the CLI and the service refuse them
+/// as input.
 #[test]
 fn pieces_after_the_horizon_are_not_skipped_by_the_index() {
     let mut obstacles: Vec<String> = (0..16)
@@ -173,8 +173,8 @@ fn pieces_after_the_horizon_are_not_skipped_by_the_index() {
 }
 
 /// A piece running backwards in time (t0 > t1) is no piece: the motion checker refuses it,
-/// and splitting it into parts (the cover lookup of long pieces) does not panic — found by
-/// the review of issue 21 (a `clamp` with min > max), reachable through the library only.
+/// and splitting it into parts (the cover lookup of long pieces) does not panic (no `clamp`
+/// with min > max). Such a piece is reachable through the library only.
 #[test]
 fn a_piece_backwards_in_time_is_refused_without_a_panic() {
     use riskplan_scene::motion::{Motion, MotionChecker};

@@ -1,4 +1,4 @@
-//! The whole-path bound in `verify` (issue 22, docs/design.md §5.14): with ω drawn once,
+//! The whole-path bound in `verify` (docs/design.md §5.14): with ω drawn once,
 //! P(the trajectory meets an obstacle at some time) ≤ the report's `whole_path_risk`.
 //! Oracle sharing no code with the bound: illustrative-3's disk ‖x‖ ≤ w, w ~ U[0.3, 0.4],
 //! is met by a trajectory exactly when w ≥ d_min, its smallest distance from the origin
@@ -181,7 +181,7 @@ fn whole_path_bound_in_obstacle_frames_covers_the_audit() {
     );
 }
 
-/// review21: 48 disks `(r·s)² − (x − cx)² − (y − cy)²`, s ~ U[0.9, 1.1], far from the
+/// 48 disks `(r·s)² − (x − cx)² − (y − cy)²`, s ~ U[0.9, 1.1], far from the
 /// origin (workspace [10⁴, 10⁴ + 70]²), so that every obstacle's whole-path partition is
 /// written in its own refined frame and screened by the tree of hulls and parts. Random
 /// polylines (1 to 6 straight pieces, some of zero duration) are driven *through* the disks.

@@ -1,8 +1,7 @@
-"""Small hostile messages that used to crash or freeze the server (issue: "a service that
-no message can crash or freeze") get a typed error or are refused, and the server keeps
-answering `status` quickly. What is covered so far: bounded bincode decoding, and the
-parser's nesting, degree, terms and work limits, the exact-number limits and the
-scene's contour budget (proto/README.md, "Limits")."""
+"""Small hostile messages get a typed error or are refused, and the server keeps answering
+`status` quickly: no message may crash or freeze the service. What is covered: bounded
+bincode decoding, and the parser's nesting, degree, terms and work limits, the exact-number
+limits and the scene's contour budget (proto/README.md, "Limits")."""
 from __future__ import annotations
 
 import json
@@ -17,7 +16,7 @@ import threading
 from conftest import Server, load_scene, validate
 
 BINCODE = "application/bincode"
-STATUS_LIMIT_S = 0.1   # issue 9: status answers within 100 ms after each hostile message
+STATUS_LIMIT_S = 0.1   # status answers within 100 ms after each hostile message
 
 
 def assert_alive(client):
@@ -205,10 +204,10 @@ def test_verify_whole_path(client, unique):
 
 
 def slow_scene(scene3: dict, obstacles: int = 1, shift: int = 0) -> dict:
-    """A valid scene whose contour is slow to build (about 0.08 s since session 33, 0.5 s
-    before): one 462-term obstacle, near the scene's contour budget (a second one would
-    exceed it). Scenes of different `shift` have different polynomials (the server builds a
-    polynomial's contour once and shares it)."""
+    """A valid scene whose contour is slow to build (tens of milliseconds): one 462-term
+    obstacle, near the scene's contour budget (a second one would exceed it). Scenes of
+    different `shift` have different polynomials (the server builds a polynomial's contour
+    once and shares it)."""
     s = json.loads(json.dumps(scene3))
     s["params"]["v"] = {"dist": "normal", "mean": 0, "std": 1}
     s["obstacles"] = [
@@ -323,7 +322,7 @@ def test_an_apply_with_too_many_changes_is_refused_at_once(client, name3):
     assert client.get_scene(name3)["revision"] == rev
 
 
-PLAN_OVERRUN_S = 0.1   # issue: plans honour their time limit to within 100 ms
+PLAN_OVERRUN_S = 0.1   # plans honour their time limit to within 100 ms
 
 
 @pytest.mark.parametrize("planner", ["rrt-sos", "rrt-sos-paper", "mc-rrt", "tv-sos"])

@@ -1,8 +1,8 @@
-"""Mixed load (issue: "no message can crash or freeze the server"): 64 concurrent
-clients of plan, verify, risk and apply for a while; every query gets exactly one reply
-from the server (ok, busy or a typed error, never a timeout), and status stays quick
-throughout. The 60 s run with memory sampling is scripts/load_test.py (numbers in
-docs/benchmarks.md)."""
+"""Mixed load (no message may crash or freeze the server): 64 concurrent clients of plan,
+verify, risk and apply for a while; every query gets exactly one reply from the server (ok,
+busy or a typed error, never a timeout), and status stays quick throughout. The 60 s run with
+memory sampling is scripts/load_test.py (numbers in docs/benchmarks.md, "Mixed load, 64
+clients, 60 s")."""
 from __future__ import annotations
 
 import json

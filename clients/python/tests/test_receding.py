@@ -1,4 +1,4 @@
-"""Receding-horizon plans and pedestrian updates through the service (issue 20)."""
+"""Receding-horizon plans and pedestrian updates through the service."""
 import math
 
 import numpy as np

@@ -283,8 +283,8 @@ def test_status_says_loading_until_the_stored_scenes_are_in(binary, tmp_path, sc
     srv = Server(binary, data).start()
     try:
         with srv.client(timeout=60) as c:
-            # about 0.08 s of contour building each at start (0.5 s before session 33's
-            # faster moments): loading them takes seconds, the window this test looks into
+            # tens of milliseconds of contour building each at start: loading them takes
+            # seconds, the window this test looks into
             for k in range(SLOW_SCENES):
                 c.apply(f"slow{k}", scene=slow_scene(scene3, shift=k))
             c.apply("s3", scene=scene3)

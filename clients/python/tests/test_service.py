@@ -173,8 +173,8 @@ def test_plan_options_of_issue_10(client, scene3, unique):
 
 
 def test_plan_in_trajectory_mode_reports_its_whole_path_bound(client, scene3, unique):
-    """risk_mode "trajectory" (issue 22): Δ bounds the probability of meeting the obstacle at
-    any time along the plan; every certified plan reports its whole-path bound, and on
+    """risk_mode "trajectory": Δ bounds the probability of meeting the obstacle at any time
+    along the plan; every certified plan reports its whole-path bound, and on
     illustrative-3's disk (radius uniform on [0.3, 0.4]) that bound covers the closed form
     (0.4 − d_min)/0.1 of the plan's smallest distance from the centre, sampled densely."""
     name = unique()

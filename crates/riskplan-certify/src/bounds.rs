@@ -42,10 +42,9 @@ pub const COVER_MAX_NODES: usize = 128;
 
 /// A moment bound of a low order is preferred to a smaller one of a higher order when
 /// its value at a sub-interval's middle is at most this share of Δ: the low orders'
-/// restrictions have lower degree (cⱼ has degree j·deg P) and so cost less. Measured on
-/// example-d1 and illustrative-3 at Δ = 0.1 (docs/benchmarks.md): 0.5, 0.8 and 0.95 gave
-/// plan times within the run-to-run spread, 0.95 the lowest — a split with a cheap order
-/// costs less than restricting the higher ones; the 5 % leaves the proof some margin.
+/// restrictions have lower degree (cⱼ has degree j·deg P) and so cost less. The share is
+/// high because a split with a cheap order costs less than restricting the higher ones;
+/// the 5 % leaves the proof some margin.
 pub const LOW_ORDER_SHARE: f64 = 0.95;
 
 /// Evenly spaced local times (besides a hint) at which a piece is checked for hopelessness

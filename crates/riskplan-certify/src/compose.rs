@@ -26,7 +26,7 @@ pub struct PieceRef<'a> {
 impl PieceRef<'_> {
     /// Whether every number of the piece is finite. The exact conversions read a
     /// non-finite float as nothing (0), so a piece that is not finite must never be
-    /// judged (issue 17 review).
+    /// judged.
     pub fn is_finite(&self) -> bool {
         self.t0.is_finite() && self.t1.is_finite() && self.coeffs.iter().flatten().all(|c| c.is_finite())
     }

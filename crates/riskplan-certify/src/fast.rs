@@ -1338,7 +1338,7 @@ mod tests {
     /// Squaring a value that has already been rounded ten times: each sum `1 + b`
     /// rounds back to 1, so the float result is 1 while the exact value is
     /// `(1 + 10b)² ≈ 1 + 2.2e-15`. The enclosure must hold it; a rounding count of
-    /// `max(kx, ky) + min(len) + 1` (the old rule) gave an interval that missed it.
+    /// `max(kx, ky) + min(len) + 1` would give an interval that misses it.
     #[test]
     fn product_of_two_computed_operands_is_enclosed() {
         let b = (1.0 - 2f64.powi(-10)) * 2f64.powi(-53);
@@ -1423,9 +1423,9 @@ mod tests {
     }
 
     /// An obstacle at scale `10^k` (lengths `x/S`, `S = 10^k`) and horizon `T`, and a piece
-    /// through it: the three shapes of the extreme-scale tests — the superellipse of
-    /// issue 17 (degree 8, E\[P²\] of degree 16), a disk, and a mixed degree-6 polynomial;
-    /// static or moving, in 2-D or 3-D.
+    /// through it: the three shapes of the extreme-scale tests — a superellipse (degree 8,
+    /// E\[P²\] of degree 16), a disk, and a mixed degree-6 polynomial; static or moving, in
+    /// 2-D or 3-D.
     fn extreme_case(k: i32, t: f64, dim: usize, shape: usize, moving: bool) -> RiskContour {
         let s = format!("1e{k}");
         let x = |i: usize| {
@@ -1542,7 +1542,7 @@ mod tests {
     }
 
     /// An interval straddling 0 with a midpoint below `RADIUS_FLOOR` and a far larger
-    /// radius keeps its radius (found by review: it was replaced by 0 ± 4·`RADIUS_FLOOR`).
+    /// radius keeps its radius (it is not replaced by 0 ± 4·`RADIUS_FLOOR`).
     #[test]
     fn tiny_midpoint_with_a_wide_radius_is_enclosed() {
         let (lo, hi) = (-pow2(-860), pow2(-860) + pow2(-910));
@@ -1691,7 +1691,7 @@ mod tests {
         }
 
         /// The scene's frame keeps the `f64` path in use at every scale (the property
-        /// above is not vacuous): the superellipse of issue 17 from 10⁻³⁰ to 10³⁰⁰, a
+        /// above is not vacuous): the extreme-scale superellipse from 10⁻³⁰ to 10³⁰⁰, a
         /// straight piece through it, is computed (not refused) and enclosed.
         #[test]
         fn scene_frame_keeps_the_fast_path_at_every_scale() {

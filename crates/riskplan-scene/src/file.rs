@@ -191,10 +191,10 @@ pub struct PlannerBlock {
     /// The paper's RRT-SOS parameters (read by `rrt-sos-paper`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rrt_sos: Option<RrtSosBlock>,
-    /// The paper's time-varying SOS parameters (recorded; issue 11).
+    /// The paper's time-varying SOS parameters (recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_varying_sos: Option<TimeVaryingSosBlock>,
-    /// The paper's standard SOS (moment) parameters (recorded; issue 11).
+    /// The paper's standard SOS (moment) parameters (recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub standard_sos: Option<StandardSosBlock>,
     /// The paper's Monte Carlo RRT baseline parameters (recorded).

@@ -372,9 +372,8 @@ impl Scene {
         // the moments are computed only when a contour is not in the cache, and only for
         // its parameters: a scene revision whose obstacles are all cached (an update of
         // one deterministic obstacle, a replica installing its primary's commit) needs
-        // none — computing them exactly cost ~9 ms per revision on example-d1 (16
-        // Gaussian parameters), and computing every parameter's for one changed obstacle
-        // 0.55 s per update on 512 disks (1024 parameters; session 28)
+        // none — exact moments are costly, and a scene of 512 uncertain disks has 1024
+        // parameters of which an update of one obstacle needs two
         let mut moments: BTreeMap<Var, Vec<BigRational>> = BTreeMap::new();
         let supports: Vec<(Var, BigRational, BigRational)> =
             params.iter().filter_map(|p| p.dist.support().map(|(lo, hi)| (p.var, lo, hi))).collect();
@@ -649,7 +648,7 @@ fn validate_workspace(w: &WorkspaceFile, dim: usize) -> Result<Workspace, SceneE
         (w.lower.iter().map(Num::f64).collect(), w.upper.iter().map(Num::f64).collect());
     // every bound a finite float, every side of positive finite length in floats, and a
     // finite diagonal: tolerances are relative to the diagonal, and an infinite or
-    // collapsed box would make them meaningless (issue 17 review)
+    // collapsed box would make them meaningless
     for i in 0..dim {
         let side = upper[i] - lower[i];
         if !(lower[i].is_finite() && upper[i].is_finite() && side > 0.0 && side.is_finite()) {

@@ -38,8 +38,8 @@ fn broken_scenes_name_the_field() {
         ("workspace length", |v| v["workspace"]["lower"] = serde_json::json!([0]), "workspace.lower"),
         ("empty workspace", |v| v["workspace"]["upper"] = serde_json::json!([1, -1]), "workspace.upper[1]"),
         ("horizon reversed", |v| v["horizon"] = serde_json::json!([1, 0]), "horizon"),
-        // issue 17 review: bounds that are not finite floats, a box whose sides or
-        // diagonal overflow, a horizon that is one float
+        // bounds that are not finite floats, a box whose sides or diagonal overflow, a
+        // horizon that is one float
         (
             "workspace bound -1e400",
             |v| v["workspace"]["lower"] = serde_json::json!(["-1e400", -1]),

@@ -882,8 +882,8 @@ fn bounds(records: &[SceneRecord]) -> String {
     }
 }
 
-/// The header of [`delta_bound_row`] (docs/benchmarks.md, "Issue 19: bounds and risk
-/// levels").
+/// The header of [`delta_bound_row`] (docs/benchmarks.md, "Robustness suite", table "Risk
+/// levels and bounds").
 pub const DELTA_BOUND_HEADER: &str = "| Δ | bound | scenes | feasible (Cantelli oracle) | certified plans / feasible | certified plans / all | plans on infeasible | plans over Δ (audit; own audit) | median plan time (s) | pedestrian scenes: certified plans / feasible | pedestrian scenes: certified plans / all |\n|---|---|---|---|---|---|---|---|---|---|---|";
 
 /// One row of the Δ × bound table: the records of one run (one Δ, one bound).

@@ -1,6 +1,5 @@
 //! Seeded random univariate polynomials for testing and benchmarking riskplan's
-//! positivity checkers (docs/design.md §5.8, generator 1; formerly
-//! `riskplan_certify::testgen`). Not part of the stable API.
+//! positivity checkers (docs/design.md §5.8, generator 1). Not part of the stable API.
 //!
 //! Each [`Case`] is built in a time variable `t` on a random interval `[t1, t2]` as
 //!

@@ -1,7 +1,7 @@
 //! Shared helpers of the integration tests.
 #![allow(dead_code)]
 
-/// The benches' scene families (`disks_scene`: the growth family of issue 10), shared with
+/// The benches' scene families (`disks_scene`: n disks at constant density), shared with
 /// the tests that need a crowded scene (the module's `dead_code` allowance covers it).
 #[path = "../../../benches/common/mod.rs"]
 pub mod growth;

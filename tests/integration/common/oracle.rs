@@ -50,7 +50,7 @@ pub struct OracleStats {
 
 /// Smallest magnitude of a floating-point term (and of a coefficient) that the fast
 /// evaluation trusts: below it a term may have lost its relative accuracy to
-/// underflow (issue 17's scenes reach coefficients of 10⁻³³⁶), and the point is
+/// underflow (the extreme-scale scenes reach coefficients of 10⁻³³⁶), and the point is
 /// decided exactly instead.
 const F64_TERM_FLOOR: f64 = 1e-250;
 

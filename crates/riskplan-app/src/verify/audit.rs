@@ -90,7 +90,7 @@ fn audited_points(traj: &Trajectory, times_per_piece: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// The Monte Carlo audit of the whole-path event (issue 22, docs/design.md §5.14): one
+/// The Monte Carlo audit of the whole-path event (docs/design.md §5.14): one
 /// draw of the parameters per scenario, shared by every audited time and obstacle (and by
 /// every point of the robot's body, when the scene has one); per obstacle, the scenarios
 /// in which it meets the trajectory at some audited time, and those in which some

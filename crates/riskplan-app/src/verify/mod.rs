@@ -1036,7 +1036,7 @@ pub struct FinalCheck {
 /// How far after the problem's start time the first piece of a plan may begin (relative
 /// to the larger of |t_start|, the horizon's length and 1): the planners compute their
 /// first piece's start in floating point, a few ulps off at most; a plan that begins
-/// later leaves its beginning unproven and is refused (issue 20 review).
+/// later leaves its beginning unproven and is refused.
 pub const START_TIME_TOLERANCE: f64 = 1e-12;
 
 /// The final check of every planned trajectory before it is called certified

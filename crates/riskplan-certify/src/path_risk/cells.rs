@@ -46,11 +46,11 @@ use std::collections::BinaryHeap;
 pub const CELLS_MAX_DEPTH: u32 = 6;
 
 /// Deepest halving of a part's time beyond [`CELLS_MAX_DEPTH`]: 2⁻²⁰ of a piece. Relative
-/// depth alone left a long piece's parts long next to a small obstacle: a straight shortcut
-/// 158 long (on 512 disks) has parts 2.5 long at depth 6, and beside a disk of radius 0.91
-/// at 1.22 from its centre the middle coefficient of q's net overshoots q's maximum by
-/// about (2.5/2)² ≈ 1.6, so no box of the parameters decided it and the bound was the mass
-/// of every box: 0.98 where the event is impossible (issue 21, session 27). Beyond depth 6
+/// depth alone would leave a long piece's parts long next to a small obstacle: a straight
+/// shortcut 158 long (on 512 disks) has parts 2.5 long at depth 6, and beside a disk of
+/// radius 0.91 at 1.22 from its centre the middle coefficient of q's net overshoots q's
+/// maximum by about (2.5/2)² ≈ 1.6, so no box of the parameters would decide it and the
+/// bound would be the mass of every box, near 1 where the event is impossible. Beyond depth 6
 /// a part is halved only as [`TIME_SPLIT_RATIO`] says, and at most
 /// `CELLS_DEEP_SPLITS_PER_BOX` times per box; 20 bounds the depth when the parameters'
 /// boxes have no width to spread (point masses).
@@ -58,12 +58,11 @@ pub const CELLS_DEEPEST_DEPTH: u32 = 20;
 
 /// Most halvings beyond [`CELLS_MAX_DEPTH`] in one box's examination, and most deeper parts
 /// kept per obstacle and trajectory ([`CELLS_DEEP_PARTS_MAX`]): a bound on the work and
-/// memory of a box whose q is about 0 along a long stretch (the adversarial review of
-/// session 27: without it, every depth-6 part of a piece could be halved down to depth 20
-/// within one box, two million restrictions, between two polls of `stop`). The plans on
-/// 512 disks make 2–4 deeper parts per obstacle; beyond either limit a part stays open
-/// for the parameters' boxes, as before the rule (only the work is limited: any depth is
-/// sound).
+/// memory of a box whose q is about 0 along a long stretch (without it, every depth-6 part
+/// of a piece could be halved down to depth 20 within one box, two million restrictions,
+/// between two polls of `stop`). The plans on 512 disks make a few deeper parts per
+/// obstacle; beyond either limit a part is not halved further and stays open for the
+/// parameters' boxes (only the work is limited: any depth is sound).
 pub const CELLS_DEEP_SPLITS_PER_BOX: usize = 64;
 
 /// Deeper parts (beyond [`CELLS_MAX_DEPTH`]) kept per obstacle and trajectory after which no
@@ -1102,9 +1101,8 @@ mod tests {
     }
 
     /// A clone of a contour given other laws folds P over the new laws' ranges, not over
-    /// the ranges its original had cached (found by the adversarial review of session 25:
-    /// the cached folded form kept [−0.1, 0.1] for a law on [−1, 1], which would have
-    /// understated the reach and the bound).
+    /// the ranges its original had cached (the cached folded form would keep [−0.1, 0.1]
+    /// for a law on [−1, 1], understating the reach and the bound).
     #[test]
     fn a_clone_with_other_laws_folds_over_their_ranges() {
         let a = Distribution::Uniform { low: q("-0.1"), high: q("0.1") };
@@ -1162,14 +1160,14 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
-        /// A long straight piece beside a small disk (issue 21, session 27): a disk of radius
-        /// s ~ U[0.9, 1.1] whose centre is offset along x₁ by d ~ N(0, 0.05), and a piece
-        /// along x₁ at height h, 4 to 2000 radii long, covering the centre's range: the
-        /// offset slides the disk along the piece, so the event is s ≥ h, P = (1.1 − h)/0.2
-        /// clamped — a closed form sharing no code with the bound. At least the truth, and
-        /// within 0.02 of it. With parts no finer than 2⁻⁶ of the piece (before the
-        /// curvature rule) a piece 98 long beside the disk at h = 1.18 got 0.76 where the
-        /// event is impossible.
+        /// A long straight piece beside a small disk: a disk of radius s ~ U[0.9, 1.1]
+        /// whose centre is offset along x₁ by d ~ N(0, 0.05), and a piece along x₁ at
+        /// height h, 4 to 2000 radii long, covering the centre's range: the offset slides
+        /// the disk along the piece, so the event is s ≥ h, P = (1.1 − h)/0.2 clamped — a
+        /// closed form sharing no code with the bound. At least the truth, and within 0.02
+        /// of it. The long pieces are why [`CELLS_DEEPEST_DEPTH`] exists: with parts no
+        /// finer than 2⁻⁶ of the piece, one 98 long beside the disk at h = 1.18 would get a
+        /// bound far above 0 where the event is impossible.
         #[test]
         fn a_long_piece_beside_a_small_disk_gets_the_closed_form(
             h in 0.85f64..1.25, before in 2.0f64..1000.0, after in 2.0f64..1000.0, t1 in 0.01f64..100.0,
@@ -1257,7 +1255,7 @@ mod tests {
         }
     }
 
-    /// The issue's pedestrian (radius 0.3, along x from −5 at a speed v ~ N(1, 0.2)); a robot
+    /// A pedestrian (radius 0.3, along x from −5 at a speed v ~ N(1, 0.2)); a robot
     /// crossing its path (x₁ = 0, x₂ from −3 to 3 over [0, 10]) is met in about 44 % of
     /// the scenarios. The moment envelope could only say 1; the partition is within 5 % of
     /// a Monte Carlo audit (one speed per scenario, closest approach in closed form).
@@ -1458,7 +1456,7 @@ mod tests {
         }
     }
 
-    // ---- review21: adversarial screen tests ----
+    // ---- adversarial screen tests ----
 
     /// The obstacles the screen is attacked with: (text, laws).
     fn review_obstacle(kind: usize, a: i64, b: i64) -> RiskContour {

@@ -585,7 +585,7 @@ mod tests {
         }
     }
 
-    /// The pedestrian: radius 0.3, walking along x from −5 at a speed v ~ N(1, 0.2),
+    /// A pedestrian: radius 0.3, walking along x from −5 at a speed v ~ N(1, 0.2),
     /// P = 0.09 − (x₁ + 5 − v·t)² − x₂²; a robot crossing its path (x₁ = 0, x₂ from −3 to 3
     /// over [0, 10]) is met in about 44 % of the scenarios though the per-instant risk
     /// stays below 0.24. Audit sharing no code with the bound: one speed per scenario, the

@@ -235,8 +235,8 @@ fn central_moments<C: crate::poly::Ring>(
 /// disjoint (the parameters are independent, as everywhere in riskplan: E[ω^β] is the product
 /// of each parameter's moment): Z = G₀ + G₁ + … + G_m with G₀ free of parameters and the G_i
 /// independent, so E[(S + G)^k] = Σ_l C(k,l)·E[S^l]·E[G^(k−l)] adds one group at a time —
-/// products of small polynomials in (x, t) instead of the expansion of Z^8 (which dominated the
-/// first plan of a scene of Gaussian disks: docs/benchmarks.md). `None` (the caller expands)
+/// products of small polynomials in (x, t) instead of the expansion of Z^8 (which would
+/// dominate the first plan of a scene of Gaussian disks). `None` (the caller expands)
 /// with fewer than two parameter groups, a missing moment, or beyond the work budget. The
 /// first moment is set to 0 exactly (E[Z] = 0), as the expansion does.
 fn central_moments_by_groups<C: crate::poly::Ring>(

@@ -1,5 +1,5 @@
-//! Growing an obstacle by the robot's body (docs/design.md §3.12; beyond the paper,
-//! issue 20). A robot whose body is the ball of radius ρ around its reference point x
+//! Growing an obstacle by the robot's body (docs/design.md §3.12; beyond the paper). A
+//! robot whose body is the ball of radius ρ around its reference point x
 //! touches the obstacle `{P(·, ω, t) ≥ 0}` exactly when `max_{‖y‖≤ρ} P(x + y, ω, t) ≥ 0`.
 //! A polynomial `Q` with
 //!

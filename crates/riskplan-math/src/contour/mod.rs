@@ -314,7 +314,7 @@ impl RiskContour {
             .collect();
         // what depends on the laws is made anew: the memo of their distribution functions,
         // and the folded forms (ranges and outside mass) kept with the centred polynomials
-        // (a clone given other laws kept the old ranges: found by the review of session 25)
+        // (a clone given other laws must not keep its original's ranges)
         self.cdf_memo = Default::default();
         self.centred = Default::default();
         self

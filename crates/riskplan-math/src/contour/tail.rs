@@ -1,5 +1,5 @@
 //! The Gaussian tail bound of a moving disk or ball (docs/design.md §3.11; beyond the
-//! paper, issue 20): a pedestrian-like obstacle whose centre moves at a nominal velocity
+//! paper): a pedestrian-like obstacle whose centre moves at a nominal velocity
 //! with isotropic Gaussian errors of position and velocity, and whose radius has a
 //! bounded support.
 //!

@@ -270,7 +270,7 @@ impl McModel {
         (hits, any)
     }
 
-    /// The whole-path event (issue 22, docs/design.md §5.14): per obstacle, the number of
+    /// The whole-path event (docs/design.md §5.14): per obstacle, the number of
     /// scenarios in which it contains *some* of `points` (one draw of the parameters per
     /// scenario, shared by every point and obstacle), and the number in which some
     /// obstacle contains some point. With dense times along a trajectory this estimates

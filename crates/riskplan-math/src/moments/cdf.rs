@@ -796,8 +796,8 @@ mod tests {
         }
         // no law without a variance
         assert!(CdfLaw::of(&Distribution::Moments { raw: vec![q("1"), q("1")] }).is_none());
-        // orders that no law has are not used (the review's case: c₄ < σ⁴ would claim
-        // P(ω ≥ 1) ≤ 0.01 where a law of mean 0 and variance 1 may put 1/2)
+        // orders that no law has are not used (c₄ < σ⁴ would claim P(ω ≥ 1) ≤ 0.01 where a
+        // law of mean 0 and variance 1 may put 1/2)
         let bad = CdfLaw::of(&Distribution::Moments { raw: vec![q("0"), q("1"), q("0"), q("0.01")] }).unwrap();
         assert!(bad.mass_upper(1.0, 10.0) >= 0.5, "{bad:?}");
     }

@@ -321,8 +321,8 @@ mod tests {
         let t = upper_gamma_tail(pt(2.0), 10.0).unwrap();
         assert!(t >= 11.0 * (-10f64).exp());
         assert!(gamma_p(pt(2.0), gamma_fn(pt(2.0)).unwrap(), pt(0.0)).hi < 1e-300);
-        // underflowing products keep a usable enclosure (the review's cases; true values
-        // 3.0·10⁻³⁷⁶ and 1 − 10⁻³⁸⁰ or so)
+        // underflowing products keep a usable enclosure (true values 3.0·10⁻³⁷⁶ and
+        // 1 − 10⁻³⁸⁰ or so)
         assert!(gamma_p(pt(2.5), gamma_fn(pt(2.5)).unwrap(), pt(1e-150)).hi < 1e-300);
         let b = beta_fn(pt(2.5), pt(63.5)).unwrap();
         assert!(beta_i(pt(2.5), pt(63.5), b, 0.999999).lo > 1.0 - 1e-12);

@@ -1,7 +1,7 @@
-//! `raw_moments` against oracles not derived from its recurrences (session 37's adversarial
-//! review): the uniform's closed form, the normal's binomial sum, the Laplace and beta laws'
-//! mean, variance and fourth central moment, discrete laws with zero-weight atoms; values
-//! from 0 and subnormal to 10³⁰³.
+//! `raw_moments` against oracles not derived from its recurrences: the uniform's closed
+//! form, the normal's binomial sum, the Laplace and beta laws' mean, variance and fourth
+//! central moment, discrete laws with zero-weight atoms; values from 0 and subnormal to
+//! 10³⁰³.
 use super::*;
 use num_traits::Zero;
 use proptest::prelude::*;

@@ -1,6 +1,6 @@
-//! Independent oracles for [`taylor_shift`] and [`mean_and_second_moment`] (session 37's
-//! adversarial review): p(c + s·z) evaluated at rational points, and E[P], E[P²] as finite
-//! sums over discrete atoms — no moment, substitution or expectation code of the module.
+//! Independent oracles for [`taylor_shift`] and [`mean_and_second_moment`]: p(c + s·z)
+//! evaluated at rational points, and E[P], E[P²] as finite sums over discrete atoms — no
+//! moment, substitution or expectation code of the module.
 //! Sparse variables, centres from 0 to ±f64::MAX and subnormal, scales 2^±1100, 0 and negative.
 use super::*;
 use num_rational::BigRational;

@@ -100,17 +100,14 @@ fn steer(from: &[f64], to: &[f64], step: f64) -> Vec<f64> {
 
 /// Post-processing (candidate paths and shortcuts; not the corner blends, which the C¹
 /// output needs) may spend this many times the checking work of the search for the first
-/// path ([`MotionChecker::work`], docs/design.md §6.8): as much again (issue 21: on 512
-/// disks twice the search's work, floored at 2000, made the whole plan 15–20× its first
-/// path for a path 1.3 % shorter than this budget gives).
+/// path ([`MotionChecker::work`], docs/design.md §6.8): as much again (on many obstacles a
+/// larger budget buys a slightly shorter path for a whole plan many times its first path).
 pub const SMOOTH_WORK_FACTOR: u64 = 1;
 
 /// ... and at least this much: on small scenes the search decides a few dozen obstacles in
-/// all, and this lets the shortcuts reach their usual length (issue 21, measured: with 250
-/// instead of 500 the default plans of illustrative-3 keep their length within 0.01 and
-/// those of example-d1 grow by at most 1 % for half the post-processing time; on 512
-/// disks, where the checker's guess ([`MotionChecker::likely_rejected`]) spares most
-/// refused shortcuts their check, 250 gives the paths 500 gave without the guess).
+/// all, and this lets the shortcuts reach their usual length (a larger floor buys the small
+/// scenes next to no length for more post-processing time; on 512 disks the checker's guess
+/// ([`MotionChecker::likely_rejected`]) spares most refused shortcuts their check).
 ///
 /// [`MotionChecker::likely_rejected`]: riskplan_scene::motion::MotionChecker::likely_rejected
 pub const SMOOTH_MIN_WORK: u64 = 250;

@@ -279,8 +279,8 @@ pub fn shortcut(
         let Some(rab) = judge(&a, &b) else { continue };
         // (not guessed: they lie along certified pieces, where E[P] < 0 for every obstacle
         // — the mean constraint of eq. (15) — so the guess, which looks for E[P] ≥ 0 at
-        // samples, would only spend its samples on them: a quarter of its calls on 512
-        // disks, session 28. Untimed, a sub-segment is retimed over the horizon, and an
+        // samples, would only spend its samples on them, a large share of its calls on
+        // crowded scenes. Untimed, a sub-segment is retimed over the horizon, and an
         // obstacle whose P depends on t may differ there: the check decides it all the
         // same, the guess only ever spared work)
         // (an end snapped onto its waypoint has no piece there to check)
@@ -966,12 +966,12 @@ mod tests {
     }
 
     /// A corner beside a piece of 5·10⁻⁷ of the horizon at t ≈ 1 (what a shortcut ending
-    /// just short of a waypoint used to leave, illustrative-3 seed 161): no blend fits, so
-    /// the corner would be stopped at, but the eased part on that piece has coefficients of
-    /// order 10¹³ in absolute time and its ends round 10⁻³ away from the segment's. It is
-    /// refused and the corner stays sharp: the pieces meet as the trajectory format demands
-    /// (`smooth` validates them). Without the join check the eased part was kept and the
-    /// trajectory jumped at its start.
+    /// just short of a waypoint would leave were its end not snapped onto it): no blend
+    /// fits, so the corner would be stopped at, but the eased part on that piece has
+    /// coefficients of order 10¹³ in absolute time and its ends round 10⁻³ away from the
+    /// segment's. It is refused and the corner stays sharp: the pieces meet as the
+    /// trajectory format demands (`smooth` validates them). Without the join check the
+    /// eased part would be kept and the trajectory would jump at its start.
     #[test]
     fn an_eased_part_too_short_to_meet_its_segment_is_refused() {
         let (h, l) = (5e-7, 1e-6);
@@ -1002,12 +1002,12 @@ mod tests {
         assert_eq!(point_on(&w, 0, 0.5).1.len(), 2);
     }
 
-    /// Issue 17, item 4: a corner whose blend is never certified is stopped at, and the
-    /// eased parts on the segments' own time spans reach 4/3 of the path's speed 2. With
-    /// `max_speed` 10 % above the path's speed the stop is refused (re-timing would need
-    /// 4/3 of it too) and the corner stays sharp; with 2.7 the stop is kept. Every returned
-    /// piece keeps the limit. (Before the limit was applied to eased parts, the first case
-    /// returned a piece of sampled peak speed 2.667 under max_speed 2.2.)
+    /// A corner whose blend is never certified is stopped at, and the eased parts on the
+    /// segments' own time spans reach 4/3 of the path's speed 2. With `max_speed` 10 %
+    /// above the path's speed the stop is refused (re-timing would need 4/3 of it too) and
+    /// the corner stays sharp; with 2.7 the stop is kept. Every returned piece keeps the
+    /// limit. (Without the limit on eased parts, the first case would return a piece of
+    /// peak speed 8/3 under max_speed 2.2.)
     #[test]
     fn stopped_corner_keeps_a_tight_speed_limit() {
         let no_blend = no_blend_near(vec![1.0, 0.0], 1.0);

@@ -1,12 +1,12 @@
-//! The robustness bench (formerly `riskplan bench --suite robustness`): see `--help`.
+//! The robustness bench: see `--help`.
 //!
 //! ```sh
 //! OPENBLAS_NUM_THREADS=1 cargo run --release -p riskplan-testkit --bin robustness -- \
 //!     --count 120 --suite-seed 1 --out bench-robustness.jsonl
-//! # issue 19: every scene at one Δ, with one bound
+//! # every scene at one Δ, with one bound (docs/benchmarks.md, "Risk levels and bounds")
 //! OPENBLAS_NUM_THREADS=1 cargo run --release -p riskplan-testkit --bin robustness -- \
 //!     --count 120 --suite-seed 1 --delta 0.01 --bound cantelli --out /tmp/rob-0.01-cantelli.jsonl
-//! # issue 22: Δ bounds the whole path; each plan's whole-path bound audited
+//! # trajectory mode: Δ bounds the whole path; each plan's whole-path bound audited
 //! OPENBLAS_NUM_THREADS=1 cargo run --release -p riskplan-testkit --bin robustness -- \
 //!     --count 120 --suite-seed 1 --delta 0.1 --risk-mode trajectory --out /tmp/rob-traj-0.1.jsonl
 //! ```
