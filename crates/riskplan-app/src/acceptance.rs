@@ -14,9 +14,8 @@ use std::time::Duration;
 /// obstacles, what the partition would give with unlimited boxes (docs/design.md §5.14):
 /// an obstacle's partition stops once its undecided probability is below this share of Δ
 /// over the number of obstacles whose reach the plan enters (the others need no
-/// partition). Without it an obstacle at 10⁻⁹ beside the plan was
-/// refined to 10⁻¹² (its whole box budget: on 512 disks, half the whole-path time) for a
-/// sum of 10⁻⁴.
+/// partition). Without it an obstacle at 10⁻⁹ beside the plan would be refined to 10⁻¹²
+/// (its whole box budget) for a sum of 10⁻⁴.
 pub const WHOLE_PATH_SLACK_SHARE: f64 = 0.01;
 
 /// How long the final check of a plan found in time may run past the plan's deadline
@@ -24,10 +23,10 @@ pub const WHOLE_PATH_SLACK_SHARE: f64 = 0.01;
 /// their limit; a check still running then ends the plan as `deadline_reached`.
 pub const FINAL_CHECK_GRACE: Duration = Duration::from_millis(50);
 
-/// Fewest obstacles for which a plan computes its whole-path bound on a second thread while
-/// its final check runs (docs/design.md §5.12, §5.14): on crowded scenes the two take about
-/// as long each (512 disks: 0.3–2 ms and 0.6–1 ms); on small scenes both take
-/// microseconds and handing the bound over would cost more than it saves.
+/// Fewest obstacles for which a plan computes its whole-path bound beside its final check
+/// (`rayon::join`, docs/design.md §5.12, §5.14): on crowded scenes the two take about as
+/// long each; on small scenes both take microseconds and handing the bound to another
+/// thread would cost more than it saves.
 pub const WHOLE_PATH_BESIDE_MIN_OBSTACLES: usize = 64;
 
 /// What the acceptance of a certified trajectory found.

@@ -44,9 +44,9 @@ pub fn warm_up(kernel: &SceneKernel, stop: &dyn Fn() -> bool) -> WarmUp {
     }
     // (every cover built or tried: the grid over them)
     let _ = kernel.index(&deltas, stop);
-    // then what a first pass of plans still builds per obstacle where its edges go: on 512
-    // disks a plan on a kernel warmed without them took about twice a steady plan's time
-    // (docs/benchmarks.md, issue 21 part 3, session 31)
+    // then what a first pass of plans still builds per obstacle where its edges go (each
+    // obstacle's compiled contour and bounds), so that the first plan after the warm-up
+    // costs what a steady one does
     let beyond = PlanRequest::default().bound_on(scene).beyond_cantelli();
     for i in (0..scene.obstacles.len()).rev() {
         if stop() {

@@ -27,7 +27,7 @@ pub struct Entry {
     /// Revision (increases with every update).
     pub revision: u64,
     /// The scene file as JSON (shared: every request takes an `Entry`, and a deep copy of a
-    /// 512-obstacle scene's JSON cost about 0.3 ms of each plan's round trip; session 28).
+    /// large scene's JSON would add to every plan's round trip).
     pub json: Arc<serde_json::Value>,
 }
 

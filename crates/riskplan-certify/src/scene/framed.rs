@@ -323,8 +323,8 @@ impl FramedContours {
     /// were `old`, taking over what `old` built for the obstacles whose contour the two
     /// revisions share (the same cached contour: the same polynomial and laws): their box
     /// tests and framed polynomials are the same when the frame and the region are
-    /// (issue 21, session 28: on 512 disks a one-obstacle update made the next plan's
-    /// final check rebuild every obstacle's box test, about 0.3 s). Nothing is built
+    /// (else a one-obstacle update of a crowded scene would make the next plan's final
+    /// check rebuild every obstacle's box test). Nothing is built
     /// here: the box tests of the other obstacles are made by the first final check, as
     /// for a new scene.
     /// `index[i]`: obstacle `i`'s index in `old_scene` when the two share its contour
@@ -777,8 +777,8 @@ pub const GRID_MAX_TESTS_PER_OBSTACLE: usize = 256;
 
 /// After this many obstacles tested, the grid is abandoned (the final check examines every
 /// obstacle, as without it) when more than half of them used up their tests: the grid would
-/// cost more than it saves (the adversarial review measured builds of 0.5–1.5 s where nearly
-/// every obstacle gave up).
+/// cost more than it saves (where nearly every obstacle gives up, building the grid takes
+/// far longer than its lookups spare).
 pub const GRID_ABANDON_AFTER: usize = 16;
 
 /// Most parts of a piece looked up in the grid: a piece is split into about as many parts

@@ -828,8 +828,8 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// A part of a piece in the review test: its box (per axis) and its time interval.
-    type ReviewPart = (Vec<(f64, f64)>, (f64, f64));
+    /// A part of a piece in the marking test: its box (per axis) and its time interval.
+    type MarkingPart = (Vec<(f64, f64)>, (f64, f64));
 
     proptest! {
         /// The parts' boxes cover the piece: every sampled point of the curve, evaluated
@@ -874,7 +874,7 @@ mod tests {
 
     /// `n` disks of uncertain size and centre in a square of side `side` (every seventh
     /// moving along x), from `rng`; the static ones' (index, centre x, centre y, radius).
-    fn review_scene(n: usize, side: f64, rng: &mut rand_chacha::ChaCha8Rng) -> (Scene, Vec<(usize, f64, f64, f64)>) {
+    fn marking_scene(n: usize, side: f64, rng: &mut rand_chacha::ChaCha8Rng) -> (Scene, Vec<(usize, f64, f64, f64)>) {
         use rand::Rng;
         let mut params = serde_json::Map::new();
         let mut obstacles = Vec::new();
@@ -896,7 +896,7 @@ mod tests {
             }
         }
         let text = serde_json::json!({
-            "format": "riskplan-scene/1", "name": "review", "dim": 2,
+            "format": "riskplan-scene/1", "name": "marking", "dim": 2,
             "workspace": {"lower": [0, 0], "upper": [side, side]}, "horizon": [0, 1], "risk": 0.05,
             "params": params, "obstacles": obstacles,
         })
@@ -912,7 +912,7 @@ mod tests {
         use rand::SeedableRng;
         let n = PARALLEL_COVERS_MIN + 9;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
-        let (scene, _) = review_scene(n, 4.0 * (n as f64).sqrt() + 4.0, &mut rng);
+        let (scene, _) = marking_scene(n, 4.0 * (n as f64).sqrt() + 4.0, &mut rng);
         let deltas = vec![scene.risk.clone(); n];
         let one = SceneIndex::lazy(&scene, &deltas, &[]);
         one.ensure_all_on(&scene, &|| false, 1);
@@ -937,18 +937,18 @@ mod tests {
         assert_eq!(covers(&stopped), covers(&one));
     }
 
-    /// review21: marking the parts of a piece into one set gives exactly the union over the
+    /// Marking the parts of a piece into one set gives exactly the union over the
     /// parts of the obstacles not proven skippable for that part (naive filter per part,
     /// no bitset, no grid), on scene sizes around the 64-bit word boundaries, with moving
     /// obstacles and parts outside the horizon; and every disk a part's box meets at
     /// its certain-collision radius (closed form) is among them.
     #[test]
-    fn review_marked_parts_are_the_union_of_the_parts_candidates() {
+    fn marked_parts_are_the_union_of_the_parts_candidates() {
         use rand::{Rng, SeedableRng};
         for (n, seed) in [(1usize, 1u64), (15, 2), (16, 3), (63, 4), (64, 5), (65, 6), (129, 7)] {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             let side = 4.0 * (n as f64).sqrt() + 4.0;
-            let (scene, disks) = review_scene(n, side, &mut rng);
+            let (scene, disks) = marking_scene(n, side, &mut rng);
             let deltas = vec![scene.risk.clone(); n];
             let index = SceneIndex::build(&scene, &deltas, &|| false);
             assert!(index.complete());
@@ -956,7 +956,7 @@ mod tests {
             let (mut nonempty, mut partial) = (0, 0);
             for _ in 0..400 {
                 let k = rng.random_range(1..7);
-                let parts: Vec<ReviewPart> = (0..k)
+                let parts: Vec<MarkingPart> = (0..k)
                     .map(|_| {
                         let w: f64 = rng.random_range(0.0..3.0);
                         let (x, y) = (rng.random_range(0.0..side - w), rng.random_range(0.0..side - w));

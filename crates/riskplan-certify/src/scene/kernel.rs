@@ -515,8 +515,8 @@ mod tests {
     }
 
     /// After an update of one obstacle of 80, the next revision's kernel takes over what
-    /// the old one built for the others (box tests, their grid, path frames and reaches:
-    /// issue 21, session 28) and holds exactly what a kernel built afresh for the new
+    /// the old one built for the others (box tests, their grid, path frames and reaches)
+    /// and holds exactly what a kernel built afresh for the new
     /// revision holds — and has rebuilt the moved obstacle's own.
     #[test]
     fn a_successor_holds_what_a_fresh_kernel_builds() {
@@ -543,7 +543,7 @@ mod tests {
 
     /// The same through reordered and removed obstacles, another Δ for one unchanged
     /// obstacle, a revision no plan used (it passes on what it took over), and a build of
-    /// the box tests stopped half-way (what it built is kept): the review of session 28.
+    /// the box tests stopped half-way (what it built is kept).
     #[test]
     fn a_chain_of_successors_holds_what_a_fresh_kernel_builds() {
         let n = 80;

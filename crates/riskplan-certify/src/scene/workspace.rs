@@ -109,9 +109,8 @@ pub fn inside_by_box(lower: &[f64], upper: &[f64], piece: PieceRef<'_>, bbox: Op
 /// The composition is [`UPoly::compose_affine`]'s Horner scheme — the same interval
 /// operations in the same order, so the same enclosure bit for bit — carried out in
 /// fixed buffers (`coordinate_hull`): the final check forms a hull for every piece,
-/// for each of its parts and for its grid lookup, and the general code allocated at every
-/// step (about 8 % of a crowded scene's final check by instruction count, 4 % saved:
-/// docs/benchmarks.md, session 35).
+/// for each of its parts and for its grid lookup, and the general code allocates at every
+/// step.
 pub fn interval_hull(piece: PieceRef<'_>) -> Option<Vec<Interval>> {
     let t0 = Interval::point(piece.t0);
     let h = Interval::point(piece.t1) - t0;
@@ -239,8 +238,8 @@ mod tests {
         use super::super::*;
         use proptest::prelude::*;
 
-        /// The general composition `interval_hull` was before session 35 (the reference
-        /// of the fixed-buffer one).
+        /// The general composition by `UPoly::compose_affine` that `interval_hull` stands
+        /// for (the reference of the fixed-buffer one).
         fn interval_hull_by_upoly(piece: PieceRef<'_>) -> Option<Vec<Interval>> {
             let t0 = Interval::point(piece.t0);
             let h = Interval::point(piece.t1) - t0;
