@@ -13,7 +13,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use num_rational::BigRational;
-use riskplan_certify::{check, check_exact, check_interval, sturm, Verdict, DEFAULT_MAX_DEPTH};
+use riskplan_certify::{check, check_exact, check_interval, positivity::sturm, Verdict, DEFAULT_MAX_DEPTH};
 use riskplan_math::contour::{Layout, RiskContour};
 use riskplan_math::moments::Distribution;
 use riskplan_math::poly::{parse, parse_decimal, Interval, UPoly, VarTable};

@@ -1,4 +1,4 @@
-//! Speed of the eq. (15) SOS certifier (`riskplan_certify::sos`) on realistic
+//! Speed of the eq. (15) SOS certifier (`riskplan_certify::positivity::sos`) on realistic
 //! positive constraints: the disk `w² − x1² − x2²`, `w ~ U[0.3, 0.4]`, Δ = 0.1
 //! (Example 3), restricted to trajectory pieces passing ≈ 0.5 from the disk.
 //!
@@ -10,7 +10,7 @@
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use num_rational::BigRational;
-use riskplan_certify::sos::{certify, recheck, SosSettings};
+use riskplan_certify::positivity::sos::{certify, recheck, SosSettings};
 use riskplan_math::poly::{Interval, UPoly};
 
 fn q(n: i64, d: i64) -> BigRational {
@@ -58,7 +58,9 @@ fn bench(c: &mut Criterion) {
         let (a, b) = (certify(&g1_seg, s), certify(&g2_seg, s));
         assert!(a.verdict.is_safe() && b.verdict.is_safe(), "{label}");
         if label == "piece_default" {
-            let built = |o: &riskplan_certify::sos::SosOutcome| o.certificate.as_ref().is_some_and(|c| c.constructed);
+            let built = |o: &riskplan_certify::positivity::sos::SosOutcome| {
+                o.certificate.as_ref().is_some_and(|c| c.constructed)
+            };
             assert!(built(&a) && built(&b), "the default path constructs both certificates");
         }
         g.bench_function(label, |bch| bch.iter(|| (certify(black_box(&g1_seg), s), certify(black_box(&g2_seg), s))));

@@ -100,7 +100,7 @@ fn bench(c: &mut Criterion) {
         let mut c = Vec::new();
         let mut total = 0;
         for e in &es {
-            let bb = riskplan_certify::scene::piece_bbox(riskplan_certify::PieceRef {
+            let bb = riskplan_certify::checker::piece_bbox(riskplan_certify::PieceRef {
                 t0: e.t0,
                 t1: e.t1,
                 coeffs: &e.coeffs,

@@ -69,8 +69,8 @@ pub use riskplan_app::verify::{
     ObstacleReport, PieceReport, VerifyReport,
 };
 pub use riskplan_app::{PlanRequest, PreparedPlan, DEFAULT_TIME_LIMIT};
-pub use riskplan_certify::scene::{Method, SceneKernel};
-pub use riskplan_certify::sos::SosSettings;
+pub use riskplan_certify::checker::{Method, SceneKernel};
+pub use riskplan_certify::positivity::sos::SosSettings;
 pub use riskplan_math::contour::{RiskContour, RiskLevel, RiskLevelError};
 pub use riskplan_plan::rrt::smooth::SmoothStats;
 pub use riskplan_plan::{

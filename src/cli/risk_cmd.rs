@@ -86,7 +86,7 @@ pub fn run(a: RiskArgs) -> Result<i32, CliError> {
     let mut obstacles = Vec::new();
     for (i, o) in scene.obstacles.iter().enumerate() {
         let r = o.contour.risk_at(&xt);
-        let all = riskplan_certify::bounds::point_bounds_proven(&o.contour, &xt);
+        let all = riskplan_certify::piece_bounds::point_bounds_proven(&o.contour, &xt);
         let (kind, best) = match a.bound {
             riskplan_math::contour::BoundChoice::Auto => all.best(),
             riskplan_math::contour::BoundChoice::Cantelli => {

@@ -304,7 +304,7 @@ fn bound_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64) -> Vec<f64> {
 }
 
 /// Max over obstacles of one bound (or the best) on the grid at time `t`, in floating point
-/// (`certify::bounds::point_bounds_f64`; a bound an obstacle does not have counts as 1).
+/// (`certify::piece_bounds::point_bounds_f64`; a bound an obstacle does not have counts as 1).
 fn curve_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64, curve: BoundCurve) -> Vec<f64> {
     let mut v = Vec::with_capacity(g.n * g.n);
     for j in 0..g.n {
@@ -314,7 +314,7 @@ fn curve_grid(scene: &Scene, ax: &Axes, g: &Grid, t: f64, curve: BoundCurve) -> 
                 .obstacles
                 .iter()
                 .map(|o| {
-                    let each = riskplan_certify::bounds::point_bounds_f64(&o.contour, &p);
+                    let each = riskplan_certify::piece_bounds::point_bounds_f64(&o.contour, &p);
                     match curve {
                         BoundCurve::Kind(k) => each.iter().find(|(kk, _)| *kk == k).map_or(1.0, |x| x.1),
                         BoundCurve::Best => each.iter().map(|x| x.1).fold(1.0, f64::min),

@@ -20,7 +20,7 @@ use super::common::{reference_files, size};
 use num_rational::BigRational;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha12Rng;
-use riskplan_certify::bounds::point_bounds_proven;
+use riskplan_certify::piece_bounds::point_bounds_proven;
 use riskplan_math::poly::rational_to_f64;
 use riskplan_scene::Scene;
 use riskplan_testkit::riskplan_oracle::bounds::{binomial_lower_limit, SceneBounds};

@@ -10,7 +10,7 @@
 use crate::common;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
-use riskplan_certify::{check, sos, sturm, Verdict};
+use riskplan_certify::{check, positivity::sos, positivity::sturm, Verdict};
 use riskplan_testkit::testgen::{Generator, IntPoly};
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};

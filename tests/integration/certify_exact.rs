@@ -8,7 +8,9 @@
 use crate::common;
 use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
-use riskplan_certify::{bernstein, check, check_exact, check_interval, sturm, Verdict, DEFAULT_MAX_DEPTH};
+use riskplan_certify::{
+    check, check_exact, check_interval, positivity::bernstein, positivity::sturm, Verdict, DEFAULT_MAX_DEPTH,
+};
 use riskplan_math::poly::{parse_decimal, Interval, UPoly};
 use riskplan_testkit::testgen::{Generator, IntPoly, Truth};
 use std::collections::BTreeMap;

@@ -243,7 +243,7 @@ fn grazing_segments_certified_safe_pass_the_independent_check() {
 /// keeps only the first part's) accepts segments through disks, and this test fails.
 #[test]
 fn long_segments_the_planners_checker_accepts_among_many_disks_pass_the_oracle() {
-    use riskplan_certify::scene::SceneCertifier;
+    use riskplan_certify::checker::SceneCertifier;
     use riskplan_plan::MotionChecker;
     let n = 128;
     let s = std::sync::Arc::new(Scene::from_json(&common::growth::disks_scene(n, 3)).unwrap());

@@ -279,8 +279,8 @@ fn an_update_rebuilds_only_the_updated_pedestrian() {
     use rand::{Rng, SeedableRng};
     use riskplan_plan::MotionChecker;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-    let c2 = riskplan_certify::scene::SceneCertifier::with_deltas(&k2, d.clone(), Method::Exact);
-    let cf = riskplan_certify::scene::SceneCertifier::with_deltas(&fresh, d, Method::Exact);
+    let c2 = riskplan_certify::checker::SceneCertifier::with_deltas(&k2, d.clone(), Method::Exact);
+    let cf = riskplan_certify::checker::SceneCertifier::with_deltas(&fresh, d, Method::Exact);
     for _ in 0..300 {
         let a = [rng.random_range(-8.0..8.0), rng.random_range(-3.0..3.0)];
         let b = [rng.random_range(-8.0..8.0), rng.random_range(-3.0..3.0)];

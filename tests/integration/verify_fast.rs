@@ -17,7 +17,7 @@ use crate::common::{oracle, scene, size};
 use riskplan_app::verify::{
     verify_with, Detail, Method, SceneKernel, VerifyOptions, INDEX_MIN_PIECES, PARALLEL_MIN_PIECES,
 };
-use riskplan_certify::sos::SosSettings;
+use riskplan_certify::positivity::sos::SosSettings;
 use riskplan_math::contour::RiskLevel;
 use riskplan_scene::Piece;
 use std::sync::Arc;
@@ -242,7 +242,7 @@ fn checker_refuses_every_piece_through_a_disk_among_many() {
     use riskplan_scene::motion::{Motion, MotionChecker};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(128);
     let (s, disks, side) = disks_128(&mut rng);
-    let checker = riskplan_certify::scene::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
+    let checker = riskplan_certify::checker::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
     let dist = segment_distance;
     let (mut through, mut accepted) = (0, 0);
     for _ in 0..3000 {
@@ -271,7 +271,7 @@ fn the_guess_never_refuses_an_accepted_piece_and_finds_pieces_through_disks() {
     use riskplan_scene::motion::{Motion, MotionChecker};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(129);
     let (s, disks, side) = disks_128(&mut rng);
-    let checker = riskplan_certify::scene::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
+    let checker = riskplan_certify::checker::SceneCertifier::new(s.clone(), s.risk.clone(), Method::Exact);
     // the index (and its grid) is built by the first check
     let _ = checker.check(&Piece::segment(&[1.0, 1.0], &[1.5, 1.0], 0.0, 1.0));
     let (mut accepted, mut through, mut caught) = (0, 0, 0);
@@ -315,7 +315,7 @@ fn the_whole_path_bound_computed_beside_the_check_is_the_plans_own() {
         let again = riskplan_app::verify::plan_whole_path_risk(
             &kernel,
             &traj.pieces,
-            riskplan_certify::path_risk::CellEffort::PLAN,
+            riskplan_certify::whole_path::CellEffort::PLAN,
             slack,
             false,
             &|| false,
@@ -334,12 +334,12 @@ fn the_whole_path_bound_computed_beside_the_check_is_the_plans_own() {
 /// the plan, a helper that has finished before the plan joins, a helper stopped at once, one
 /// that panics, and none; and a stopped plan gets an error, never a smaller bound. (The
 /// per-obstacle bounds themselves are tested against closed forms and Monte Carlo beside
-/// the partition, `certify::path_risk::cells`; this tests the sharing and the sum.)
+/// the partition, `certify::whole_path::partition`; this tests the sharing and the sum.)
 #[test]
 fn a_whole_path_bound_shared_by_two_threads_is_the_one_found_alone() {
     use rand::SeedableRng;
     use riskplan_app::verify::WholePathWork;
-    use riskplan_certify::path_risk::{add_up, cells_path_risk_in, CellEffort, PieceBoxes};
+    use riskplan_certify::whole_path::{add_up, cells_path_risk_in, CellEffort, PieceBoxes};
     use riskplan_certify::PieceRef;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(131);
     let (s, _, _) = disks_128(&mut rng);

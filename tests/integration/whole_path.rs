@@ -151,7 +151,7 @@ fn whole_path_bound_in_obstacle_frames_covers_the_audit() {
     let (_, out) = PlanRequest::default().run(&kernel, None).unwrap();
     let traj = out.trajectory.expect("a plan");
     let frames = kernel.path_frames(&|| false).unwrap();
-    let scene_frame = riskplan_certify::scene::scene_frame(&s);
+    let scene_frame = riskplan_certify::checker::scene_frame(&s);
     assert!(frames.iter().all(|f| *f != scene_frame), "every static obstacle gets its own frame");
     let reported = out.stats.whole_path_risk.expect("every certified plan reports it");
     let opts = VerifyOptions { whole_path: true, detail: Detail::FirstNotSafe, ..Default::default() };
@@ -273,7 +273,7 @@ fn review_whole_path_bounds_in_obstacle_frames_cover_the_closed_form_of_each_dis
             met += (p > 0.0) as usize;
             grazing += (p > 0.0 && p < 0.5) as usize;
         }
-        let effort = riskplan_certify::path_risk::CellEffort::PLAN;
+        let effort = riskplan_certify::whole_path::CellEffort::PLAN;
         let plan = riskplan_app::verify::plan_whole_path_risk(&kernel, &pieces, effort, 0.01 * 0.1, false, &|| false)
             .unwrap()
             .unwrap();

@@ -2,10 +2,10 @@
 //! (docs/design.md §5.12), and for a plan that passes it the whole-path bound (§5.14),
 //! computed beside the check on crowded scenes.
 
-use crate::prepared::PreparedPlan;
-use crate::verify::{final_check, plan_whole_path_risk, FinalFailure, Interrupted, WholePathWork};
-use riskplan_certify::path_risk::CellEffort;
-use riskplan_plan::{FinalCheckStats, PlanOutcome, PlanStatus, RiskMode, Termination};
+use crate::verify::{final_check, plan_whole_path_risk, FinalFailure, Interrupted, SceneKernel, WholePathWork};
+use riskplan_certify::whole_path::CellEffort;
+use riskplan_math::contour::{BoundChoice, RiskLevel};
+use riskplan_plan::{FinalCheckStats, MotionChecker, PlanOutcome, PlanStatus, Problem, RiskMode, Termination};
 use riskplan_scene::Trajectory;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -49,10 +49,26 @@ pub(crate) enum Acceptance {
     Interrupted,
 }
 
+/// What the acceptance of a trajectory reads of the plan that made it.
+pub(crate) struct Plan<'a> {
+    /// The problem.
+    pub problem: &'a Problem,
+    /// The scene's kernel.
+    pub kernel: &'a SceneKernel,
+    /// The risk level Δᵢ of each obstacle.
+    pub deltas: &'a [RiskLevel],
+    /// The bounds the check may use.
+    pub bounds: BoundChoice,
+    /// What Δ bounds.
+    pub risk_mode: RiskMode,
+    /// The planner's checker (its whole-path sum, in trajectory mode).
+    pub checker: &'a dyn MotionChecker,
+}
+
 /// Checks `traj`, the certified outcome `out` of `plan`'s planner, and bounds its whole
 /// path; counts the check's work in `fc`.
 pub(crate) fn accept(
-    plan: &PreparedPlan,
+    plan: Plan<'_>,
     traj: &Trajectory,
     out: &PlanOutcome,
     term: &Termination,
@@ -76,7 +92,7 @@ pub(crate) fn accept(
     // the whole-path bound at the plan's effort runs beside the check on crowded scenes,
     // and is abandoned if the check refuses the plan
     let abandon = AtomicBool::new(false);
-    let (kernel, deltas, bounds) = (&plan.kernel, plan.deltas.as_slice(), plan.bounds);
+    let (kernel, deltas, bounds) = (plan.kernel, plan.deltas, plan.bounds);
     let check = || {
         let c = final_check(kernel, traj, ends, t_start, deltas, bounds, &stop);
         if !matches!(&c, Ok(c) if c.failure.is_none()) {
@@ -106,7 +122,7 @@ pub(crate) fn accept(
     // trajectory mode a bound above Δ is tried again with the report's (ten times the boxes)
     let mut wp = work.finish(&stop);
     if budgeted && wp.as_ref().is_ok_and(|b| b.is_some_and(|b| b > delta)) {
-        wp = plan_whole_path_risk(&plan.kernel, &traj.pieces, CellEffort::REPORT, 0.0, budgeted, &stop);
+        wp = plan_whole_path_risk(plan.kernel, &traj.pieces, CellEffort::REPORT, 0.0, budgeted, &stop);
     }
     // in trajectory mode the planner's own sum over the pieces (what it kept within Δ) is
     // a bound too: the smaller one decides

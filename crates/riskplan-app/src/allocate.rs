@@ -61,7 +61,7 @@ pub fn allocate(
             .map(|o| {
                 let bound = |x: &[BigRational]| match bounds {
                     BoundChoice::Cantelli => o.contour.risk_at(x).bound,
-                    BoundChoice::Auto => riskplan_certify::bounds::point_bounds_proven(&o.contour, x).best().1,
+                    BoundChoice::Auto => riskplan_certify::piece_bounds::point_bounds_proven(&o.contour, x).best().1,
                 };
                 (bound(&a) * &margin, bound(&b) * &margin)
             })

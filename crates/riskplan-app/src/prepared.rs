@@ -2,7 +2,7 @@
 //! what it certified (docs/design.md §5.12) with the whole-path bound (§5.14), and the
 //! re-plan when the check refuses the trajectory.
 
-use crate::acceptance::{accept, Acceptance};
+use crate::acceptance::{accept, Acceptance, Plan};
 use crate::verify::{FinalFailure, SceneKernel};
 use riskplan_math::contour::{BoundChoice, RiskLevel};
 use riskplan_plan::{
@@ -46,7 +46,15 @@ impl PreparedPlan {
         let mut out = self.planner.solve(&self.problem, self.checker.as_ref(), term)?;
         let mut fc = FinalCheckStats::default();
         while let Some(traj) = out.trajectory.as_ref().filter(|_| out.certified) {
-            let why = match accept(self, traj, &out, term, &mut fc) {
+            let plan = Plan {
+                problem: &self.problem,
+                kernel: &self.kernel,
+                deltas: &self.deltas,
+                bounds: self.bounds,
+                risk_mode: self.risk_mode,
+                checker: self.checker.as_ref(),
+            };
+            let why = match accept(plan, traj, &out, term, &mut fc) {
                 Acceptance::Accepted { whole_path_risk } => {
                     out.stats.whole_path_risk = whole_path_risk;
                     break;

@@ -51,7 +51,7 @@ pub use rrt::{
 
 pub use riskplan_scene::motion::{dist, CheckCounter, Motion, MotionChecker, Termination};
 
-use riskplan_certify::scene::{Method, SceneKernel};
+use riskplan_certify::checker::{Method, SceneKernel};
 use riskplan_math::contour::{BoundChoice, RiskLevel};
 use riskplan_scene::{PlannerBlock, Scene};
 use std::fmt;
@@ -224,9 +224,10 @@ impl Setup<'_> {
 /// plan's whole-path budget. Every certifying planner's checker is a scene certifier, so
 /// this one replaces it for any of them.
 pub fn fallback_checker(s: &Setup<'_>) -> Box<dyn MotionChecker> {
-    let mut checker = riskplan_certify::scene::SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), Method::Exact)
-        .with_bounds(s.options.bounds)
-        .without_fast_path();
+    let mut checker =
+        riskplan_certify::checker::SceneCertifier::with_deltas(s.kernel, s.deltas.to_vec(), Method::Exact)
+            .with_bounds(s.options.bounds)
+            .without_fast_path();
     if let Some(budget) = rrt::path_budget(s.problem, s.options) {
         checker = checker.with_path_risk(budget * rrt::PATH_RISK_NEGLIGIBLE_SHARE);
     }

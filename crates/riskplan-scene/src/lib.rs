@@ -9,7 +9,7 @@
 //! a layer above this one) does not compile.
 //!
 //! ```compile_fail,E0432
-//! use riskplan_certify::scene::SceneKernel;
+//! use riskplan_certify::checker::SceneKernel;
 //! ```
 
 mod file;

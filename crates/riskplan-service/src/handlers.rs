@@ -378,7 +378,7 @@ pub fn risk(entry: &Entry, req: &RiskRequest, deadline: Instant) -> Result<RiskR
                 best.push(o.contour.bound_f64(&xt));
                 continue;
             }
-            let each = riskplan_certify::bounds::point_bounds_f64(&o.contour, &xt);
+            let each = riskplan_certify::piece_bounds::point_bounds_f64(&o.contour, &xt);
             let mut b = 1.0f64;
             for (kind, v) in &each {
                 if every {

@@ -6,7 +6,7 @@
 use super::error::{invalid, ServiceError};
 use super::proto::{Change, EmbeddedJson, ObstaclePut};
 use super::store::Store;
-use riskplan_certify::scene::SceneKernel;
+use riskplan_certify::checker::SceneKernel;
 use riskplan_scene::{ContourCache, Scene};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -139,12 +139,12 @@ pub struct KernelCounts {
     /// Plan and verify jobs whose scene kernel held every obstacle's covers (the scene
     /// index, complete) at the job's risk levels when the job started (on a scene of
     /// fewer than 16 obstacles an index builds each obstacle's covers on demand:
-    /// `certify::scene::LAZY_MAX_OBSTACLES`).
+    /// `certify::checker::LAZY_MAX_OBSTACLES`).
     pub covers_hits: u64,
     /// Plan and verify jobs whose scene kernel did not.
     pub covers_misses: u64,
     /// Obstacles' proven covers built and kept by the process, over every scene and
-    /// risk level ([`riskplan_certify::scene::covers_built_total`]; a build cut short by a
+    /// risk level ([`riskplan_certify::checker::covers_built_total`]; a build cut short by a
     /// deadline is not kept, nor counted).
     pub covers_built: u64,
     /// Requests with a robot body other than the scene's whose grown kernel was kept.
@@ -180,7 +180,7 @@ impl KernelStats {
         KernelCounts {
             covers_hits: get(&self.covers_hits),
             covers_misses: get(&self.covers_misses),
-            covers_built: riskplan_certify::scene::covers_built_total(),
+            covers_built: riskplan_certify::checker::covers_built_total(),
             body_hits: get(&self.body_hits),
             body_misses: get(&self.body_misses),
             warm_ups_done: get(&self.warm_ups[0]),

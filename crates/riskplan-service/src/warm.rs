@@ -17,7 +17,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// Scenes with at least this many obstacles are warmed: from this many on a scene index
-/// builds every obstacle's covers at once (`certify::scene::LAZY_MAX_OBSTACLES`); below,
+/// builds every obstacle's covers at once (`certify::checker::LAZY_MAX_OBSTACLES`); below,
 /// a cold plan builds only the covers of the obstacles its edges keep meeting, and is
 /// fast (docs/benchmarks.md, "Cold start").
 pub const WARM_MIN_OBSTACLES: usize = 16;

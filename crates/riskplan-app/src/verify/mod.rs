@@ -3,7 +3,7 @@
 //! check of every planned trajectory ([`final_check`], docs/design.md §5.12), and the
 //! Monte Carlo audits ([`audit_trajectory`]).
 //!
-//! The decisions themselves are the certifiers' (`certify::scene`): for each piece and
+//! The decisions themselves are the certifiers' (`certify::checker`): for each piece and
 //! obstacle both constraints of eq. (15) are decided on [0, 1] (docs/design.md §5) by
 //! the exact checker (Bernstein subdivision in outward-rounded interval arithmetic,
 //! exact rational fallback), the SOS certificate (Clarabel, rigorously re-checked), or
@@ -12,19 +12,19 @@
 
 mod audit;
 
-use riskplan_certify::bounds::{CoverFailure, Level, PieceBounds};
-use riskplan_certify::fast::{CompiledContour, Substitution};
-use riskplan_certify::scene::{
+use riskplan_certify::checker::{
     combine, decide_obstacle, inside_by_box, piece_bbox, piece_passes_verify_path, worst, ObstacleFinding,
 };
-use riskplan_certify::sos;
+use riskplan_certify::compiled::{CompiledContour, Substitution};
+use riskplan_certify::piece_bounds::{CoverFailure, Level, PieceBounds};
+use riskplan_certify::positivity::sos;
 use riskplan_certify::{PieceRef, Undecided, Verdict};
 use riskplan_math::contour::{BoundChoice, BoundKind, RiskLevel};
 use riskplan_scene::{Obstacle, Trajectory};
 use serde::{Deserialize, Serialize};
 
 pub use audit::{audit_trajectory, audit_trajectory_joint, audit_whole_path, Audit, AuditOptions, Exceedance};
-pub use riskplan_certify::scene::{
+pub use riskplan_certify::checker::{
     check_workspace, point_safe, point_safe_with, point_status, Interrupted, Method, PointStatus, SceneCertifier,
     SceneIndex, SceneKernel, Status, WitnessReport, WorkspaceStatus,
 };
@@ -172,14 +172,14 @@ pub struct ObstacleWholePath {
 pub const MAX_WHOLE_PATH_PIECES: usize = 2_000;
 
 /// The whole-path bound of `pieces` against every obstacle of the kernel's scene
-/// (docs/design.md §5.14): [`riskplan_certify::path_risk::trajectory_path_risk`] per
+/// (docs/design.md §5.14): [`riskplan_certify::whole_path::trajectory_path_risk`] per
 /// obstacle, summed (Boole). Asks `stop` between steps.
 pub fn whole_path_risk(
     kernel: &SceneKernel,
     pieces: &[riskplan_scene::Piece],
     stop: &dyn Fn() -> bool,
 ) -> Result<WholePathRisk, Interrupted> {
-    use riskplan_certify::path_risk::trajectory_path_risk;
+    use riskplan_certify::whole_path::trajectory_path_risk;
     let scene = kernel.scene();
     let refs: Vec<PieceRef<'_>> = pieces.iter().map(|p| PieceRef { t0: p.t0, t1: p.t1, coeffs: &p.coeffs }).collect();
     let mut total = 0.0f64;
@@ -189,7 +189,7 @@ pub fn whole_path_risk(
     for (o, frame) in scene.obstacles.iter().zip(frames.iter()) {
         let r = trajectory_path_risk(o.contour.get(), &refs, frame, stop).ok_or(Interrupted)?;
         // the sum rounded up: a float at or above the exact sum of the obstacles' bounds
-        total = riskplan_certify::path_risk::add_up(total, r.bound);
+        total = riskplan_certify::whole_path::add_up(total, r.bound);
         obstacles.push(ObstacleWholePath {
             id: o.id.clone(),
             bound: r.bound,
@@ -213,12 +213,12 @@ pub fn whole_path_risk(
 /// partition ends once its undecided probability is within its share
 /// ([`CellEffort::with_slack`]). 0 (or not a number): none.
 ///
-/// [`cells_path_risk`]: riskplan_certify::path_risk::cells_path_risk
-/// [`CellEffort::with_slack`]: riskplan_certify::path_risk::CellEffort::with_slack
+/// [`cells_path_risk`]: riskplan_certify::whole_path::cells_path_risk
+/// [`CellEffort::with_slack`]: riskplan_certify::whole_path::CellEffort::with_slack
 pub fn plan_whole_path_risk(
     kernel: &SceneKernel,
     pieces: &[riskplan_scene::Piece],
-    effort: riskplan_certify::path_risk::CellEffort,
+    effort: riskplan_certify::whole_path::CellEffort,
     slack: f64,
     envelopes: bool,
     stop: &dyn Fn() -> bool,
@@ -237,7 +237,7 @@ pub fn plan_whole_path_risk(
 pub struct WholePathWork {
     kernel: SceneKernel,
     pieces: Vec<riskplan_scene::Piece>,
-    effort: riskplan_certify::path_risk::CellEffort,
+    effort: riskplan_certify::whole_path::CellEffort,
     slack: f64,
     envelopes: bool,
     /// The obstacles' frames and reaches and the pieces' boxes, found by the first thread
@@ -256,16 +256,16 @@ pub struct WholePathWork {
 
 /// What [`WholePathWork`] finds once.
 struct WholePathSetup {
-    frames: std::sync::Arc<Vec<riskplan_certify::fast::Frame>>,
-    reaches: Vec<Option<std::sync::Arc<riskplan_certify::path_risk::Reach>>>,
-    boxes: riskplan_certify::path_risk::PieceBoxes,
+    frames: std::sync::Arc<Vec<riskplan_certify::compiled::Frame>>,
+    reaches: Vec<Option<std::sync::Arc<riskplan_certify::whole_path::Reach>>>,
+    boxes: riskplan_certify::whole_path::PieceBoxes,
     /// Per obstacle: its reach clears every piece (its bound is its laws' outside mass).
     cleared: Vec<bool>,
     /// The others, in increasing order, and each one's bound once found.
     open: Vec<usize>,
     bounds: Vec<std::sync::OnceLock<ObstacleBound>>,
     /// `effort` with each open obstacle's share of the slack.
-    effort: riskplan_certify::path_risk::CellEffort,
+    effort: riskplan_certify::whole_path::CellEffort,
 }
 
 /// One obstacle's part of a whole-path bound.
@@ -283,7 +283,7 @@ impl WholePathWork {
     pub fn new(
         kernel: SceneKernel,
         pieces: Vec<riskplan_scene::Piece>,
-        effort: riskplan_certify::path_risk::CellEffort,
+        effort: riskplan_certify::whole_path::CellEffort,
         slack: f64,
         envelopes: bool,
     ) -> WholePathWork {
@@ -307,7 +307,7 @@ impl WholePathWork {
     }
 
     fn setup(&self, stop: &dyn Fn() -> bool) -> &Result<WholePathSetup, Interrupted> {
-        use riskplan_certify::path_risk::PieceBoxes;
+        use riskplan_certify::whole_path::PieceBoxes;
         self.setup.get_or_init(|| {
             // each obstacle in its own frame (§5.14)
             let (frames, reaches, grid) = self.kernel.path_reaches(stop)?;
@@ -336,7 +336,7 @@ impl WholePathWork {
         i: usize,
         stop: &dyn Fn() -> bool,
     ) -> ObstacleBound {
-        use riskplan_certify::path_risk::{cells_path_risk_in, trajectory_path_risk};
+        use riskplan_certify::whole_path::{cells_path_risk_in, trajectory_path_risk};
         let c = self.kernel.scene().obstacles[i].contour.get();
         let (frame, reach) = (&setup.frames[i], setup.reaches[i].as_deref());
         match cells_path_risk_in(c, refs, &setup.boxes, frame, reach, setup.effort, stop) {
@@ -456,7 +456,7 @@ impl WholePathWork {
                     }
                 }
             };
-            total = riskplan_certify::path_risk::add_up(total, b);
+            total = riskplan_certify::whole_path::add_up(total, b);
             if total >= 1.0 {
                 return Ok(Some(1.0));
             }
@@ -716,7 +716,7 @@ fn verify_pedestrian(
     delta: &RiskLevel,
     method: Method,
 ) -> ObstacleReport {
-    let v = riskplan_certify::tail::piece_clear_exact(p, delta.rational(), piece);
+    let v = riskplan_certify::gaussian_tail::piece_clear_exact(p, delta.rational(), piece);
     let r = method_report(&v, piece);
     let safe = r.status == Status::Safe;
     ObstacleReport {
@@ -852,7 +852,7 @@ pub const MAX_VERIFY_THREADS: usize = 64;
 /// (`riskplan bench`), and a verify call with fewer pieces checks every obstacle on
 /// every piece instead. A kernel that holds the index (the service's, once a plan or a
 /// large verify made it) always uses the covers it has built (a plan on a small scene
-/// builds them on demand: `certify::scene::LAZY_MAX_OBSTACLES`).
+/// builds them on demand: `certify::checker::LAZY_MAX_OBSTACLES`).
 pub const INDEX_MIN_PIECES: usize = 512;
 
 /// Verifies `pieces` (a trajectory's, or independent segments: each piece is decided on

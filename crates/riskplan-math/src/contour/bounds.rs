@@ -22,7 +22,7 @@
 //!
 //! This module holds the exact moment polynomials, the support form of P, the choice of
 //! bounds ([`BoundChoice`]) and the bounds at a point; certification over pieces is in
-//! `certify::bounds`.
+//! `certify::piece_bounds`.
 
 use super::{cantelli_bound, RiskContour};
 use crate::poly::{rational_to_f64, Interval, Monomial, Poly, QPoly, Var};

@@ -24,7 +24,7 @@
 //! probability of contact at most Δ at that instant. [`tail_kappa`] gives an upper bound
 //! of the smallest such κ (exact tail in 2-D, Chernoff's bound otherwise);
 //! [`GaussianDisk::sd_upper`] an upper bound of √s. Nothing here decides a piece; the
-//! certifier (`certify::tail`) proves the polynomial inequality on whole pieces.
+//! certifier (`certify::gaussian_tail`) proves the polynomial inequality on whole pieces.
 
 use crate::poly::{rational_to_f64, Interval};
 use num_rational::BigRational;

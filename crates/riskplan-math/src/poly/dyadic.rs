@@ -3,7 +3,7 @@
 //! Sums and products of floats stay dyadic, so a polynomial in floats can be composed
 //! exactly without the greatest common divisors a general rational pays on every
 //! operation: a mantissa product or an aligned sum, nothing else. What
-//! `riskplan_certify::fast::Substitution` needs for curved pieces (the composition
+//! `riskplan_certify::compiled::Substitution` needs for curved pieces (the composition
 //! x(t0 + h·s) − c, then each coefficient rounded once), where exact `BigRational`
 //! arithmetic cost most of a blend's check on crowded scenes.
 

@@ -26,7 +26,7 @@
 //! [`Model::prepare`] keeps the set-up solver for re-solves after changing `b` or `q`.
 //!
 //! **A solver status is never a verdict.** Callers that need a proof (e.g.
-//! `riskplan_certify::sos`) must re-check the returned point rigorously.
+//! `riskplan_certify::positivity::sos`) must re-check the returned point rigorously.
 //!
 //! Dual sign convention (Clarabel's KKT conditions): `Aᵀz + q = 0` and `z ∈ K*`, with
 //! one dual per row in the order the rows were added. For an equality `Σ a x = rhs`

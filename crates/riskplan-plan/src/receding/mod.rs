@@ -22,7 +22,7 @@ use super::{
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use riskplan_certify::scene::SceneCertifier;
+use riskplan_certify::checker::SceneCertifier;
 use riskplan_scene::motion::{dist, Motion};
 use riskplan_scene::Piece;
 use std::time::Instant;

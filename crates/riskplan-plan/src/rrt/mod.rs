@@ -18,7 +18,7 @@ pub use paper_static::{RrtParams, StaticRrt};
 pub use sampling::StripeSampler;
 
 use crate::{Built, Kinematics, PaperRun, PlanError, PlanOptions, Planner, PlannerSpec, Problem, RiskMode, Setup};
-use riskplan_certify::scene::SceneCertifier;
+use riskplan_certify::checker::SceneCertifier;
 use riskplan_scene::Scene;
 
 /// `rrt-sos`, the default: every edge certified by the scene certifier with its

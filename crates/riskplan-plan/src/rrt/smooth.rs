@@ -32,7 +32,7 @@
 use crate::{dist, taylor_shift, within_speed, CheckCounter, Kinematics, Motion, MotionChecker, Termination};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-pub(crate) use riskplan_certify::path_risk::add_up;
+pub(crate) use riskplan_certify::whole_path::add_up;
 use riskplan_scene::{Piece, CONTINUITY_TOLERANCE};
 use std::time::Instant;
 

@@ -54,7 +54,7 @@ use crate::{
     begin, Begin, Built, Kinematics, LadderStep, MotionChecker, PaperRun, PlanError, PlanOutcome, Planner, PlannerSpec,
     Problem, Setup, Termination,
 };
-use riskplan_certify::scene::SceneCertifier;
+use riskplan_certify::checker::SceneCertifier;
 use riskplan_math::contour::{cantelli_bound_f64, RiskLevel};
 use riskplan_math::poly::{Monomial, Poly};
 use riskplan_math::relax::extract_atoms;

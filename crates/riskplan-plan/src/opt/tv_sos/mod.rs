@@ -71,7 +71,7 @@ use num_rational::BigRational;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use riskplan_certify::scene::SceneCertifier;
+use riskplan_certify::checker::SceneCertifier;
 use riskplan_math::contour::RiskLevel;
 use riskplan_math::poly::{Poly, QPoly};
 use riskplan_math::relax::{add_matrix_lukacs, MomentVars, ZtPoly};
