@@ -227,85 +227,107 @@ impl SceneCertifier {
         every: bool,
         visit: &mut Visit<'_>,
     ) -> ObstacleFinding {
-        let o = &self.scene.obstacles[i];
-        let delta = self.deltas[i].rational();
-        // what Cantelli's constraints left: whether the mean failed (no other bound can
-        // help where E[P] ≥ 0), or g₁ (a local time where it fails, if known)
-        let mut mean_failed = false;
-        let mut g1_failed: Option<Option<f64>> = None;
-        // the fast path's enclosures of −E[P] and g₁ when g₁ fails there, for the other
-        // bounds' search (the same polynomials it would restrict again)
-        let mut restricted: Option<Restricted> = None;
-        let keep = self.bounds.beyond_cantelli() && self.fast;
-        let note =
-            |name: &'static str, v: &Verdict, mean_failed: &mut bool, g1: &mut Option<Option<f64>>| match (name, v) {
-                (_, Verdict::Safe { .. }) => {}
-                ("mean", _) => *mean_failed = true,
-                (_, Verdict::Unsafe(w)) => *g1 = Some(Some(w.tau)),
-                (_, Verdict::Undecided(_)) => *g1 = Some(None),
-            };
-        let fast = (self.method == Method::Exact)
-            .then(|| {
-                let subs = subs?;
-                self.compiled.get(i).with_constraints(subs, self.one_minus[i], |g2, g1| {
-                    // undecided in floats: the exact rational check, restricted once for both
-                    let exact = std::cell::OnceCell::new();
-                    for (name, g) in [("mean", g2), ("cantelli", g1)] {
-                        let v = match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
-                            Verdict::Undecided(_) => {
-                                let r = exact.get_or_init(|| restrict_exact(&o.contour, pr, delta));
-                                let p = if name == "mean" { &r.mean } else { &r.cantelli };
-                                bernstein::check_exact(p, bernstein::DEFAULT_MAX_DEPTH)
-                            }
-                            decided => decided,
-                        };
-                        note(name, &v, &mut mean_failed, &mut g1_failed);
-                        visit(name, &[("exact", v)]);
-                        if name == "cantelli" && keep && g1_failed.is_some() {
-                            restricted = Some((g2.to_vec(), g1.to_vec()));
-                        }
-                        if mean_failed && !every {
-                            break;
-                        }
-                    }
-                })
-            })
-            .flatten();
-        if fast.is_none() {
-            let fast = subs.map(|s| (s, self.one_minus[i]));
-            super::decide::decide_obstacle(
-                o,
-                Some(self.compiled.get(i)),
-                fast,
-                pr,
-                delta,
-                self.method,
-                &self.settings,
-                |name, vs| {
-                    let st = combine(&vs);
-                    if st != Status::Safe {
-                        let hint =
-                            vs.iter().find_map(|(_, v)| if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None });
-                        if name == "mean" && st == Status::Unsafe {
-                            mean_failed = true;
-                        } else {
-                            // g₁ fails, or the mean is undecided: other bounds may still cover
-                            // the piece (their search proves E[P] < 0 where it uses them)
-                            g1_failed.get_or_insert(hint);
-                        }
-                    }
-                    visit(name, &vs);
-                    every || st == Status::Safe
-                },
-            );
+        let mut found = CantelliFindings::default();
+        if self.cantelli_compiled(i, pr, subs, every, visit, &mut found).is_none() {
+            self.cantelli_general(i, pr, subs, every, visit, &mut found);
         }
-        if mean_failed {
+        if found.mean_failed {
             return ObstacleFinding::NotProven(None);
         }
-        let Some(hint) = g1_failed else { return ObstacleFinding::Proven };
+        let Some(hint) = found.g1_failed else { return ObstacleFinding::Proven };
         if !self.bounds.beyond_cantelli() {
             return ObstacleFinding::NotProven(None);
         }
+        self.cover_beyond_cantelli(i, pr, subs, hint, found.restricted)
+    }
+
+    /// Cantelli's constraints of obstacle `i` on the compiled fast path (the exact
+    /// method with the piece's substitution): decided in floats, and where undecided in
+    /// exact rationals (the piece restricted once for both); `None` when the fast path
+    /// does not apply (the general path decides then).
+    fn cantelli_compiled(
+        &self,
+        i: usize,
+        pr: PieceRef<'_>,
+        subs: Option<&Substitution>,
+        every: bool,
+        visit: &mut Visit<'_>,
+        found: &mut CantelliFindings,
+    ) -> Option<()> {
+        if self.method != Method::Exact {
+            return None;
+        }
+        let (o, delta) = (&self.scene.obstacles[i], self.deltas[i].rational());
+        // the fast path's enclosures of −E[P] and g₁ when g₁ fails there, for the other
+        // bounds' search (the same polynomials it would restrict again)
+        let keep = self.bounds.beyond_cantelli() && self.fast;
+        self.compiled.get(i).with_constraints(subs?, self.one_minus[i], |g2, g1| {
+            // undecided in floats: the exact rational check, restricted once for both
+            let exact = std::cell::OnceCell::new();
+            for (name, g) in [("mean", g2), ("cantelli", g1)] {
+                let v = match bernstein::check_interval_coeffs(g, bernstein::DEFAULT_MAX_DEPTH) {
+                    Verdict::Undecided(_) => {
+                        let r = exact.get_or_init(|| restrict_exact(&o.contour, pr, delta));
+                        let p = if name == "mean" { &r.mean } else { &r.cantelli };
+                        bernstein::check_exact(p, bernstein::DEFAULT_MAX_DEPTH)
+                    }
+                    decided => decided,
+                };
+                found.note(name, &v);
+                visit(name, &[("exact", v)]);
+                if name == "cantelli" && keep && found.g1_failed.is_some() {
+                    found.restricted = Some((g2.to_vec(), g1.to_vec()));
+                }
+                if found.mean_failed && !every {
+                    break;
+                }
+            }
+        })
+    }
+
+    /// Cantelli's constraints of obstacle `i` by the general decision of `self.method`
+    /// ([`super::decide::decide_obstacle`]).
+    fn cantelli_general(
+        &self,
+        i: usize,
+        pr: PieceRef<'_>,
+        subs: Option<&Substitution>,
+        every: bool,
+        visit: &mut Visit<'_>,
+        found: &mut CantelliFindings,
+    ) {
+        let fast = subs.map(|s| (s, self.one_minus[i]));
+        let (o, delta) = (&self.scene.obstacles[i], self.deltas[i].rational());
+        let compiled = Some(self.compiled.get(i));
+        super::decide::decide_obstacle(o, compiled, fast, pr, delta, self.method, &self.settings, |name, vs| {
+            let st = combine(&vs);
+            if st != Status::Safe {
+                let hint = vs.iter().find_map(|(_, v)| if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None });
+                if name == "mean" && st == Status::Unsafe {
+                    found.mean_failed = true;
+                } else {
+                    // g₁ fails, or the mean is undecided: other bounds may still cover
+                    // the piece (their search proves E[P] < 0 where it uses them)
+                    found.g1_failed.get_or_insert(hint);
+                }
+            }
+            visit(name, &vs);
+            every || st == Status::Safe
+        });
+    }
+
+    /// Where Cantelli's g₁ failed (at local time `hint`, if known), the cover of the
+    /// piece by the other bounds (docs/design.md §5.13), reusing the fast path's
+    /// `restricted` enclosures.
+    fn cover_beyond_cantelli(
+        &self,
+        i: usize,
+        pr: PieceRef<'_>,
+        subs: Option<&Substitution>,
+        hint: Option<f64>,
+        restricted: Option<Restricted>,
+    ) -> ObstacleFinding {
+        let o = &self.scene.obstacles[i];
         let pb = if self.fast {
             PieceBounds::for_piece_compiled(&o.contour, self.compiled.get(i), pr, self.levels[i])
                 .with_substitution(subs)
@@ -371,6 +393,29 @@ pub(crate) type Visit<'a> = dyn FnMut(&'static str, &[(&'static str, Verdict)]) 
 
 /// Enclosures of −E\[P\] and of Cantelli's g₁ on a piece (monomial coefficients in τ).
 type Restricted = (Vec<Interval>, Vec<Interval>);
+
+/// What Cantelli's constraints of one obstacle left on one piece.
+#[derive(Default)]
+struct CantelliFindings {
+    /// The mean failed: no other bound can help where E\[P\] ≥ 0.
+    mean_failed: bool,
+    /// g₁ failed (`Some`), at a local time where it fails if known.
+    g1_failed: Option<Option<f64>>,
+    /// The fast path's enclosures of −E\[P\] and g₁ where g₁ failed.
+    restricted: Option<Restricted>,
+}
+
+impl CantelliFindings {
+    /// Notes the verdict on the constraint `name` (`mean` or `cantelli`).
+    fn note(&mut self, name: &str, v: &Verdict) {
+        match (name, v) {
+            (_, Verdict::Safe { .. }) => {}
+            ("mean", _) => self.mean_failed = true,
+            (_, Verdict::Unsafe(w)) => self.g1_failed = Some(Some(w.tau)),
+            (_, Verdict::Undecided(_)) => self.g1_failed = Some(None),
+        }
+    }
+}
 
 /// What deciding one obstacle on one piece found ([`SceneCertifier::decide_obstacle`]).
 #[derive(Clone, Debug, PartialEq)]

@@ -211,31 +211,51 @@ pub fn certify(p: &UPoly<Interval>, settings: &SosSettings) -> SosOutcome {
     };
     let pn: Vec<Interval> = c.iter().map(|&ci| ci * inv).collect();
     let rhs: Vec<f64> = pn.iter().map(Interval::mid).collect();
-
     if settings.construct {
-        let built = if n == 2 { construct::quadratic_certificate(&rhs, scale, settings.eps_acc) } else { None };
-        if let Some(cert) = built.or_else(|| construct::bernstein_certificate(&rhs, scale, settings.eps_acc)) {
-            if let Ok(lb) = lower_bound(&pn, &cert) {
-                if let v @ Verdict::Safe { .. } = safe_if_positive(lb, scale) {
-                    return SosOutcome { verdict: v, certificate: Some(cert) };
-                }
+        if let Some(done) = without_solve(p, &pn, &rhs, scale, settings) {
+            return done;
+        }
+    }
+    solved(p, &pn, &rhs, scale, settings)
+}
+
+/// The verdict without the interior-point solve, when there is one (docs/design.md
+/// §5.11): a constructed certificate that proves `p > 0`, or a proven point where
+/// `p ≤ 0` (no certificate can exist then, §5.5). `pn`: p's coefficients divided by
+/// `scale`, `rhs` their midpoints.
+fn without_solve(
+    p: &UPoly<Interval>,
+    pn: &[Interval],
+    rhs: &[f64],
+    scale: f64,
+    settings: &SosSettings,
+) -> Option<SosOutcome> {
+    let built = if p.degree() == 2 { construct::quadratic_certificate(rhs, scale, settings.eps_acc) } else { None };
+    if let Some(cert) = built.or_else(|| construct::bernstein_certificate(rhs, scale, settings.eps_acc)) {
+        if let Ok(lb) = lower_bound(pn, &cert) {
+            if let v @ Verdict::Safe { .. } = safe_if_positive(lb, scale) {
+                return Some(SosOutcome { verdict: v, certificate: Some(cert) });
             }
         }
     }
-    // a proven point where p ≤ 0 settles it without the interior-point solve (no
-    // certificate can exist then, §5.5): the Bernstein subdivision finds one where p
-    // dips below zero (its witnesses are interval enclosures of p at a node's end) in
-    // about a microsecond, the SDP takes hundreds; its other verdicts are not SOS
-    // proofs and are not used
-    if settings.construct {
-        if let Verdict::Unsafe(w) =
-            crate::positivity::bernstein::check_interval_coeffs(c, crate::positivity::bernstein::DEFAULT_MAX_DEPTH)
-        {
-            return SosOutcome::bare(Verdict::Unsafe(w));
-        }
+    // the Bernstein subdivision finds a point where p dips below zero (its witnesses are
+    // interval enclosures of p at a node's end) in about a microsecond, the SDP takes
+    // hundreds; its other verdicts are not SOS proofs and are not used
+    match crate::positivity::bernstein::check_interval_coeffs(
+        p.coeffs(),
+        crate::positivity::bernstein::DEFAULT_MAX_DEPTH,
+    ) {
+        Verdict::Unsafe(w) => Some(SosOutcome::bare(Verdict::Unsafe(w))),
+        _ => None,
     }
+}
+
+/// The verdict of the margin SDP (eq. (15) on Clarabel), its certificate re-checked
+/// rigorously (§5.4–§5.6); where the margin is not positive, a witness from the duals.
+fn solved(p: &UPoly<Interval>, pn: &[Interval], rhs: &[f64], scale: f64, settings: &SosSettings) -> SosOutcome {
+    let n = p.degree();
     let e0 = n.div_ceil(2);
-    let (sol, layout) = match solve_margin_sdp(&rhs, e0, settings) {
+    let (sol, layout) = match solve_margin_sdp(rhs, e0, settings) {
         Ok(r) => r,
         Err(e) => return SosOutcome::bare(Verdict::Undecided(Undecided::Solver(e.to_string()))),
     };
@@ -264,7 +284,7 @@ pub fn certify(p: &UPoly<Interval>, settings: &SosSettings) -> SosOutcome {
     };
 
     let verdict = if gamma_hat > settings.eps_acc {
-        match lower_bound(&pn, &cert) {
+        match lower_bound(pn, &cert) {
             Ok(lb) => safe_if_positive(lb, scale),
             Err(reason) => Verdict::Undecided(Undecided::CertificateRejected(reason)),
         }

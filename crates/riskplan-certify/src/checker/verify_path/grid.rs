@@ -85,39 +85,7 @@ impl NearGrid {
         carried: Option<&GridsCarried>,
         stop: &dyn Fn() -> bool,
     ) -> Result<Option<NearGrid>, Interrupted> {
-        let dim = scene.dim;
-        let ws = &scene.workspace;
-        let spacing_cells = GRID_CELLS_PER_SPACING * (scene.obstacles.len() as f64).powf(1.0 / dim as f64);
-        let max_per_axis = (GRID_MAX_CELLS as f64).powf(1.0 / dim as f64).floor() as usize;
-        let mut per_axis = 1usize;
-        while per_axis < spacing_cells as usize && per_axis * 2 <= max_per_axis.max(1) {
-            per_axis *= 2;
-        }
-        let edges: Vec<Vec<f64>> = (0..dim)
-            .map(|d| {
-                let (lo, hi) = (ws.lower[d], ws.upper[d]);
-                let w = hi - lo;
-                // k/n is exact (n a power of two) and the products and sums are monotone in k;
-                // the ends are the workspace's own bounds
-                (0..=per_axis)
-                    .map(|k| match k {
-                        0 => lo,
-                        k if k == per_axis => hi,
-                        k => (lo + w * (k as f64 / per_axis as f64)).min(hi),
-                    })
-                    .collect()
-            })
-            .collect();
-        let total = per_axis.pow(dim as u32);
-        let mut grid = NearGrid {
-            edges,
-            per_axis,
-            cells: vec![Vec::new(); total],
-            always: Vec::new(),
-            obstacles: near.len(),
-            bounds: near.iter().map(|_| OnceLock::new()).collect(),
-            tested: vec![None; near.len()],
-        };
+        let mut grid = NearGrid::empty(scene, near.len());
         // the previous revision's grids of the same cells: an unchanged obstacle (the same
         // box test) at the same Δᵢ has the same cells there (the same tests, the same
         // horizon: FramedContours::reusing compared the region)
@@ -170,6 +138,45 @@ impl NearGrid {
         }
         // a grid that examines most obstacles on every piece anyway saves nothing
         Ok((2 * grid.always.len() <= grid.obstacles).then_some(grid))
+    }
+
+    /// A grid with no obstacle filed yet: about [`GRID_CELLS_PER_SPACING`] cells per
+    /// obstacle spacing along each axis (a power of two, at most [`GRID_MAX_CELLS`] in
+    /// all) over the workspace, for `obstacles` obstacles.
+    fn empty(scene: &Scene, obstacles: usize) -> NearGrid {
+        let dim = scene.dim;
+        let ws = &scene.workspace;
+        let spacing_cells = GRID_CELLS_PER_SPACING * (scene.obstacles.len() as f64).powf(1.0 / dim as f64);
+        let max_per_axis = (GRID_MAX_CELLS as f64).powf(1.0 / dim as f64).floor() as usize;
+        let mut per_axis = 1usize;
+        while per_axis < spacing_cells as usize && per_axis * 2 <= max_per_axis.max(1) {
+            per_axis *= 2;
+        }
+        let edges: Vec<Vec<f64>> = (0..dim)
+            .map(|d| {
+                let (lo, hi) = (ws.lower[d], ws.upper[d]);
+                let w = hi - lo;
+                // k/n is exact (n a power of two) and the products and sums are monotone in k;
+                // the ends are the workspace's own bounds
+                (0..=per_axis)
+                    .map(|k| match k {
+                        0 => lo,
+                        k if k == per_axis => hi,
+                        k => (lo + w * (k as f64 / per_axis as f64)).min(hi),
+                    })
+                    .collect()
+            })
+            .collect();
+        let total = per_axis.pow(dim as u32);
+        NearGrid {
+            edges,
+            per_axis,
+            cells: vec![Vec::new(); total],
+            always: Vec::new(),
+            obstacles,
+            bounds: (0..obstacles).map(|_| OnceLock::new()).collect(),
+            tested: vec![None; obstacles],
+        }
     }
 
     /// The cells a static obstacle's box test (`g1` its Cantelli polynomial at its Δᵢ)

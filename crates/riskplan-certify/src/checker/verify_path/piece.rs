@@ -60,55 +60,11 @@ pub fn piece_passes_verify_path(
         let omd = one_minus(i, d);
         if let (Some((Some(n), g1)), Some(b)) = (near.map(|(n, c)| (&n[i], &c[i])), &bbox) {
             let g1 = g1.get_or_init(|| n.cantelli(omd));
-            if n.clears(b, Interval::new(pr.t0, pr.t1), g1) {
+            if box_tests_clear(n, g1, b, pr, &parts) {
                 return true;
             }
-            // a long or curved piece: its parts' boxes (they cover the piece)
-            if let Some(parts) = parts.get_or_init(|| sub_hulls(pr, FINAL_CHECK_PARTS)) {
-                // every part must be cleared; the nearest to the obstacle's point first, as
-                // the one most likely not to be (most obstacles that reach this test are
-                // decided by the restriction below: their test ends at its first part)
-                let gap = |h: &[Interval]| {
-                    h.iter().zip(n.center()).map(|(s, &c)| (s.lo - c).max(c - s.hi).max(0.0).powi(2)).sum::<f64>()
-                };
-                let mut order: [(f64, usize); FINAL_CHECK_PARTS] = [(0.0, 0); FINAL_CHECK_PARTS];
-                for (k, slot) in order.iter_mut().enumerate().take(parts.len()) {
-                    *slot = (gap(&parts[k].0), k);
-                }
-                let order = &mut order[..parts.len().min(FINAL_CHECK_PARTS)];
-                order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-                if parts.len() <= FINAL_CHECK_PARTS && order.iter().all(|&(_, k)| n.clears(&parts[k].0, parts[k].1, g1))
-                {
-                    return true;
-                }
-            }
         }
-        let (cantelli, mean) = framed.restrict(i, o, pr, omd);
-        let exact = std::cell::OnceCell::new();
-        let exact = || exact.get_or_init(|| restrict_exact(&o.contour, pr, d.rational()));
-        if !bernstein::check(&mean, || exact().mean.clone()).is_safe() {
-            return false;
-        }
-        match bernstein::check(&cantelli, || exact().cantelli.clone()) {
-            Verdict::Safe { .. } => true,
-            // the other bounds, on sub-intervals (docs/design.md §5.13): the general
-            // composition in absolute coordinates first, then (where that loses too much at
-            // extreme scales) the compiled restriction in the scene's frame — either proof
-            // is sound; only the general one is independent of the fast path
-            v if bounds.beyond_cantelli() => {
-                let hint = if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None };
-                let level = Level::new(d.rational());
-                PieceBounds::for_piece(&o.contour, pr, level).cover(hint).is_ok()
-                    || compiled.is_some_and(|set| {
-                        let sub = crate::compiled::Substitution::new(pr, set.frame());
-                        PieceBounds::for_piece_compiled(&o.contour, set.get(i), pr, level)
-                            .with_substitution(sub.as_ref())
-                            .cover(hint)
-                            .is_ok()
-                    })
-            }
-            _ => false,
-        }
+        proven_on_piece(framed, i, o, pr, d, omd, bounds, compiled)
     };
     match only {
         Some(examined) => examined.iter().all(|&i| obstacle_passes(i)),
@@ -116,13 +72,88 @@ pub fn piece_passes_verify_path(
     }
 }
 
+/// Whether obstacle `n`'s box test (its Cantelli polynomial `g1` bounded over a box)
+/// clears the piece: over the piece's whole box `bbox`, else over each of its parts' boxes
+/// (`parts`, formed on first use; they cover the piece).
+fn box_tests_clear(
+    n: &Near,
+    g1: &NearBound,
+    bbox: &[Interval],
+    pr: PieceRef<'_>,
+    parts: &std::cell::OnceCell<Option<Vec<PartHull>>>,
+) -> bool {
+    if n.clears(bbox, Interval::new(pr.t0, pr.t1), g1) {
+        return true;
+    }
+    // a long or curved piece: its parts' boxes (they cover the piece)
+    let Some(parts) = parts.get_or_init(|| sub_hulls(pr, FINAL_CHECK_PARTS)) else { return false };
+    // every part must be cleared; the nearest to the obstacle's point first, as the one
+    // most likely not to be (most obstacles that reach this test are decided by the
+    // restriction: their test ends at its first part)
+    let gap =
+        |h: &[Interval]| h.iter().zip(n.center()).map(|(s, &c)| (s.lo - c).max(c - s.hi).max(0.0).powi(2)).sum::<f64>();
+    let mut order: [(f64, usize); FINAL_CHECK_PARTS] = [(0.0, 0); FINAL_CHECK_PARTS];
+    for (k, slot) in order.iter_mut().enumerate().take(parts.len()) {
+        *slot = (gap(&parts[k].0), k);
+    }
+    let order = &mut order[..parts.len().min(FINAL_CHECK_PARTS)];
+    order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    parts.len() <= FINAL_CHECK_PARTS && order.iter().all(|&(_, k)| n.clears(&parts[k].0, parts[k].1, g1))
+}
+
+/// Whether obstacle `i` (`o`, at risk level `d`, `omd` = 1 − Δᵢ enclosed) is proven safe
+/// on the piece by the verify path's own restriction ([`FramedContours::restrict`]) with
+/// the exact rational fallback, and where Cantelli's g₁ fails by the other bounds on
+/// sub-intervals (docs/design.md §5.13).
+#[allow(clippy::too_many_arguments)]
+fn proven_on_piece(
+    framed: &FramedContours,
+    i: usize,
+    o: &Obstacle,
+    pr: PieceRef<'_>,
+    d: &RiskLevel,
+    omd: Interval,
+    bounds: BoundChoice,
+    compiled: Option<&crate::checker::compiled_set::CompiledSet>,
+) -> bool {
+    let (cantelli, mean) = framed.restrict(i, o, pr, omd);
+    let exact = std::cell::OnceCell::new();
+    let exact = || exact.get_or_init(|| restrict_exact(&o.contour, pr, d.rational()));
+    if !bernstein::check(&mean, || exact().mean.clone()).is_safe() {
+        return false;
+    }
+    match bernstein::check(&cantelli, || exact().cantelli.clone()) {
+        Verdict::Safe { .. } => true,
+        // the other bounds, on sub-intervals (docs/design.md §5.13): the general
+        // composition in absolute coordinates first, then (where that loses too much at
+        // extreme scales) the compiled restriction in the scene's frame — either proof
+        // is sound; only the general one is independent of the fast path
+        v if bounds.beyond_cantelli() => {
+            let hint = if let Verdict::Unsafe(w) = v { Some(w.tau) } else { None };
+            let level = Level::new(d.rational());
+            PieceBounds::for_piece(&o.contour, pr, level).cover(hint).is_ok()
+                || compiled.is_some_and(|set| {
+                    let sub = crate::compiled::Substitution::new(pr, set.frame());
+                    PieceBounds::for_piece_compiled(&o.contour, set.get(i), pr, level)
+                        .with_substitution(sub.as_ref())
+                        .cover(hint)
+                        .is_ok()
+                })
+        }
+        _ => false,
+    }
+}
+
+/// A part of a piece in time: its hull (per coordinate) and its time interval.
+type PartHull = (Vec<Interval>, Interval);
+
 /// Parts in time of a piece whose boxes the final check's box tests try when the whole
 /// piece's box meets an obstacle's test region ([`sub_hulls`]).
 pub const FINAL_CHECK_PARTS: usize = 8;
 
 /// The piece's `k` parts in time ([`crate::checker::cover_index::piece_parts`], which cover it) with each
 /// part's hull ([`interval_hull`]) and time interval. `None` when a hull is not available.
-fn sub_hulls(pr: PieceRef<'_>, k: usize) -> Option<Vec<(Vec<Interval>, Interval)>> {
+fn sub_hulls(pr: PieceRef<'_>, k: usize) -> Option<Vec<PartHull>> {
     crate::checker::cover_index::piece_parts(pr, k)?
         .into_iter()
         .map(|p| Some((interval_hull(p)?, Interval::new(p.t0, p.t1))))

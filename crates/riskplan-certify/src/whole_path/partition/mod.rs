@@ -166,32 +166,34 @@ pub fn cells_path_risk_in(
     if near.is_empty() {
         return Some(CellsBound { bound: outside.min(1.0), boxes: 0 });
     }
-    let (params, root) = (&folded.params, folded.root.clone());
-    let laws: Vec<&CdfLaw> = params.iter().map(|&v| contour.law(v)).collect::<Option<_>>()?;
-    let mut nets = Nets::new(contour, params, pieces, frame)?;
-    // Πₖ P(ωₖ in the box's side k), each factor an upper bound, the product rounded up
-    // (0 only when a factor is exactly 0: a product that underflows counts as the least
-    // positive float, never as an empty box)
-    let mass = |ends: &[(Interval, Interval)]| -> f64 {
-        let mut product = 1.0f64;
-        for (fa, fb) in ends {
-            let f = mass_between(*fa, *fb);
-            if f == 0.0 {
-                return 0.0;
-            }
-            product *= f;
-        }
-        product.next_up().min(1.0)
-    };
+    let laws: Vec<&CdfLaw> = folded.params.iter().map(|&v| contour.law(v)).collect::<Option<_>>()?;
+    let nets = Nets::new(contour, &folded.params, pieces, frame)?;
+    let root = Cell::root(&folded, &laws, contour, near);
+    partition(contour, &folded.params, &laws, nets, root, outside, effort, stop)
+}
+
+/// The partition of the parameters' root box (`root`, with its parts that may meet the
+/// obstacle), largest probability first, within `effort`: the laws' `outside` mass plus
+/// the probability of the boxes hit or left undecided, summed and rounded up; `None` when
+/// `stop` said yes or a box cannot be judged.
+#[allow(clippy::too_many_arguments)]
+fn partition(
+    contour: &RiskContour,
+    params: &[Var],
+    laws: &[&CdfLaw],
+    mut nets: Nets<'_>,
+    root: Cell,
+    outside: f64,
+    effort: CellEffort,
+    stop: &dyn Fn() -> bool,
+) -> Option<CellsBound> {
     // F at the ends of the boxes' sides, from the contour's memo (the same middles are
     // split plan after plan)
     let cdf = |k: usize, x: f64| contour.law_cdf(params[k], x).unwrap_or_else(|| laws[k].cdf(x));
-    let root_ends: Vec<(Interval, Interval)> =
-        laws.iter().enumerate().map(|(k, l)| (cdf(k, l.lo), cdf(k, l.hi))).collect();
     let widths: Vec<f64> = laws.iter().map(|l| l.hi - l.lo).collect();
     let mut heap = BinaryHeap::new();
-    heap.push(Cell { mass: mass(&root_ends), bx: root, ends: root_ends, parts: near });
-    let mut pending = heap.peek().map_or(0.0, |c| c.mass);
+    let mut pending = root.mass;
+    heap.push(root);
     let mut hit = 0.0f64;
     let mut boxes = 0usize;
     // (buffers of every box's evaluation)
@@ -215,35 +217,14 @@ pub fn cells_path_risk_in(
             State::Outside => {}
             State::Hit => hit = add_up(hit, cell.mass),
             State::Unknown => {
-                // halve the side that spreads the open parts' coefficients most (the widest
-                // relative to its range on a tie; a side of zero width, a point mass, is
-                // never halved; with none left the box counts whole)
-                // (CdfLaw::split: the middle, or a law known by moments its grid point)
-                let rel = |k: usize| (cell.bx[k].hi - cell.bx[k].lo) / widths[k];
-                let chosen = (0..cell.bx.len())
-                    .filter(|&k| widths[k] > 0.0)
-                    .filter_map(|k| Some((k, laws[k].split(cell.bx[k].lo, cell.bx[k].hi)?)))
-                    .max_by(|&(a, _), &(b, _)| score[a].total_cmp(&score[b]).then(rel(a).total_cmp(&rel(b))));
-                let Some((k, mid)) = chosen else {
+                let Some((k, mid)) = cell.side_to_split(laws, &widths, &score) else {
                     hit = add_up(hit, cell.mass);
                     continue;
                 };
-                let f_mid = cdf(k, mid);
-                let (f_lo, f_hi) = cell.ends[k];
-                // (the lower half a copy, the upper one the box itself)
-                let (hi_k, Cell { bx: mut upper_bx, ends: mut upper_ends, .. }) = (cell.bx[k].hi, cell);
-                let mut lower_bx = upper_bx.clone();
-                let mut lower_ends = upper_ends.clone();
-                lower_bx[k] = Interval::new(lower_bx[k].lo, mid);
-                lower_ends[k] = (f_lo, f_mid);
-                upper_bx[k] = Interval::new(mid, hi_k);
-                upper_ends[k] = (f_mid, f_hi);
-                let lower_parts = open.clone();
-                for (bx, ends, parts) in [(lower_bx, lower_ends, lower_parts), (upper_bx, upper_ends, open)] {
-                    let m = mass(&ends);
-                    if m > 0.0 {
-                        pending += m;
-                        heap.push(Cell { mass: m, bx, ends, parts });
+                for half in cell.halves(k, mid, cdf(k, mid), open) {
+                    if half.mass > 0.0 {
+                        pending += half.mass;
+                        heap.push(half);
                     }
                 }
             }
@@ -252,6 +233,62 @@ pub fn cells_path_risk_in(
     let undecided = heap.iter().fold(0.0, |acc, c| add_up(acc, c.mass));
     let bound = add_up(add_up(outside, hit), undecided).min(1.0);
     Some(CellsBound { bound, boxes })
+}
+
+/// Πₖ P(ωₖ in the box's side k) from the enclosures of each side's distribution function
+/// at its ends, each factor an upper bound, the product rounded up (0 only when a factor is
+/// exactly 0: a product that underflows counts as the least positive float, never as an
+/// empty box).
+fn box_mass(ends: &[(Interval, Interval)]) -> f64 {
+    let mut product = 1.0f64;
+    for (fa, fb) in ends {
+        let f = mass_between(*fa, *fb);
+        if f == 0.0 {
+            return 0.0;
+        }
+        product *= f;
+    }
+    product.next_up().min(1.0)
+}
+
+impl Cell {
+    /// The root box of the partition: the laws' ranges, with the parts `near` that may
+    /// meet the obstacle for some of its ω.
+    fn root(folded: &FoldedPoly, laws: &[&CdfLaw], contour: &RiskContour, near: Vec<Part>) -> Cell {
+        let cdf = |k: usize, x: f64| contour.law_cdf(folded.params[k], x).unwrap_or_else(|| laws[k].cdf(x));
+        let ends: Vec<(Interval, Interval)> =
+            laws.iter().enumerate().map(|(k, l)| (cdf(k, l.lo), cdf(k, l.hi))).collect();
+        Cell { mass: box_mass(&ends), bx: folded.root.clone(), ends, parts: near }
+    }
+
+    /// The side to halve and where: the side that spreads the open parts' coefficients
+    /// most (`score`; the widest relative to its range on a tie; a side of zero width, a
+    /// point mass, is never halved), at [`CdfLaw::split`] (the middle, or a law known by
+    /// moments its grid point). `None`: no side left (the box counts whole).
+    fn side_to_split(&self, laws: &[&CdfLaw], widths: &[f64], score: &[f64]) -> Option<(usize, f64)> {
+        let rel = |k: usize| (self.bx[k].hi - self.bx[k].lo) / widths[k];
+        (0..self.bx.len())
+            .filter(|&k| widths[k] > 0.0)
+            .filter_map(|k| Some((k, laws[k].split(self.bx[k].lo, self.bx[k].hi)?)))
+            .max_by(|&(a, _), &(b, _)| score[a].total_cmp(&score[b]).then(rel(a).total_cmp(&rel(b))))
+    }
+
+    /// The box halved along side `k` at `mid` (`f_mid`: the side's distribution function
+    /// there, enclosed), each half with the parts still `open` and its mass.
+    fn halves(self, k: usize, mid: f64, f_mid: Interval, open: Vec<Part>) -> [Cell; 2] {
+        let (f_lo, f_hi) = self.ends[k];
+        // (the lower half a copy, the upper one the box itself)
+        let (hi_k, Cell { bx: mut upper_bx, ends: mut upper_ends, .. }) = (self.bx[k].hi, self);
+        let mut lower_bx = upper_bx.clone();
+        let mut lower_ends = upper_ends.clone();
+        lower_bx[k] = Interval::new(lower_bx[k].lo, mid);
+        lower_ends[k] = (f_lo, f_mid);
+        upper_bx[k] = Interval::new(mid, hi_k);
+        upper_ends[k] = (f_mid, f_hi);
+        let lower = Cell { mass: box_mass(&lower_ends), bx: lower_bx, ends: lower_ends, parts: open.clone() };
+        let upper = Cell { mass: box_mass(&upper_ends), bx: upper_bx, ends: upper_ends, parts: open };
+        [lower, upper]
+    }
 }
 
 mod boxes;

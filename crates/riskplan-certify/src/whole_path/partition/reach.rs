@@ -1,6 +1,7 @@
 //! An obstacle's reach (`Reach`): proven shells outside which it never is, and a grid over the reaches of a scene (`ReachGrid`), so that a partition examines only the parts a reach meets.
 
 use super::*;
+use std::collections::HashMap;
 
 /// Shells of a [`Reach`]'s slab test: a slab from the region's edge to near the obstacle
 /// is tested as its pieces between the cuts ±2^k of the frame (the largest k covering the
@@ -62,82 +63,17 @@ impl Reach {
             |v: usize, x: Interval| (x - Interval::point(frame.center[v])) * Interval::point(frame.inv_scale(v));
         let z: Vec<Interval> =
             region.iter().enumerate().map(|(v, &(lo, hi))| to_frame(v, Interval::new(lo, hi))).collect();
+        let cleared = Some(Reach { region: region.to_vec(), sides: None, outside: folded.outside });
+        if folded.upper(&z) < 0.0 {
+            return cleared;
+        }
+        let search = SideSearch { folded, cuts: shell_cuts(&z), z: &z };
         // the box of the frame outside which every point of the region is clear: the
         // region at first, then each pass's sides (see [`REACH_PASSES`])
         let mut zbox = z.clone();
-        let clear_one = |zbox: &[Interval], v: usize, side: Interval| {
-            let mut bx = zbox.to_vec();
-            bx[v] = side;
-            folded.upper(&bx) < 0.0
-        };
-        if folded.upper(&z) < 0.0 {
-            return Some(Reach { region: region.to_vec(), sides: None, outside: folded.outside });
-        }
-        // a slab is clear when each of its shells is ([`REACH_SHELLS`]): the cuts ±2^k of
-        // the frame (exact), and each whole shell's answer kept within a pass (the
-        // bisection asks the same ones again)
-        let far = z.iter().map(|zv| zv.lo.abs().max(zv.hi.abs())).fold(0.0f64, f64::max);
-        let cuts: Vec<f64> = if far > 0.0 && far.is_finite() {
-            let top = (far.log2().ceil() as i32).clamp(-1000, 1000);
-            let ks = (top - REACH_SHELLS as i32).max(-1000)..=top;
-            let mut c: Vec<f64> = ks.clone().rev().map(|k| -(k as f64).exp2()).collect();
-            c.extend(ks.map(|k| (k as f64).exp2()));
-            c
-        } else {
-            Vec::new()
-        };
         for _ in 0..REACH_PASSES {
-            let known: std::cell::RefCell<std::collections::HashMap<(usize, usize), bool>> = Default::default();
-            let clear = |v: usize, side: Interval| {
-                // the cuts strictly inside the slab split it; pieces between two cuts are shells
-                let inner: Vec<usize> = (0..cuts.len()).filter(|&j| cuts[j] > side.lo && cuts[j] < side.hi).collect();
-                let (Some(&first), Some(&last)) = (inner.first(), inner.last()) else {
-                    return clear_one(&zbox, v, side);
-                };
-                clear_one(&zbox, v, Interval::new(side.lo, cuts[first]))
-                    && clear_one(&zbox, v, Interval::new(cuts[last], side.hi))
-                    && inner.windows(2).all(|w| {
-                        let key = (v, w[0]);
-                        if let Some(&k) = known.borrow().get(&key) {
-                            return k;
-                        }
-                        let k = clear_one(&zbox, v, Interval::new(cuts[w[0]], cuts[w[1]]));
-                        known.borrow_mut().insert(key, k);
-                        k
-                    })
-            };
-            let mut next = zbox.clone();
-            for (v, zv) in z.iter().enumerate() {
-                // in the frame: a = the largest end found with [zv.lo, a] clear (zv.lo: none),
-                // b = the smallest with [b, zv.hi] clear
-                let bisect = |from_low: bool| -> Option<f64> {
-                    let slab = |e: f64| if from_low { Interval::new(zv.lo, e) } else { Interval::new(e, zv.hi) };
-                    let (mut good, mut bad) = if from_low { (zv.lo, zv.hi) } else { (zv.hi, zv.lo) };
-                    if !clear(v, slab(good)) {
-                        return None;
-                    }
-                    for _ in 0..REACH_STEPS {
-                        let mid = 0.5 * good + 0.5 * bad;
-                        if !mid.is_finite() || mid == good || mid == bad {
-                            break;
-                        }
-                        if clear(v, slab(mid)) {
-                            good = mid;
-                        } else {
-                            bad = mid;
-                        }
-                    }
-                    Some(good)
-                };
-                // a side never widens: the points beyond the last pass's stay clear
-                let lo = bisect(true).map_or(zbox[v].lo, |e| e.max(zbox[v].lo));
-                let hi = bisect(false).map_or(zbox[v].hi, |e| e.min(zbox[v].hi));
-                if lo > hi {
-                    // every point is beyond a clear side
-                    return Some(Reach { region: region.to_vec(), sides: None, outside: folded.outside });
-                }
-                next[v] = Interval::new(lo, hi);
-            }
+            // (`None`: every point is beyond a clear side)
+            let Some(next) = search.pass(&zbox) else { return cleared };
             if next == zbox {
                 break;
             }
@@ -168,6 +104,103 @@ impl Reach {
             None => true,
             Some(sides) => bx.iter().zip(sides).any(|(x, &(a, b))| x.hi < a || x.lo > b),
         }
+    }
+}
+
+/// The cuts ±2^k of a reach's shells (exact in the frame): [`REACH_SHELLS`] of them each
+/// side below the farthest point of the region `z`.
+fn shell_cuts(z: &[Interval]) -> Vec<f64> {
+    let far = z.iter().map(|zv| zv.lo.abs().max(zv.hi.abs())).fold(0.0f64, f64::max);
+    if !(far > 0.0 && far.is_finite()) {
+        return Vec::new();
+    }
+    let top = (far.log2().ceil() as i32).clamp(-1000, 1000);
+    let ks = (top - REACH_SHELLS as i32).max(-1000)..=top;
+    let mut c: Vec<f64> = ks.clone().rev().map(|k| -(k as f64).exp2()).collect();
+    c.extend(ks.map(|k| (k as f64).exp2()));
+    c
+}
+
+/// The bisection of a reach's sides (docs/design.md §5.14): in the frame, over the
+/// region `z`, with P folded over the laws' ranges.
+struct SideSearch<'a> {
+    folded: &'a FoldedPoly,
+    cuts: Vec<f64>,
+    z: &'a [Interval],
+}
+
+impl SideSearch<'_> {
+    /// Whether the slab of `zbox` with side `v` replaced by `side` is clear (P < 0 there
+    /// for every ω of the ranges).
+    fn clear_one(&self, zbox: &[Interval], v: usize, side: Interval) -> bool {
+        let mut bx = zbox.to_vec();
+        bx[v] = side;
+        self.folded.upper(&bx) < 0.0
+    }
+
+    /// Whether the slab is clear shell by shell: the cuts strictly inside it split it, the
+    /// pieces between two cuts are shells, and each whole shell's answer is kept in
+    /// `known` within a pass (the bisection asks the same ones again).
+    fn clear(&self, zbox: &[Interval], known: &mut HashMap<(usize, usize), bool>, v: usize, side: Interval) -> bool {
+        let cuts = &self.cuts;
+        let inner: Vec<usize> = (0..cuts.len()).filter(|&j| cuts[j] > side.lo && cuts[j] < side.hi).collect();
+        let (Some(&first), Some(&last)) = (inner.first(), inner.last()) else {
+            return self.clear_one(zbox, v, side);
+        };
+        self.clear_one(zbox, v, Interval::new(side.lo, cuts[first]))
+            && self.clear_one(zbox, v, Interval::new(cuts[last], side.hi))
+            && inner.windows(2).all(|w| {
+                *known
+                    .entry((v, w[0]))
+                    .or_insert_with(|| self.clear_one(zbox, v, Interval::new(cuts[w[0]], cuts[w[1]])))
+            })
+    }
+
+    /// Side `v`'s clear end by bisection ([`REACH_STEPS`]): from below, the largest `a`
+    /// with `[zv.lo, a]` clear; from above, the smallest `b` with `[b, zv.hi]` clear;
+    /// `None` when no slab is.
+    fn bisect(
+        &self,
+        zbox: &[Interval],
+        known: &mut HashMap<(usize, usize), bool>,
+        v: usize,
+        from_low: bool,
+    ) -> Option<f64> {
+        let zv = self.z[v];
+        let slab = |e: f64| if from_low { Interval::new(zv.lo, e) } else { Interval::new(e, zv.hi) };
+        let (mut good, mut bad) = if from_low { (zv.lo, zv.hi) } else { (zv.hi, zv.lo) };
+        if !self.clear(zbox, known, v, slab(good)) {
+            return None;
+        }
+        for _ in 0..REACH_STEPS {
+            let mid = 0.5 * good + 0.5 * bad;
+            if !mid.is_finite() || mid == good || mid == bad {
+                break;
+            }
+            if self.clear(zbox, known, v, slab(mid)) {
+                good = mid;
+            } else {
+                bad = mid;
+            }
+        }
+        Some(good)
+    }
+
+    /// One pass over the sides of `zbox`: each narrowed to its clear ends (a side never
+    /// widens: the points beyond the last pass's stay clear); `None` when every point is
+    /// beyond a clear side.
+    fn pass(&self, zbox: &[Interval]) -> Option<Vec<Interval>> {
+        let mut known = HashMap::new();
+        let mut next = zbox.to_vec();
+        for v in 0..self.z.len() {
+            let lo = self.bisect(zbox, &mut known, v, true).map_or(zbox[v].lo, |e| e.max(zbox[v].lo));
+            let hi = self.bisect(zbox, &mut known, v, false).map_or(zbox[v].hi, |e| e.min(zbox[v].hi));
+            if lo > hi {
+                return None;
+            }
+            next[v] = Interval::new(lo, hi);
+        }
+        Some(next)
     }
 }
 
