@@ -82,7 +82,7 @@ def authors_global(scene: dict):
 
 def authors_trajectory(scene: dict) -> dict:
     """expected.trajectories.time_varying_sos.global as format v1: piece [t0, t1] = interval,
-    coeffs per coordinate = [offset, slope] in absolute time (as tests/integration/certify_scenes.rs)."""
+    coeffs per coordinate = [offset, slope] in absolute time (as crates/riskplan-app/tests/integration/certify_scenes.rs)."""
     pieces = [
         {"t0": p["interval"][0], "t1": p["interval"][1], "coeffs": [[o, k] for o, k in zip(p["offset"], p["slope"])]}
         for p in authors_global(scene)

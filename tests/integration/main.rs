@@ -10,21 +10,15 @@ mod architecture;
 mod bounds_oracle;
 mod certify_differential;
 mod certify_exact;
-mod certify_scenes;
 #[cfg(feature = "cli")]
 mod cli_core;
 #[cfg(feature = "cli")]
 mod cli_first_hour;
 #[cfg(feature = "cli")]
 mod cli_plan;
-mod crowd;
-mod extreme_scales;
 #[cfg(feature = "cli")]
 mod figures;
 mod fuzz_replay;
-mod optimisation_planners;
-mod plan_quality;
-mod plan_scenes;
 #[cfg(feature = "service")]
 mod proto_examples;
 mod reference_scenes;
@@ -38,8 +32,3 @@ mod service_metrics;
 mod service_shutdown;
 #[cfg(all(feature = "service", feature = "cli"))]
 mod service_warm_up;
-mod smooth_limits;
-mod tight_bounds;
-mod trajectory_mode;
-mod verify_fast;
-mod whole_path;

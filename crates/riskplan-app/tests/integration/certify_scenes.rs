@@ -247,7 +247,7 @@ fn long_segments_the_planners_checker_accepts_among_many_disks_pass_the_oracle()
     use riskplan_plan::MotionChecker;
     let n = 128;
     let s = std::sync::Arc::new(Scene::from_json(&common::growth::disks_scene(n, 3)).unwrap());
-    let kernel = riskplan::SceneKernel::from(s.clone());
+    let kernel = riskplan_certify::checker::SceneKernel::from(s.clone());
     let deltas = vec![s.risk.clone(); n];
     let _ = kernel.index(&deltas, &|| false);
     let checker = SceneCertifier::with_deltas(&kernel, deltas, Method::Exact);

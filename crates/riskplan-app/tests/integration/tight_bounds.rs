@@ -13,9 +13,8 @@ use rand_chacha::ChaCha12Rng;
 use riskplan_app::verify::{point_status, verify_until, Method, PointStatus, SceneKernel};
 use riskplan_app::PlanRequest;
 use riskplan_math::contour::{BoundChoice, RiskLevel};
+use riskplan_oracle::bounds::{binomial_lower_limit, SceneBounds};
 use riskplan_scene::{Scene, Trajectory};
-use riskplan_testkit::riskplan_oracle::bounds::{binomial_lower_limit, SceneBounds};
-use std::path::PathBuf;
 use std::sync::Arc;
 
 /// One-sided confidence of the audit: risk ≤ Δ at 99 %.
@@ -119,7 +118,7 @@ fn certified_safe_regions_start_near_the_truth() {
     println!("illustrative-1 at Δ = 0.001: safe from r = {r}");
     assert!(r <= 0.45, "illustrative-1: the certified safe region starts at {r}");
     // a disk of radius 0.3 with a Gaussian centre, σ = 0.05 (truth ≈ 0.45, Cantelli ≈ 3.2)
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/bounds/gaussian-centre-disk.json");
+    let path = crate::common::repo().join("tests/scenes/bounds/gaussian-centre-disk.json");
     let s = Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
     let r = safe_radius(&s, &[0.0, 0.0], 0.0, "0.001", 3.9, 16);
     println!("Gaussian-centre disk at Δ = 0.001: safe from r = {r}");

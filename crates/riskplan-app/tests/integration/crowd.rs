@@ -4,9 +4,11 @@
 //! path), a per-instant check of the pedestrians' tail with statrs's χ² distribution,
 //! and Monte Carlo audits of body contact on the obstacles themselves (not grown).
 
-use riskplan::{PlanError, PlanStatus, RiskLevel, SceneKernel};
 use riskplan_app::verify::{audit_trajectory, verify, AuditOptions, Method};
 use riskplan_app::{PlanRequest, RecedingRequest};
+use riskplan_certify::checker::SceneKernel;
+use riskplan_math::contour::RiskLevel;
+use riskplan_plan::{PlanError, PlanStatus};
 use riskplan_scene::{Piece, Scene, Trajectory};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::sync::Arc;
@@ -152,7 +154,7 @@ fn common_samples() -> u64 {
 #[test]
 fn bodies_are_certified_on_static_moving_and_3d_scenes() {
     for (name, rho) in [("illustrative-3", 0.05), ("example-b-lane-change", 0.05), ("example-d2-cluttered-3d", 0.03)] {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(format!("{name}.json"));
+        let path = crate::common::repo().join("scenes").join(format!("{name}.json"));
         let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
         v["robot_radius"] = rho.into();
         let scene = Arc::new(Scene::from_json(&v.to_string()).unwrap_or_else(|e| panic!("{name}: {e}")));
@@ -166,7 +168,7 @@ fn bodies_are_certified_on_static_moving_and_3d_scenes() {
         audit_ok(&scene, &traj, scene.risk_f64(), common_samples());
     }
     // the disk case: exactly the disk of radius r + ρ
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/example-b-lane-change.json");
+    let path = crate::common::repo().join("scenes/example-b-lane-change.json");
     let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     v["robot_radius"] = "1/4".into();
     let grown = Scene::from_json(&v.to_string()).unwrap();
@@ -230,7 +232,7 @@ fn bad_receding_input_is_a_typed_error() {
     let at = vec![p0.position[0].f64(), p0.position[1].f64()];
     assert_eq!(field(run(RecedingRequest { position: at, ..base.clone() })), "position");
     // a planner that does not plan receding requests
-    let other = PlanRequest { receding: Some(base), planner: riskplan::PlannerKind::TvSos, ..Default::default() };
+    let other = PlanRequest { receding: Some(base), planner: riskplan_plan::PlannerKind::TvSos, ..Default::default() };
     assert!(matches!(other.run(&scene, None), Err(PlanError::InvalidOption { .. })));
     // a body that does not fit, a negative one, a bad template
     for (edit, path) in [

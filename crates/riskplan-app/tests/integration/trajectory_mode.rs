@@ -74,8 +74,7 @@ fn reference_scenes_in_trajectory_mode_keep_the_whole_path_within_delta() {
 /// agrees.
 #[test]
 fn a_corridor_of_uncertain_disks_is_refused_per_path_and_taken_per_instant() {
-    let path =
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/whole_path/bollard-corridor.json");
+    let path = crate::common::repo().join("tests/scenes/whole_path/bollard-corridor.json");
     let s = Arc::new(Scene::from_json(&std::fs::read_to_string(&path).unwrap()).unwrap());
     let delta = 0.3;
     let per_instant = plan(&s, RiskMode::PerObstacle, delta);

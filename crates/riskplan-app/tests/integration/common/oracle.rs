@@ -19,8 +19,8 @@ use num_rational::BigRational;
 use num_traits::{One, Signed, Zero};
 use riskplan_math::contour::RiskLevel;
 use riskplan_math::poly::QPoly;
+use riskplan_oracle::bounds::{ObstacleBounds, SceneBounds};
 use riskplan_scene::{Piece, Scene};
-use riskplan_testkit::riskplan_oracle::bounds::{ObstacleBounds, SceneBounds};
 
 /// The floating-point sign of a polynomial value is trusted when the value exceeds
 /// this share of the sum of its terms' absolute values. The rounding error of a

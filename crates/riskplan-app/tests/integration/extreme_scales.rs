@@ -14,7 +14,6 @@ use riskplan_math::contour::BoundChoice;
 use riskplan_app::verify::{verify, Method};
 use riskplan_app::{PlanRequest, PlannerKind};
 use riskplan_scene::Scene;
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -39,7 +38,7 @@ const PLANNED: [&str; 4] =
 const NO_PATH: &str = "keep-in-superellipse-at-1e41";
 
 fn load(name: &str) -> Arc<Scene> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/extreme").join(format!("{name}.json"));
+    let p = crate::common::repo().join("tests/scenes/extreme").join(format!("{name}.json"));
     let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     Arc::new(Scene::from_json(&text).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
 }
