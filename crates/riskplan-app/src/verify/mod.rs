@@ -871,134 +871,12 @@ pub fn verify_with(
     opts: &VerifyOptions,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<VerifyOutcome, Interrupted> {
-    let scene = kernel.scene();
-    let n = scene.obstacles.len();
-    let cert = SceneCertifier::with_deltas(kernel.clone(), vec![delta.clone(); n], opts.method)
-        .with_bounds(opts.bounds)
-        .with_settings(opts.settings.clone());
-    // the covers prove "safe" by interval bounds: used with the Exact method only (the
-    // others are asked for their own proofs), and for pedestrians only under `auto`
-    // bounds (their covers are their tail bound's)
-    let use_index = opts.method == Method::Exact
-        && (opts.bounds.beyond_cantelli() || scene.obstacles.iter().all(|o| o.pedestrian.is_none()));
-    let index = if use_index {
-        if pieces.len() >= INDEX_MIN_PIECES {
-            Some(kernel.index(cert.deltas(), stop))
-        } else {
-            kernel.peek_index(cert.deltas())
-        }
-    } else {
-        None
-    };
-    let compiled = kernel.compiled();
-    let frame = compiled.frame();
-    let ws = &scene.workspace;
-    let tail_only = |i: usize| opts.bounds.beyond_cantelli() && scene.obstacles[i].pedestrian.is_some();
-    let empty = |capacity: usize| VerifyOutcome {
-        report: VerifyReport {
-            safe: true,
-            method: opts.method.as_str().to_string(),
-            risk: delta.to_f64(),
-            bound: opts.bounds,
-            pieces: Vec::with_capacity(capacity),
-            checked: 0,
-            not_safe: 0,
-            first_not_safe: None,
-            whole_path_risk: None,
-        },
-        not_safe_indices: Vec::new(),
-    };
-    // the pieces `chunk`, the first of which is piece `offset` of the call
-    let run = |offset: usize, chunk: &[riskplan_scene::Piece]| -> Result<VerifyOutcome, Interrupted> {
-        let mut out = empty(if opts.detail == Detail::Every { chunk.len() } else { 1 });
-        let mut cands = Vec::with_capacity(n);
-        let mut near = vec![false; n];
-        for (k, pc) in chunk.iter().enumerate() {
-            let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
-            let bbox = piece_bbox(pr);
-            let workspace = if inside_by_box(&ws.lower, &ws.upper, pr, bbox.as_deref()) {
-                WorkspaceStatus { status: Status::Safe, witness: None }
-            } else {
-                check_workspace(&ws.lower, &ws.upper, pr)
-            };
-            // the covers say nothing outside the workspace
-            match (&index, workspace.status) {
-                (Some(ix), Status::Safe) => ix.candidates(bbox.as_deref(), pc.t0, pc.t1, &mut cands),
-                _ => {
-                    cands.clear();
-                    cands.extend(0..n);
-                }
-            }
-            let subs = if cands.iter().any(|&i| !tail_only(i)) { Substitution::new(pr, frame) } else { None };
-            let report_it = opts.detail == Detail::Every || out.not_safe_indices.is_empty();
-            // without a report to build, the first obstacle that fails decides
-            let mut safe = workspace.status == Status::Safe;
-            if opts.detail == Detail::FirstNotSafe {
-                for &i in &cands {
-                    if !safe {
-                        break;
-                    }
-                    if stop() {
-                        return Err(Interrupted);
-                    }
-                    safe = cert.obstacle_safe(i, pr, subs.as_ref());
-                }
-            }
-            if report_it && !(opts.detail == Detail::FirstNotSafe && safe) {
-                near.iter_mut().for_each(|b| *b = false);
-                cands.iter().for_each(|&i| near[i] = true);
-                let mut obstacles = Vec::with_capacity(n);
-                for (i, o) in scene.obstacles.iter().enumerate() {
-                    if !near[i] {
-                        obstacles.push(covered_report(o, pr, opts.bounds));
-                        continue;
-                    }
-                    if stop() {
-                        return Err(Interrupted);
-                    }
-                    obstacles.push(if let (Some(p), true) = (&o.pedestrian, opts.bounds.beyond_cantelli()) {
-                        verify_pedestrian(o, p, pr, delta, opts.method)
-                    } else {
-                        let mut constraints = Reports::new(pr, opts.method);
-                        let finding =
-                            cert.decide_obstacle(i, pr, subs.as_ref(), true, &mut |name, vs| constraints.add(name, vs));
-                        obstacle_report(&o.id, constraints, finding, pr, opts.bounds)
-                    });
-                }
-                safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
-                if opts.detail == Detail::Every || !safe {
-                    out.report.pieces.push(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles });
-                }
-            }
-            out.report.checked += 1;
-            if !safe {
-                out.not_safe_indices.push(offset + k);
-            }
-        }
-        Ok(out)
-    };
+    let v = Verifier::new(kernel, pieces.len(), delta, opts, stop);
     let threads = opts.threads.clamp(1, MAX_VERIFY_THREADS);
     let mut out = if threads > 1 && pieces.len() >= PARALLEL_MIN_PIECES {
-        // contiguous chunks at once, merged in order: the same reports as one thread
-        let size = pieces.len().div_ceil(threads);
-        let parts: Vec<Result<VerifyOutcome, Interrupted>> = {
-            use rayon::prelude::*;
-            pieces.par_chunks(size).enumerate().map(|(c, chunk)| run(c * size, chunk)).collect()
-        };
-        let mut all = empty(if opts.detail == Detail::Every { pieces.len() } else { 1 });
-        for part in parts {
-            let part = part?;
-            all.report.checked += part.report.checked;
-            all.report.pieces.extend(part.report.pieces);
-            all.not_safe_indices.extend(part.not_safe_indices);
-        }
-        if opts.detail == Detail::FirstNotSafe {
-            // each chunk reported its own first piece not safe: the call's is the first
-            all.report.pieces.truncate(1);
-        }
-        all
+        v.chunks(pieces, threads)?
     } else {
-        run(0, pieces)?
+        v.chunk(0, pieces)?
     };
     if opts.whole_path && pieces.len() <= MAX_WHOLE_PATH_PIECES {
         out.report.whole_path_risk = Some(whole_path_risk(kernel, pieces, stop)?);
@@ -1008,6 +886,178 @@ pub fn verify_with(
     r.first_not_safe = out.not_safe_indices.first().copied();
     r.safe = r.not_safe == 0;
     Ok(out)
+}
+
+/// What [`verify_with`] decides pieces with: the scene's certifier at Δ, its index of
+/// covers where they may be used, and the compiled contours' frame.
+struct Verifier<'a> {
+    scene: &'a riskplan_scene::Scene,
+    cert: SceneCertifier,
+    index: Option<std::sync::Arc<riskplan_certify::checker::SceneIndex>>,
+    compiled: std::sync::Arc<riskplan_certify::checker::CompiledSet>,
+    delta: &'a RiskLevel,
+    opts: &'a VerifyOptions,
+    stop: &'a (dyn Fn() -> bool + Sync),
+}
+
+impl<'a> Verifier<'a> {
+    /// The certifier of `kernel`'s scene at `delta` for a call of `pieces` pieces.
+    fn new(
+        kernel: &'a SceneKernel,
+        pieces: usize,
+        delta: &'a RiskLevel,
+        opts: &'a VerifyOptions,
+        stop: &'a (dyn Fn() -> bool + Sync),
+    ) -> Self {
+        let scene = kernel.scene();
+        let n = scene.obstacles.len();
+        let cert = SceneCertifier::with_deltas(kernel.clone(), vec![delta.clone(); n], opts.method)
+            .with_bounds(opts.bounds)
+            .with_settings(opts.settings.clone());
+        // the covers prove "safe" by interval bounds: used with the Exact method only (the
+        // others are asked for their own proofs), and for pedestrians only under `auto`
+        // bounds (their covers are their tail bound's)
+        let use_index = opts.method == Method::Exact
+            && (opts.bounds.beyond_cantelli() || scene.obstacles.iter().all(|o| o.pedestrian.is_none()));
+        let index = match (use_index, pieces >= INDEX_MIN_PIECES) {
+            (false, _) => None,
+            (true, true) => Some(kernel.index(cert.deltas(), stop)),
+            (true, false) => kernel.peek_index(cert.deltas()),
+        };
+        Verifier { scene, cert, index, compiled: kernel.compiled(), delta, opts, stop }
+    }
+
+    /// An outcome with nothing checked yet, room for `capacity` piece reports.
+    fn empty(&self, capacity: usize) -> VerifyOutcome {
+        VerifyOutcome {
+            report: VerifyReport {
+                safe: true,
+                method: self.opts.method.as_str().to_string(),
+                risk: self.delta.to_f64(),
+                bound: self.opts.bounds,
+                pieces: Vec::with_capacity(capacity),
+                checked: 0,
+                not_safe: 0,
+                first_not_safe: None,
+                whole_path_risk: None,
+            },
+            not_safe_indices: Vec::new(),
+        }
+    }
+
+    /// `pieces` in `threads` contiguous chunks at once (tasks on the rayon pool), merged
+    /// in order: the same reports as one thread.
+    fn chunks(&self, pieces: &[riskplan_scene::Piece], threads: usize) -> Result<VerifyOutcome, Interrupted>
+    where
+        Self: Sync,
+    {
+        let size = pieces.len().div_ceil(threads);
+        let parts: Vec<Result<VerifyOutcome, Interrupted>> = {
+            use rayon::prelude::*;
+            pieces.par_chunks(size).enumerate().map(|(c, chunk)| self.chunk(c * size, chunk)).collect()
+        };
+        let mut all = self.empty(if self.opts.detail == Detail::Every { pieces.len() } else { 1 });
+        for part in parts {
+            let part = part?;
+            all.report.checked += part.report.checked;
+            all.report.pieces.extend(part.report.pieces);
+            all.not_safe_indices.extend(part.not_safe_indices);
+        }
+        if self.opts.detail == Detail::FirstNotSafe {
+            // each chunk reported its own first piece not safe: the call's is the first
+            all.report.pieces.truncate(1);
+        }
+        Ok(all)
+    }
+
+    /// The pieces `chunk`, the first of which is piece `offset` of the call.
+    fn chunk(&self, offset: usize, chunk: &[riskplan_scene::Piece]) -> Result<VerifyOutcome, Interrupted> {
+        let n = self.scene.obstacles.len();
+        let mut out = self.empty(if self.opts.detail == Detail::Every { chunk.len() } else { 1 });
+        let mut cands = Vec::with_capacity(n);
+        let mut near = vec![false; n];
+        for (k, pc) in chunk.iter().enumerate() {
+            let report_it = self.opts.detail == Detail::Every || out.not_safe_indices.is_empty();
+            let (safe, report) = self.piece(pc, report_it, &mut cands, &mut near)?;
+            if let Some(report) = report.filter(|r| self.opts.detail == Detail::Every || !r.safe) {
+                out.report.pieces.push(report);
+            }
+            out.report.checked += 1;
+            if !safe {
+                out.not_safe_indices.push(offset + k);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Whether one piece is proven safe, and its report when `report_it` (with
+    /// `Detail::FirstNotSafe`, only when it is not safe). `cands` and `near`: buffers.
+    fn piece(
+        &self,
+        pc: &riskplan_scene::Piece,
+        report_it: bool,
+        cands: &mut Vec<usize>,
+        near: &mut [bool],
+    ) -> Result<(bool, Option<PieceReport>), Interrupted> {
+        let (scene, opts, n) = (self.scene, self.opts, self.scene.obstacles.len());
+        let ws = &scene.workspace;
+        let pr = PieceRef { t0: pc.t0, t1: pc.t1, coeffs: &pc.coeffs };
+        let bbox = piece_bbox(pr);
+        let workspace = if inside_by_box(&ws.lower, &ws.upper, pr, bbox.as_deref()) {
+            WorkspaceStatus { status: Status::Safe, witness: None }
+        } else {
+            check_workspace(&ws.lower, &ws.upper, pr)
+        };
+        // the covers say nothing outside the workspace
+        match (&self.index, workspace.status) {
+            (Some(ix), Status::Safe) => ix.candidates(bbox.as_deref(), pc.t0, pc.t1, cands),
+            _ => {
+                cands.clear();
+                cands.extend(0..n);
+            }
+        }
+        let tail_only = |i: usize| opts.bounds.beyond_cantelli() && scene.obstacles[i].pedestrian.is_some();
+        let subs =
+            if cands.iter().any(|&i| !tail_only(i)) { Substitution::new(pr, self.compiled.frame()) } else { None };
+        // without a report to build, the first obstacle that fails decides
+        let mut safe = workspace.status == Status::Safe;
+        if opts.detail == Detail::FirstNotSafe {
+            for &i in cands.iter() {
+                if !safe {
+                    break;
+                }
+                if (self.stop)() {
+                    return Err(Interrupted);
+                }
+                safe = self.cert.obstacle_safe(i, pr, subs.as_ref());
+            }
+        }
+        if !report_it || (opts.detail == Detail::FirstNotSafe && safe) {
+            return Ok((safe, None));
+        }
+        near.iter_mut().for_each(|b| *b = false);
+        cands.iter().for_each(|&i| near[i] = true);
+        let mut obstacles = Vec::with_capacity(n);
+        for (i, o) in scene.obstacles.iter().enumerate() {
+            if !near[i] {
+                obstacles.push(covered_report(o, pr, opts.bounds));
+                continue;
+            }
+            if (self.stop)() {
+                return Err(Interrupted);
+            }
+            obstacles.push(if let (Some(p), true) = (&o.pedestrian, opts.bounds.beyond_cantelli()) {
+                verify_pedestrian(o, p, pr, self.delta, opts.method)
+            } else {
+                let mut constraints = Reports::new(pr, opts.method);
+                let finding =
+                    self.cert.decide_obstacle(i, pr, subs.as_ref(), true, &mut |name, vs| constraints.add(name, vs));
+                obstacle_report(&o.id, constraints, finding, pr, opts.bounds)
+            });
+        }
+        let safe = workspace.status == Status::Safe && obstacles.iter().all(|o| o.status == Status::Safe);
+        Ok((safe, Some(PieceReport { t0: pc.t0, t1: pc.t1, safe, workspace, obstacles })))
+    }
 }
 
 /// Why the final check refused a planned trajectory (docs/design.md §5.12).

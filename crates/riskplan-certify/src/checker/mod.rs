@@ -23,7 +23,7 @@ pub use decide::{
     decide, decide_obstacle, point_obstacle_safe, point_safe, point_safe_with, point_status, Interrupted, Method,
     PointStatus, Status, WitnessReport,
 };
-pub use kernel::SceneKernel;
+pub use kernel::{CompiledSet, SceneKernel};
 pub use verify_path::piece_passes_verify_path;
 pub use verify_path::{FramedContours, Near, NearBound, NearGrid};
 pub use workspace::{check_workspace, inside_by_box, interval_hull, WorkspaceStatus};
