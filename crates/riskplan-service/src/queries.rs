@@ -103,14 +103,6 @@ pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<
 /// acknowledgement, or at its next catch-up, every second, after a lost publication).
 pub(crate) const MIN_REVISION_WAIT: Duration = Duration::from_millis(1500);
 
-/// How often such a read looks again: first after this, then twice as long each time
-/// up to [`MIN_REVISION_POLL_MAX`] (a replica usually has the revision within
-/// milliseconds; a read that waits the whole time wakes about 35 times).
-const MIN_REVISION_POLL: Duration = Duration::from_millis(1);
-
-/// The longest pause between two looks.
-const MIN_REVISION_POLL_MAX: Duration = Duration::from_millis(50);
-
 /// Reads that may wait for a revision at once; more are answered `stale_revision`
 /// at once (so that a flood of reads asking for a revision that never comes holds no
 /// more than this many tasks).
@@ -128,7 +120,8 @@ fn min_revision(v: Option<&str>) -> Result<u64, ServiceError> {
 }
 
 /// The scene's entry at revision `min` or later: at once when this server has it;
-/// otherwise a replica waits for it (its primary's commit) until [`MIN_REVISION_WAIT`]
+/// otherwise a replica waits for it (its primary's commit, awaited on the registry's
+/// commit count: woken by each commit, no polling) until [`MIN_REVISION_WAIT`]
 /// after `arrival` or `until` (the request's own deadline), whichever comes first,
 /// then answers `stale_revision`. A primary answers at once (no other server makes its
 /// revisions); a scene deleted at or after `min` is `unknown_scene`.
@@ -140,8 +133,9 @@ async fn entry_at_least(
     until: Instant,
 ) -> Result<super::registry::Entry, ServiceError> {
     let limit = until.min(arrival + MIN_REVISION_WAIT);
-    let mut pause = MIN_REVISION_POLL;
     let mut waiting: Option<WaiterSlot<'_>> = None;
+    // (subscribed before the first look: a commit after it wakes the wait)
+    let mut commits = state.registry.commits();
     loop {
         let have = match state.registry.get(scene) {
             Ok(e) if e.revision >= min => return Ok(e),
@@ -159,8 +153,12 @@ async fn entry_at_least(
         if waiting.is_none() || Instant::now() >= limit {
             return Err(ServiceError::StaleRevision { scene: scene.to_string(), have, want: min });
         }
-        tokio::time::sleep(pause.min(limit.saturating_duration_since(Instant::now()))).await;
-        pause = (pause * 2).min(MIN_REVISION_POLL_MAX);
+        // the registry's next commit (look again) or the limit (the look above answers)
+        let next = tokio::time::timeout_at(tokio::time::Instant::from_std(limit), commits.changed()).await;
+        if let Ok(Err(_)) = next {
+            // no commit can come any more
+            return Err(ServiceError::StaleRevision { scene: scene.to_string(), have, want: min });
+        }
     }
 }
 

@@ -106,6 +106,9 @@ pub struct Registry {
     bodies: Mutex<Vec<(BodyKey, SceneKernel)>>,
     /// What the scenes' kernels found cached and built (the metrics of `serve --metrics`).
     pub kernels: KernelStats,
+    /// The number of commits made (live or deleted), sent to every [`Registry::commits`]
+    /// receiver: what a read waiting for a revision awaits.
+    commits: tokio::sync::watch::Sender<u64>,
 }
 
 /// What the kernels of the scenes (their proven covers, the grown-body kernels) found
@@ -250,6 +253,7 @@ impl Registry {
             robots: Mutex::new(std::collections::HashMap::new()),
             bodies: Mutex::new(Vec::new()),
             kernels: KernelStats::default(),
+            commits: tokio::sync::watch::Sender::new(0),
         }
     }
 
@@ -464,6 +468,7 @@ impl Registry {
         let old = m.insert(name.to_string(), entry);
         self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
         drop(m);
+        self.commits.send_modify(|c| *c += 1);
         // the previous revision is freed outside the lock (readers wait for nothing)
         drop(old);
         Ok(())
@@ -478,6 +483,8 @@ impl Registry {
         let mut m = self.scenes.write().map_err(internal)?;
         m.remove(name);
         self.cache.retain_used(m.values().map(|e| e.scene.as_ref()));
+        drop(m);
+        self.commits.send_modify(|c| *c += 1);
         Ok(())
     }
 
@@ -485,6 +492,12 @@ impl Registry {
         if let Some(l) = self.listener.get() {
             (l.0)(&Commit { name: name.to_string(), revision, json: json.cloned() });
         }
+    }
+
+    /// A receiver of the commit count, changed after every later commit (the entry is
+    /// live, or the deletion done, by then): a read waiting for a revision awaits it.
+    pub fn commits(&self) -> tokio::sync::watch::Receiver<u64> {
+        self.commits.subscribe()
     }
 
     /// Sets the listener told of every later commit (once; later calls are ignored).
