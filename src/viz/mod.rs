@@ -461,127 +461,18 @@ where
         .map_err(draw_err)?;
     let g = Grid::new(win, opts.grid);
     let multi_time = opts.times.len() > 1;
-    // each time's axes (its section) and the words naming it in the legend
+    // each time's axes (its section)
     let panels: Vec<Axes> = (0..opts.times.len())
         .map(|ti| opts.slices_at.get(ti).map_or(Ok(ax.clone()), |at| ax.moved(at)))
         .collect::<Result<_, _>>()?;
-    let times_differ = opts.times.windows(2).any(|w| w[0] != w[1]);
-    let panel_label = |ti: usize| -> String {
-        let mut parts = Vec::new();
-        if times_differ {
-            parts.push(format!("t={}", legend_number(opts.times[ti])));
-        }
-        for &(a, v) in opts.slices_at.get(ti).map_or(&[][..], |at| &at[..]) {
-            parts.push(format!("x{}={}", a + 1, legend_number(v)));
-        }
-        parts.join(", ")
-    };
-    // 1. Monte Carlo "true" contour, shaded (bottom layer).
-    if let Some((samples, seed)) = opts.mc {
-        let mg = Grid::new(win, opts.mc_grid);
-        for (ti, &t) in opts.times.iter().enumerate() {
-            let est = mc_grid(scene, &panels[ti], &mg, t, samples, seed)?;
-            // Shade the largest true region (smallest Δ): where the estimated risk exceeds it.
-            let dmin = opts.deltas.iter().copied().fold(f64::INFINITY, f64::min);
-            let shade = RGBColor(60, 170, 90).mix(0.25);
-            for (ext, holes) in mg.regions(&est, dmin + f64::EPSILON) {
-                chart.draw_series(std::iter::once(Polygon::new(ext, shade.filled()))).map_err(draw_err)?;
-                for h in holes {
-                    chart.draw_series(std::iter::once(Polygon::new(h, WHITE.filled()))).map_err(draw_err)?;
-                }
-            }
-            // Each Δ's true contour as a thin line in that Δ's colour.
-            for (di, &d) in opts.deltas.iter().enumerate() {
-                let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);
-                let mut first = true;
-                for line in mg.isolines(&est, d + f64::EPSILON) {
-                    let s = chart
-                        .draw_series(LineSeries::new(line, ShapeStyle::from(color.mix(0.8)).stroke_width(1)))
-                        .map_err(draw_err)?;
-                    if first && ti == 0 && di == 0 {
-                        let label =
-                            format!("Monte Carlo true contours, thin ({samples} samples/point); shaded: risk > {dmin}");
-                        s.label(label).legend(|(x, y)| {
-                            Rectangle::new([(x, y - 5), (x + 18, y + 5)], RGBColor(60, 170, 90).mix(0.4).filled())
-                        });
-                    }
-                    first = false;
-                }
-            }
-        }
-    }
-    // 2. The obstacle at the mean of its parameters, filled grey; when the Cantelli
-    // contours are coloured by time, in its time's colour
-    let by_time = multi_time && opts.curves.is_empty();
-    let fill = |ti: usize, alpha: f64| {
-        if by_time {
-            rgb(PALETTE[ti % PALETTE.len()]).mix(alpha * 0.8)
-        } else {
-            RGBColor(90, 90, 90).mix(alpha)
-        }
-    };
-    let mut first = true;
-    for (ti, &t) in opts.times.iter().enumerate() {
-        let mean = mean_obstacle_grid(scene, &panels[ti], &g, t);
-        for (ext, holes) in g.regions(&mean, 0.0) {
-            let s = chart.draw_series(std::iter::once(Polygon::new(ext, fill(ti, 0.35).filled()))).map_err(draw_err)?;
-            if first {
-                let swatch = fill(ti, 0.5);
-                let label = if by_time { "obstacle at E[ω], in its time's colour" } else { "obstacle at E[ω]" };
-                s.label(label).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], swatch.filled()));
-                first = false;
-            }
-            for h in holes {
-                chart.draw_series(std::iter::once(Polygon::new(h, WHITE.mix(0.9).filled()))).map_err(draw_err)?;
-            }
-        }
-    }
-    // 3. Cantelli Δ-contours (eq. 10/12 inner approximations): the level sets B = Δ; or
-    // the contours of each bound asked for, one colour per bound
-    for (ti, &t) in opts.times.iter().enumerate().filter(|_| !opts.curves.is_empty()) {
-        for (ci, &curve) in opts.curves.iter().enumerate() {
-            let b = curve_grid(scene, &panels[ti], &g, t, curve);
-            let color = rgb(PALETTE[ci % PALETTE.len()]);
-            let width = if curve == BoundCurve::Best { 3 } else { 2 };
-            for (di, &d) in opts.deltas.iter().enumerate() {
-                let mut first = ti == 0 && di == 0;
-                for line in g.isolines(&b, d) {
-                    let s = chart
-                        .draw_series(LineSeries::new(line, ShapeStyle::from(color).stroke_width(width)))
-                        .map_err(draw_err)?;
-                    if first {
-                        s.label(format!("{} Δ-contour", curve.label())).legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(color).stroke_width(width))
-                        });
-                        first = false;
-                    }
-                }
-            }
-        }
-    }
-    for (ti, &t) in opts.times.iter().enumerate().filter(|_| opts.curves.is_empty()) {
-        let b = bound_grid(scene, &panels[ti], &g, t);
-        let which = panel_label(ti);
-        for (di, &d) in opts.deltas.iter().enumerate() {
-            let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);
-            let label = if which.is_empty() {
-                format!("Cantelli contour Δ={d}")
-            } else {
-                format!("Cantelli contour Δ={d}, {which}")
-            };
-            let mut first = true;
-            for line in g.isolines(&b, d) {
-                let s = chart
-                    .draw_series(LineSeries::new(line, ShapeStyle::from(color).stroke_width(2)))
-                    .map_err(draw_err)?;
-                if first && (!multi_time || di == 0) {
-                    s.label(label.clone()).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(color).stroke_width(2))
-                    });
-                    first = false;
-                }
-            }
-        }
+    let layers = Layers { scene, opts, panels, grid: g, win, multi_time };
+    // bottom to top: the Monte Carlo "true" contours, the obstacles at E[ω], the Δ-contours
+    layers.monte_carlo(&mut chart)?;
+    layers.mean_obstacles(&mut chart)?;
+    if opts.curves.is_empty() {
+        layers.cantelli(&mut chart)?;
+    } else {
+        layers.bound_curves(&mut chart)?;
     }
     // 4. Overlays.
     for o in overlays {
@@ -597,6 +488,174 @@ where
         .map_err(draw_err)?;
     root.present().map_err(draw_err)?;
     Ok(())
+}
+
+/// What the layers of a contour figure are drawn from: the scene, the options, each
+/// time's axes (its section), the evaluation grid and window.
+struct Layers<'a> {
+    scene: &'a Scene,
+    opts: &'a ContourOptions,
+    panels: Vec<Axes>,
+    grid: Grid,
+    win: (f64, f64, f64, f64),
+    multi_time: bool,
+}
+
+impl Layers<'_> {
+    /// The words naming time `ti` in the legend: its time (when the times differ) and
+    /// its section.
+    fn panel_label(&self, ti: usize) -> String {
+        let opts = self.opts;
+        let times_differ = opts.times.windows(2).any(|w| w[0] != w[1]);
+        let mut parts = Vec::new();
+        if times_differ {
+            parts.push(format!("t={}", legend_number(opts.times[ti])));
+        }
+        for &(a, v) in opts.slices_at.get(ti).map_or(&[][..], |at| &at[..]) {
+            parts.push(format!("x{}={}", a + 1, legend_number(v)));
+        }
+        parts.join(", ")
+    }
+
+    /// The Monte Carlo "true" contours (with `--mc`): the largest true region shaded, each Δ's contour a thin line.
+    fn monte_carlo<DB: DrawingBackend>(&self, chart: &mut Chart<'_, DB>) -> Result<(), VizError>
+    where
+        DB::ErrorType: 'static,
+    {
+        let (scene, opts, panels, win, multi_time) = (self.scene, self.opts, &self.panels, self.win, self.multi_time);
+        if let Some((samples, seed)) = opts.mc {
+            let mg = Grid::new(win, opts.mc_grid);
+            for (ti, &t) in opts.times.iter().enumerate() {
+                let est = mc_grid(scene, &panels[ti], &mg, t, samples, seed)?;
+                // Shade the largest true region (smallest Δ): where the estimated risk exceeds it.
+                let dmin = opts.deltas.iter().copied().fold(f64::INFINITY, f64::min);
+                let shade = RGBColor(60, 170, 90).mix(0.25);
+                for (ext, holes) in mg.regions(&est, dmin + f64::EPSILON) {
+                    chart.draw_series(std::iter::once(Polygon::new(ext, shade.filled()))).map_err(draw_err)?;
+                    for h in holes {
+                        chart.draw_series(std::iter::once(Polygon::new(h, WHITE.filled()))).map_err(draw_err)?;
+                    }
+                }
+                // Each Δ's true contour as a thin line in that Δ's colour.
+                for (di, &d) in opts.deltas.iter().enumerate() {
+                    let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);
+                    let mut first = true;
+                    for line in mg.isolines(&est, d + f64::EPSILON) {
+                        let s = chart
+                            .draw_series(LineSeries::new(line, ShapeStyle::from(color.mix(0.8)).stroke_width(1)))
+                            .map_err(draw_err)?;
+                        if first && ti == 0 && di == 0 {
+                            let label = format!(
+                                "Monte Carlo true contours, thin ({samples} samples/point); shaded: risk > {dmin}"
+                            );
+                            s.label(label).legend(|(x, y)| {
+                                Rectangle::new([(x, y - 5), (x + 18, y + 5)], RGBColor(60, 170, 90).mix(0.4).filled())
+                            });
+                        }
+                        first = false;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The obstacles at the mean of their parameters, filled grey; when the Cantelli contours are coloured by time, in their time's colour.
+    fn mean_obstacles<DB: DrawingBackend>(&self, chart: &mut Chart<'_, DB>) -> Result<(), VizError>
+    where
+        DB::ErrorType: 'static,
+    {
+        let (scene, opts, panels, g, multi_time) = (self.scene, self.opts, &self.panels, &self.grid, self.multi_time);
+        let by_time = multi_time && opts.curves.is_empty();
+        let fill = |ti: usize, alpha: f64| {
+            if by_time {
+                rgb(PALETTE[ti % PALETTE.len()]).mix(alpha * 0.8)
+            } else {
+                RGBColor(90, 90, 90).mix(alpha)
+            }
+        };
+        let mut first = true;
+        for (ti, &t) in opts.times.iter().enumerate() {
+            let mean = mean_obstacle_grid(scene, &panels[ti], g, t);
+            for (ext, holes) in g.regions(&mean, 0.0) {
+                let s =
+                    chart.draw_series(std::iter::once(Polygon::new(ext, fill(ti, 0.35).filled()))).map_err(draw_err)?;
+                if first {
+                    let swatch = fill(ti, 0.5);
+                    let label = if by_time { "obstacle at E[ω], in its time's colour" } else { "obstacle at E[ω]" };
+                    s.label(label).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], swatch.filled()));
+                    first = false;
+                }
+                for h in holes {
+                    chart.draw_series(std::iter::once(Polygon::new(h, WHITE.mix(0.9).filled()))).map_err(draw_err)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The Δ-contours of each bound asked for (`--bounds`), one colour per bound.
+    fn bound_curves<DB: DrawingBackend>(&self, chart: &mut Chart<'_, DB>) -> Result<(), VizError>
+    where
+        DB::ErrorType: 'static,
+    {
+        let (scene, opts, panels, g) = (self.scene, self.opts, &self.panels, &self.grid);
+        for (ti, &t) in opts.times.iter().enumerate() {
+            for (ci, &curve) in opts.curves.iter().enumerate() {
+                let b = curve_grid(scene, &panels[ti], g, t, curve);
+                let color = rgb(PALETTE[ci % PALETTE.len()]);
+                let width = if curve == BoundCurve::Best { 3 } else { 2 };
+                for (di, &d) in opts.deltas.iter().enumerate() {
+                    let mut first = ti == 0 && di == 0;
+                    for line in g.isolines(&b, d) {
+                        let s = chart
+                            .draw_series(LineSeries::new(line, ShapeStyle::from(color).stroke_width(width)))
+                            .map_err(draw_err)?;
+                        if first {
+                            s.label(format!("{} Δ-contour", curve.label())).legend(move |(x, y)| {
+                                PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(color).stroke_width(width))
+                            });
+                            first = false;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Cantelli's Δ-contours (the inner approximations of eqs. 10, 12): the level sets B = Δ, one colour per Δ (per time, when there are several).
+    fn cantelli<DB: DrawingBackend>(&self, chart: &mut Chart<'_, DB>) -> Result<(), VizError>
+    where
+        DB::ErrorType: 'static,
+    {
+        let (scene, opts, panels, g, multi_time) = (self.scene, self.opts, &self.panels, &self.grid, self.multi_time);
+        for (ti, &t) in opts.times.iter().enumerate() {
+            let b = bound_grid(scene, &panels[ti], g, t);
+            let which = self.panel_label(ti);
+            for (di, &d) in opts.deltas.iter().enumerate() {
+                let color = rgb(PALETTE[(if multi_time { ti } else { di }) % PALETTE.len()]);
+                let label = if which.is_empty() {
+                    format!("Cantelli contour Δ={d}")
+                } else {
+                    format!("Cantelli contour Δ={d}, {which}")
+                };
+                let mut first = true;
+                for line in g.isolines(&b, d) {
+                    let s = chart
+                        .draw_series(LineSeries::new(line, ShapeStyle::from(color).stroke_width(2)))
+                        .map_err(draw_err)?;
+                    if first && (!multi_time || di == 0) {
+                        s.label(label.clone()).legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 18, y)], ShapeStyle::from(color).stroke_width(2))
+                        });
+                        first = false;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 type Chart<'a, DB> =
