@@ -251,8 +251,10 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             if let Some(p) = &out {
                 super::plan_cmd::writable("--out", p)?;
             }
+            // the names go to the server as typed: it answers a name it does not know
+            // (`invalid_request`, naming the field)
             let req = PlanRequest {
-                planner: Some(planner),
+                planner: Some(Named::parse(&planner)),
                 time_limit: Some(time_limit),
                 seed: Some(seed),
                 pieces,
@@ -260,7 +262,7 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
                 max_speed,
                 max_accel,
                 smooth: Some(!no_smooth),
-                risk_mode,
+                risk_mode: risk_mode.as_deref().map(Named::parse),
                 ..Default::default()
             };
             match client.plan(&scene, &req).await {
@@ -282,7 +284,7 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
                     }
                     Ok(0)
                 }
-                Err(ClientError::Server(e)) if e.code == "no_plan" => {
+                Err(ClientError::Server(e)) if e.code == ErrorCode::NoPlan => {
                     eprintln!("no_plan: {}", e.message);
                     Ok(1)
                 }
@@ -290,7 +292,11 @@ async fn exec(client: &Client, cmd: ClientCommand) -> Result<i32, CliError> {
             }
         }
         ClientCommand::Verify { scene, trajectory, from, to, method, summary } => {
-            let mut req = VerifyRequest { method, summary: summary.then_some(true), ..Default::default() };
+            let mut req = VerifyRequest {
+                method: method.as_deref().map(Named::parse),
+                summary: summary.then_some(true),
+                ..Default::default()
+            };
             match trajectory {
                 Some(p) => {
                     let text = std::fs::read_to_string(&p)
@@ -377,7 +383,7 @@ fn load_queries(
     let terms: Vec<String> = c.iter().enumerate().map(|(d, cd)| format!(" - (x{} - ({cd:e}))^2", d + 1)).collect();
     let apply = ApplyRequest {
         changes: Some(vec![Change {
-            op: "put".into(),
+            op: ChangeOp::Put.into(),
             id: format!("load-{id}"),
             poly: Some(format!("{r2:e}{}", terms.join(""))),
             params: None,

@@ -5,7 +5,7 @@ use super::util::CliError;
 use clap::{Args, Subcommand};
 use riskplan_app::crowd::{self, Crowd, CrowdParams, STEP};
 use riskplan_scene::{Trajectory, TRAJECTORY_FORMAT};
-use riskplan_service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
+use riskplan_service::proto::{ApplyRequest, Change, ChangeOp, Codec, EmbeddedJson, PlanRequest};
 use riskplan_service::Client;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -170,7 +170,7 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
             // the predictions (and the pedestrians that left)
             let mut changes: Vec<Change> = removed
                 .drain(..)
-                .map(|id| Change { op: "delete".into(), id, poly: None, params: None, pedestrian: None })
+                .map(|id| Change { op: ChangeOp::Delete.into(), id, poly: None, params: None, pedestrian: None })
                 .collect();
             let mut ahead: Vec<[f64; 2]> = Vec::with_capacity(world.walkers.len());
             for i in 0..world.walkers.len() {
@@ -179,7 +179,7 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
                 let at = |d: usize| m[d].as_f64().unwrap_or(world.walkers[i].x[d]) + n[d] * CONTOUR_AHEAD;
                 ahead.push([at(0), at(1)]);
                 changes.push(Change {
-                    op: "put".into(),
+                    op: ChangeOp::Put.into(),
                     id: world.walkers[i].id.clone(),
                     poly: None,
                     params: None,
@@ -232,7 +232,7 @@ async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, Cli
                         eprintln!("episode {ep} t = {t:.1}: no plan: {e}");
                     }
                     let code = match &e {
-                        riskplan_service::ClientError::Server(r) => r.code.clone(),
+                        riskplan_service::ClientError::Server(r) => r.code.as_str().to_string(),
                         other => other.to_string(),
                     };
                     *reasons.entry(code).or_insert(0usize) += 1;

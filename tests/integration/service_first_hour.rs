@@ -7,7 +7,8 @@ use crate::common;
 use crate::common::run;
 use crate::common::server::{free_port, reference_scene, serve};
 use riskplan_app::PlanRequest as AppPlanRequest;
-use riskplan_service::proto::{Codec, PlanRequest};
+use riskplan_app::PlannerKind;
+use riskplan_service::proto::{Codec, ErrorCode, PlanRequest};
 use riskplan_service::{Client, ClientError};
 use std::sync::Arc;
 use std::time::Duration;
@@ -64,7 +65,7 @@ fn server_errors_name_what_to_do() {
     rt.block_on(async {
         let c = Client::connect(&server.endpoint, Duration::from_secs(30), Codec::Json).await.unwrap();
         let e = c.plan("nope", &PlanRequest::default()).await.expect_err("an unknown scene");
-        assert!(matches!(&e, ClientError::Server(r) if r.code == "unknown_scene"), "{e:?}");
+        assert!(matches!(&e, ClientError::Server(r) if r.code == ErrorCode::UnknownScene), "{e:?}");
         let text = e.to_string();
         assert!(text.starts_with("unknown scene 'nope' (loaded: illustrative-3)"), "{text}");
         assert_eq!(text.matches("unknown scene").count(), 1, "{text}");
@@ -103,7 +104,7 @@ fn the_same_seed_gives_the_same_plan_through_every_front_end() {
             ..Default::default()
         };
         let reply = bin.plan(name, &receding).await.expect("a receding plan");
-        assert_eq!(reply.planner, "receding");
+        assert_eq!(reply.planner, PlannerKind::Receding);
         bin.close().await;
         json.close().await;
     });

@@ -10,7 +10,8 @@
 use crate::common;
 use crate::common::server::{free_port, reference_scene, serve, Serve};
 use riskplan_service::proto::{
-    ApplyRequest, Change, Codec, ObstaclePut, PlanRequest, RiskRequest, Segment, VerifyRequest, MAX_PAYLOAD_BYTES,
+    ApplyRequest, Change, ChangeOp, Codec, Named, ObstaclePut, PlanRequest, RiskRequest, Segment, ServerState,
+    VerifyRequest, MAX_PAYLOAD_BYTES,
 };
 use riskplan_service::{Client, ClientError, Route, RouteKind};
 use std::collections::BTreeMap;
@@ -123,7 +124,7 @@ fn expect_counts(pairs: &[(&str, &str, u64)]) -> BTreeMap<(String, String), u64>
 /// A small disk far from the plans' corridor: a change an apply can make.
 fn far_disk() -> Change {
     Change {
-        op: "put".into(),
+        op: ChangeOp::Put.into(),
         id: "far".into(),
         poly: Some("0.01 - (x1 - 0.9)^2 - (x2 + 0.9)^2".into()),
         params: None,
@@ -133,7 +134,7 @@ fn far_disk() -> Change {
 
 fn server_code<T: std::fmt::Debug>(r: Result<T, ClientError>) -> String {
     match r {
-        Err(ClientError::Server(e)) => e.code,
+        Err(ClientError::Server(e)) => e.code.to_string(),
         other => panic!("expected a typed error from the server, got {other:?}"),
     }
 }
@@ -271,7 +272,7 @@ fn metrics_count_what_was_sent_and_bad_http_does_not_disturb_the_server() {
     rt.block_on(async {
         let c = Client::connect(&server.serve.endpoint, Duration::from_secs(30), Codec::Json).await.unwrap();
         let status = c.status().await.expect("status after the bad HTTP");
-        assert_eq!(status.state, "ready");
+        assert_eq!(status.state, ServerState::Ready);
         c.close().await;
     });
     let s = samples(&scrape(addr));
@@ -427,7 +428,7 @@ fn every_kind_of_request(endpoint: &str) {
         let change = far_disk();
         let applied = c.apply(SCENE, &ApplyRequest { changes: Some(vec![change]), ..Default::default() }).await;
         assert_eq!(applied.expect("an apply").revision, 2);
-        let bad = Change { op: "rename".into(), id: "far".into(), poly: None, params: None, pedestrian: None };
+        let bad = Change { op: Named::parse("rename"), id: "far".into(), poly: None, params: None, pedestrian: None };
         let refused = c.apply(SCENE, &ApplyRequest { changes: Some(vec![bad]), ..Default::default() }).await;
         assert!(matches!(refused, Err(ClientError::Server(_))), "{refused:?}");
         // the replication keys a primary answers

@@ -8,7 +8,7 @@
 
 use crate::common::growth;
 use crate::common::server::{free_port, serve, sigterm_and_wait};
-use riskplan_service::proto::{ApplyRequest, Change, Codec, EmbeddedJson, PlanRequest};
+use riskplan_service::proto::{ApplyRequest, Change, ChangeOp, Codec, EmbeddedJson, PlanRequest};
 use riskplan_service::Client;
 use std::io::{Read, Write};
 use std::net::TcpStream;
@@ -89,7 +89,7 @@ fn scenes_of_many_obstacles_are_warm_before_their_first_plans_unless_turned_off(
         }
         // an update of one obstacle takes over what was built for the others: not warmed
         let moved = Change {
-            op: "put".into(),
+            op: ChangeOp::Put.into(),
             id: applied["obstacles"][0]["id"].as_str().unwrap().into(),
             poly: Some(applied["obstacles"][0]["poly"].as_str().unwrap().replace("(x2 - ", "(x2 - 0.5 - ")),
             params: None,

@@ -41,12 +41,6 @@ def test_one_schema_per_message_and_no_strays():
     assert sorted(p.name for p in SCHEMAS.glob("*.schema.json")) == sorted(f"{m}.schema.json" for m in MESSAGES)
 
 
-def test_schemas_are_up_to_date_with_the_generator():
-    r = subprocess.run([sys.executable, str(REPO / "clients/python/tools/gen_schemas.py"), "--check"],
-                       capture_output=True, text=True, timeout=60)
-    assert r.returncode == 0, r.stdout + r.stderr
-
-
 def test_every_message_has_an_example():
     have = {p.name.split(".")[0] for p in ALL_EXAMPLES}
     assert set(MESSAGES) <= have, set(MESSAGES) - have

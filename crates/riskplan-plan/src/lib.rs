@@ -71,7 +71,8 @@ pub trait Planner: Send {
 
 /// The planners a request can name. Each entry's `PlannerSpec` (in its folder) says
 /// how to build it; adding a planner is its folder and one entry here
-/// (docs/architecture.md).
+/// (docs/architecture.md). On the wire and in the JSON Schemas it is its
+/// [`as_str`](PlannerKind::as_str) name ([`riskplan_scene::closed_set!`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum PlannerKind {
     /// The default: every edge certified in continuous time (eq. 15) — bidirectional
@@ -151,6 +152,8 @@ impl PlannerKind {
         (self.spec().build)(setup)
     }
 }
+
+riskplan_scene::closed_set!(PlannerKind, "PlannerKind");
 
 impl fmt::Display for PlannerKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -242,7 +245,8 @@ pub struct Built {
     pub checker: Box<dyn MotionChecker>,
 }
 
-/// What Δ bounds (docs/design.md §3.6).
+/// What Δ bounds (docs/design.md §3.6). On the wire: its [`as_str`](RiskMode::as_str) name
+/// ([`riskplan_scene::closed_set!`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum RiskMode {
     /// The paper's: the probability of colliding with each obstacle, at each instant, is
@@ -282,6 +286,8 @@ impl RiskMode {
         }
     }
 }
+
+riskplan_scene::closed_set!(RiskMode, "RiskMode");
 
 impl FromStr for RiskMode {
     type Err = UnknownName;

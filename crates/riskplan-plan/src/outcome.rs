@@ -23,7 +23,7 @@ pub enum PlanStatus {
 }
 
 /// What a planner reports about its run.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct PlanStats {
     /// Wall time of `solve`, seconds.
     pub planning_time_s: f64,
@@ -72,7 +72,7 @@ pub struct PlanStats {
     /// (Section V-A.2, a weak guarantee reported beside the certified one).
     #[serde(default)]
     pub average_risk: Option<Vec<(String, f64)>>,
-    /// The final check of a certified plan (docs/design.md §5.12); `None` for an
+    /// The final check of a certified plan (docs/design.md §5.12); null for an
     /// uncertified planner or without a trajectory.
     #[serde(default)]
     pub final_check: Option<FinalCheckStats>,
@@ -83,14 +83,14 @@ pub struct PlanStats {
     /// distribution function; in `risk_mode: trajectory` the plan needs it ≤ Δ).
     #[serde(default)]
     pub whole_path_risk: Option<f64>,
-    /// What a receding-horizon plan achieved (docs/design.md §6.9); `None` otherwise.
+    /// What a receding-horizon plan achieved (docs/design.md §6.9); null otherwise.
     #[serde(default)]
     pub progress: Option<Progress>,
 }
 
 /// What a receding-horizon plan achieved: the goal, or how close it gets
 /// (docs/design.md §6.9; the progress measure is the Euclidean distance to the goal).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct Progress {
     /// Whether the trajectory ends at the goal, at rest.
     pub reached_goal: bool,
@@ -103,7 +103,7 @@ pub struct Progress {
 }
 
 /// What the final check of a certified plan cost and found (docs/design.md §5.12).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct FinalCheckStats {
     /// Wall time of the final checks, seconds (included in `planning_time_s`).
     pub seconds: f64,
@@ -130,7 +130,7 @@ pub struct FinalCheckStats {
 }
 
 /// Sizes and solver totals of an optimisation planner's SDPs.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct SdpStats {
     /// Variables of the last SDP built.
     pub variables: usize,
@@ -151,7 +151,7 @@ pub struct SdpStats {
 }
 
 /// One step of an optimisation planner's retry ladder.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct LadderStep {
     /// Pieces.
     pub pieces: usize,

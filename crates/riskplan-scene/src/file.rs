@@ -2,47 +2,60 @@
 //! fields are errors: they are probably typos.
 
 use super::num::Num;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// The only scene format this version reads.
 pub const SCENE_FORMAT: &str = "riskplan-scene/1";
 
-/// A scene file as written.
-#[derive(Clone, Debug, Deserialize, Serialize)]
+/// A scene, scene format v1 (docs/formats.md); unknown fields are errors. Limits: dim ≤ 8,
+/// degree ≤ 8 in (x, t) and per parameter, ≤ 500 terms per obstacle, ≤ 512 obstacles, and
+/// the expansion and contour-work limits of docs/formats.md §1.7.
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
-    /// Must be `SCENE_FORMAT`.
+    /// `riskplan-scene/1`.
+    #[schemars(extend("const" = SCENE_FORMAT))]
     pub format: String,
     /// Scene name.
     pub name: String,
     /// One line of description.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,
-    /// Spatial dimension.
+    /// Spatial dimension (1 to 8).
+    #[schemars(range(min = 1, max = crate::MAX_DIM))]
     pub dim: usize,
     /// The workspace box.
     pub workspace: WorkspaceFile,
     /// `[t0, tf]`.
+    #[schemars(length(equal = 2))]
     pub horizon: Vec<Num>,
-    /// Δ.
+    /// Δ in (0, 1): the bound on the probability of collision with each obstacle at every
+    /// instant.
     pub risk: Num,
     /// Δ levels of a contour figure.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub risk_levels: Option<Vec<Num>>,
-    /// Uncertain parameters by name.
+    /// Uncertain parameters by name (every identifier of a polynomial other than x1..x{dim}
+    /// and t).
     #[serde(default)]
+    #[schemars(extend("propertyNames" = { "pattern": PARAM_NAME_PATTERN }))]
     pub params: BTreeMap<String, ParamFile>,
-    /// Obstacles.
+    /// Obstacles (at most 512).
+    #[schemars(length(max = crate::MAX_OBSTACLES))]
     pub obstacles: Vec<ObstacleFile>,
-    /// x(t0).
+    /// x(t0); absent in contour-only scenes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(length(min = 1, max = crate::MAX_DIM))]
     pub start: Option<Vec<Num>>,
-    /// x(tf).
+    /// x(tf); absent in contour-only scenes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(length(min = 1, max = crate::MAX_DIM))]
     pub goal: Option<Vec<Num>>,
-    /// The robot's body: the radius of the disk/ball around its reference point (≥ 0;
-    /// default 0, a point robot). Every obstacle is grown by it (docs/design.md §3.12).
+    /// The robot's body: the radius of the disk/ball around its reference point (≥ 0, below
+    /// half the workspace's smallest side; default 0, a point robot). Every obstacle is
+    /// grown by it (docs/design.md §3.12).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub robot_radius: Option<Num>,
     /// Planner options and the paper's planner parameters (§1.6); strict.
@@ -56,23 +69,34 @@ pub struct SceneFile {
     pub notes: Option<Vec<String>>,
 }
 
-/// `{"lower": [...], "upper": [...]}`.
-#[derive(Clone, Debug, Deserialize, Serialize)]
+/// The workspace box: `{"lower": [...], "upper": [...]}`.
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WorkspaceFile {
     /// Lower corner.
+    #[schemars(length(min = 1, max = crate::MAX_DIM))]
     pub lower: Vec<Num>,
     /// Upper corner.
+    #[schemars(length(min = 1, max = crate::MAX_DIM))]
     pub upper: Vec<Num>,
 }
 
+/// The names of a scene's parameters: identifiers.
+pub const PARAM_NAME_PATTERN: &str = "^[A-Za-z_][A-Za-z0-9_]*$";
+
 /// One obstacle: `{x : poly >= 0}`, or a pedestrian template (exactly one of the two).
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("oneOf" = [{ "required": ["poly"] }, { "required": ["pedestrian"] }]))]
 pub struct ObstacleFile {
-    /// Unique id.
+    /// An obstacle id, unique in its scene (it is also a key-expression chunk in
+    /// `riskplan/scenes/<scene>/obstacles/<id>`, so it should avoid / * $ ? #).
+    #[schemars(length(min = 1))]
     pub id: String,
-    /// Polynomial text (empty for a pedestrian).
+    /// Polynomial text: numbers (0.3, 1e-3, 37/300), identifiers (x1..x{dim}, t,
+    /// parameters), + - * ^, parentheses, unary minus; ^ takes a non-negative integer
+    /// literal; / divides by a numeric constant only. The obstacle is the set where
+    /// poly >= 0. Empty (absent) for a pedestrian.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub poly: String,
     /// A pedestrian (docs/formats.md §1.5.1) instead of a polynomial.
@@ -88,7 +112,7 @@ fn one() -> Num {
 }
 
 /// A parameter distribution, tagged by `dist`.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(tag = "dist", rename_all = "lowercase", deny_unknown_fields)]
 pub enum ParamFile {
     /// `uniform`: `low`, `high`.
@@ -175,7 +199,7 @@ impl ParamFile {
 /// The scene's `planner` block (docs/formats.md §1.6): options every planner honours
 /// (`max_speed`, `max_accel`) and the parameters of each of the paper's planners, as
 /// the reference scenes record them. Strict: a misspelt key is an error.
-#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PlannerBlock {
     /// Speed limit (workspace units per time unit), > 0.
@@ -203,7 +227,7 @@ pub struct PlannerBlock {
 }
 
 /// `planner.rrt_sos.width`: stripe half-widths, as a MATLAB range or a list.
-#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WidthBlock {
     /// First half-width.
@@ -224,7 +248,7 @@ pub struct WidthBlock {
 }
 
 /// A box `{lower, upper}` as the authors' scripts give it (recorded).
-#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BoxBlock {
     /// Lower corner.
@@ -234,7 +258,7 @@ pub struct BoxBlock {
 }
 
 /// `planner.rrt_sos`.
-#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RrtSosBlock {
     /// Where the values come from (free text).
@@ -288,7 +312,7 @@ pub struct RrtSosBlock {
 }
 
 /// `planner.time_varying_sos` (recorded from the authors' Julia code).
-#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TimeVaryingSosBlock {
     /// Where the values come from.
@@ -336,7 +360,7 @@ pub struct TimeVaryingSosBlock {
 }
 
 /// `planner.standard_sos` (recorded from the authors' MATLAB code).
-#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct StandardSosBlock {
     /// Where the values come from.
@@ -366,7 +390,7 @@ pub struct StandardSosBlock {
 }
 
 /// `planner.monte_carlo_rrt` (recorded).
-#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MonteCarloRrtBlock {
     /// Scenarios per edge.
@@ -380,13 +404,17 @@ pub struct MonteCarloRrtBlock {
     pub code: Option<String>,
 }
 
-/// `obstacles[i].pedestrian` as written.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+/// A pedestrian (docs/formats.md §1.5.1): a moving disk/ball predicted at `time` with
+/// isotropic Gaussian errors of position and velocity and a radius with a bounded support;
+/// certified by its Gaussian tail bound (docs/design.md §3.11).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PedestrianFile {
     /// Predicted (nominal) centre at `time`.
+    #[schemars(length(min = 1, max = crate::MAX_DIM))]
     pub position: Vec<Num>,
     /// Predicted (nominal) velocity.
+    #[schemars(length(min = 1, max = crate::MAX_DIM))]
     pub velocity: Vec<Num>,
     /// The time of the prediction (`t_ref`).
     pub time: Num,
@@ -403,7 +431,7 @@ pub struct PedestrianFile {
 }
 
 /// A pedestrian's radius: fixed, or a distribution with a bounded support.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq, JsonSchema)]
 #[serde(untagged)]
 pub enum RadiusFile {
     /// A fixed radius.

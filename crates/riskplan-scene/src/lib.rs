@@ -12,22 +12,31 @@
 //! use riskplan_certify::checker::SceneKernel;
 //! ```
 
+mod closed_set;
 mod file;
 pub mod motion;
 mod num;
 mod pedestrian;
 mod trajectory;
 
+pub use closed_set::WireName;
 pub use file::{
     BoxBlock, MonteCarloRrtBlock, ObstacleFile, ParamFile, PedestrianFile, PlannerBlock, RadiusFile, RrtSosBlock,
-    SceneFile, StandardSosBlock, TimeVaryingSosBlock, WidthBlock, WorkspaceFile, SCENE_FORMAT,
+    SceneFile, StandardSosBlock, TimeVaryingSosBlock, WidthBlock, WorkspaceFile, PARAM_NAME_PATTERN, SCENE_FORMAT,
 };
-pub use num::{parse_num_text, Num};
+pub use num::{parse_num_text, Num, NUM_TEXT_PATTERN};
 pub use pedestrian::{Pedestrian, MAX_PEDESTRIAN_MAGNITUDE};
 pub use trajectory::{
     Piece, Trajectory, TrajectoryError, TrajectoryFile, CONTINUITY_TOLERANCE, MAX_PIECES, MAX_PIECE_DEGREE,
     TRAJECTORY_FORMAT,
 };
+
+/// What [`closed_set!`] expands to names (not an API).
+#[doc(hidden)]
+pub mod __private {
+    pub use schemars;
+    pub use serde;
+}
 
 use num_rational::BigRational;
 use num_traits::{Signed, Zero};

@@ -51,6 +51,28 @@ impl<'de> Deserialize<'de> for Num {
     }
 }
 
+/// A decimal (`0.3`, `-1e-3`, `.5`) or a fraction of two decimals (`37/300`), spaces allowed
+/// around the parts: the strings [`parse_num_text`] may accept (it also bounds the digits and
+/// the exponent).
+pub const NUM_TEXT_PATTERN: &str = r"^\s*[+-]?([0-9]+(\.[0-9]*)?|\.[0-9]+)([eE][+-]?[0-9]+)?\s*(/\s*[+-]?([0-9]+(\.[0-9]*)?|\.[0-9]+)([eE][+-]?[0-9]+)?\s*)?$";
+
+impl schemars::JsonSchema for Num {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "Num".into()
+    }
+
+    /// A JSON number, or a string holding a decimal or a fraction ([`NUM_TEXT_PATTERN`]).
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({
+            "description": "a number of a scene file, read exactly: a JSON number (read through its shortest decimal text, so 0.3 is 3/10) or a string holding a decimal or a fraction such as \"37/300\"",
+            "anyOf": [
+                { "type": "number" },
+                { "type": "string", "pattern": NUM_TEXT_PATTERN }
+            ]
+        })
+    }
+}
+
 impl Serialize for Num {
     /// A JSON number when the `f64` reads back as the same rational, else `"p/q"`.
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {

@@ -5,6 +5,7 @@
 //! trajectory is exactly the one a robot would execute from these floats (every
 //! float is a dyadic rational, so certification composes them exactly).
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -23,15 +24,17 @@ pub const MAX_PIECES: usize = 10_000;
 /// trajectory and is rejected.
 pub const CONTINUITY_TOLERANCE: f64 = 1e-9;
 
-/// One polynomial piece on `[t0, t1]`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// One polynomial piece x_d(t) = Σ_k coeffs\[d\]\[k\]·t^k on `[t0, t1]`, in absolute time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Piece {
     /// Start time.
     pub t0: f64,
     /// End time.
     pub t1: f64,
-    /// `coeffs[d][k]` multiplies `t^k` in coordinate `d` (absolute time).
+    /// One row per dimension: `coeffs[d][k]` multiplies `t^k` in coordinate `d` (absolute
+    /// time), degree ≤ 8.
+    #[schemars(length(min = 1), inner(length(min = 1, max = 9)))]
     pub coeffs: Vec<Vec<f64>>,
 }
 
@@ -72,13 +75,15 @@ impl Piece {
     }
 }
 
-/// A trajectory: contiguous pieces.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// A trajectory, format v1: contiguous pieces in time order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Trajectory {
-    /// Must be `TRAJECTORY_FORMAT`.
+    /// `riskplan-trajectory/1`.
+    #[schemars(extend("const" = TRAJECTORY_FORMAT))]
     pub format: String,
     /// The pieces, in time order.
+    #[schemars(length(min = 1))]
     pub pieces: Vec<Piece>,
 }
 

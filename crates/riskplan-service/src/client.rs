@@ -102,11 +102,11 @@ impl Servers {
         }
     }
 
-    fn add(&mut self, id: &str, role: &str) {
+    fn add(&mut self, id: &str, role: Role) {
         if !self.live.iter().any(|s| s == id) {
             self.live.push(id.to_string());
         }
-        if role == "primary" {
+        if role == Role::Primary {
             self.primary = Some(id.to_string());
         }
     }
@@ -484,8 +484,9 @@ impl Client {
     }
 
     /// One raw query on `route` for load tests: sends `payload` (in this client's
-    /// encoding) and returns (number of replies, the first error code if any). Counts
-    /// every reply until the query completes, so "exactly one reply" can be checked.
+    /// encoding) and returns (number of replies, the last error code if any: an error
+    /// reply's code, or `timeout` for an error that is no error reply). Counts every
+    /// reply until the query completes, so "exactly one reply" can be checked.
     pub async fn raw_query(&self, route: &Route, payload: Vec<u8>) -> Result<(usize, Option<String>), ClientError> {
         let enc = match self.codec {
             Codec::Json => Encoding::APPLICATION_JSON,
@@ -517,7 +518,7 @@ impl Client {
             if let Err(e) = r.result() {
                 let c = Codec::from_encoding(&e.encoding().to_string()).unwrap_or(Codec::Json);
                 code = Some(match c.decode::<ErrorReply>(&e.payload().to_bytes()) {
-                    Ok(er) => er.code,
+                    Ok(er) => er.code.as_str().to_string(),
                     Err(_) => "timeout".to_string(),
                 });
             }

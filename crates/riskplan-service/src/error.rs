@@ -1,5 +1,7 @@
-//! Typed service errors and their stable wire codes (proto/README.md).
+//! Typed service errors and their stable wire codes (proto/README.md): each error's
+//! [`ErrorCode`], the one list of codes that the replies, the metrics and the schemas use.
 
+pub use super::proto::ErrorCode;
 use super::proto::ErrorReply;
 use riskplan_plan::PlanError;
 use riskplan_scene::SceneError;
@@ -88,28 +90,29 @@ pub enum ServiceError {
 
 impl ServiceError {
     /// The stable code.
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> ErrorCode {
+        use ErrorCode as C;
         match self {
-            ServiceError::Malformed { .. } => "malformed_payload",
-            ServiceError::UnsupportedEncoding(_) => "unsupported_encoding",
-            ServiceError::PayloadTooLarge(..) => "payload_too_large",
-            ServiceError::LimitExceeded { .. } => "limit_exceeded",
-            ServiceError::InvalidSceneName(_) => "invalid_scene_name",
-            ServiceError::UnknownScene(_) => "unknown_scene",
-            ServiceError::InvalidScene(_) => "invalid_scene",
-            ServiceError::InvalidRequest { .. } => "invalid_request",
-            ServiceError::InvalidTrajectory { .. } => "invalid_trajectory",
-            ServiceError::Plan(PlanError::OutsideWorkspace { .. }) => "outside_workspace",
-            ServiceError::Plan(PlanError::UnsafeEndpoint { .. }) => "unsafe_endpoint",
+            ServiceError::Malformed { .. } => C::MalformedPayload,
+            ServiceError::UnsupportedEncoding(_) => C::UnsupportedEncoding,
+            ServiceError::PayloadTooLarge(..) => C::PayloadTooLarge,
+            ServiceError::LimitExceeded { .. } => C::LimitExceeded,
+            ServiceError::InvalidSceneName(_) => C::InvalidSceneName,
+            ServiceError::UnknownScene(_) => C::UnknownScene,
+            ServiceError::InvalidScene(_) => C::InvalidScene,
+            ServiceError::InvalidRequest { .. } => C::InvalidRequest,
+            ServiceError::InvalidTrajectory { .. } => C::InvalidTrajectory,
+            ServiceError::Plan(PlanError::OutsideWorkspace { .. }) => C::OutsideWorkspace,
+            ServiceError::Plan(PlanError::UnsafeEndpoint { .. }) => C::UnsafeEndpoint,
             // our own SDP model failed: a bug, not the request's fault
-            ServiceError::Plan(PlanError::SdpModel { .. }) => "internal",
-            ServiceError::Plan(_) => "invalid_request",
-            ServiceError::NoPlan(_) => "no_plan",
-            ServiceError::Busy(_) => "busy",
-            ServiceError::DeadlineExceeded(_) => "deadline_exceeded",
-            ServiceError::Unavailable(_) => "unavailable",
-            ServiceError::StaleRevision { .. } => "stale_revision",
-            ServiceError::Internal(_) => "internal",
+            ServiceError::Plan(PlanError::SdpModel { .. }) => C::Internal,
+            ServiceError::Plan(_) => C::InvalidRequest,
+            ServiceError::NoPlan(_) => C::NoPlan,
+            ServiceError::Busy(_) => C::Busy,
+            ServiceError::DeadlineExceeded(_) => C::DeadlineExceeded,
+            ServiceError::Unavailable(_) => C::Unavailable,
+            ServiceError::StaleRevision { .. } => C::StaleRevision,
+            ServiceError::Internal(_) => C::Internal,
         }
     }
 
@@ -133,7 +136,7 @@ impl ServiceError {
 
     /// The wire payload.
     pub fn reply(&self) -> ErrorReply {
-        ErrorReply { code: self.code().to_string(), message: self.to_string(), field: self.field() }
+        ErrorReply { code: self.code(), message: self.to_string(), field: self.field() }
     }
 }
 

@@ -3,13 +3,13 @@
 
 use super::error::{invalid, ServiceError};
 use super::proto::{
-    ApplyRequest, EmbeddedJson, PlanReply, PlanRequest, RiskReply, RiskRequest, Segment, VerifyReply, VerifyRequest,
-    MAX_GRID_SIDE, MAX_RISK_POINTS, MAX_VERIFY_PIECES,
+    ApplyRequest, EmbeddedJson, Named, PlanReply, PlanRequest, RiskReply, RiskRequest, Segment, VerifyReply,
+    VerifyRequest, MAX_GRID_SIDE, MAX_RISK_POINTS, MAX_VERIFY_PIECES,
 };
 use super::registry::{Entry, KernelStats, Registry};
 use riskplan_app::verify::{verify_with, Detail, Method, VerifyOptions};
 use riskplan_app::{self as app, PlannerKind};
-use riskplan_math::contour::{BoundChoice, BoundKind, RiskLevel};
+use riskplan_math::contour::{BoundKind, RiskLevel};
 use riskplan_scene::{Piece, Trajectory, TRAJECTORY_FORMAT};
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
@@ -20,86 +20,122 @@ fn delta_of(d: Option<f64>) -> Result<Option<RiskLevel>, ServiceError> {
     d.map(|d| RiskLevel::from_f64(d).map_err(|e| invalid("delta", e.to_string()))).transpose()
 }
 
-fn bound_of(b: &str) -> Result<BoundChoice, ServiceError> {
-    b.parse().map_err(|e: riskplan_math::contour::UnknownBound| invalid("bound", e.to_string()))
+/// The value of a closed-set field of a request, `None` when absent; a name outside the
+/// set is `invalid_request` naming `field`, with the set's message ([`Named`]).
+fn named<T: Copy>(value: &Option<Named<T>>, field: &str) -> Result<Option<T>, ServiceError> {
+    value.as_ref().map(|n| n.get().map_err(|message| invalid(field, message))).transpose()
 }
 
-fn method_of(m: Option<&str>, field: &str) -> Result<Method, ServiceError> {
-    m.unwrap_or("exact").parse().map_err(|e: String| invalid(field, e))
+/// A plan query, typed: the flat wire `plan_request` converted once, here
+/// ([`PlanQuery::from_wire`]), into what it asks for — a one-shot plan, or one step of
+/// receding-horizon planning with what belongs to that alone. Nothing after the
+/// conversion reads the wire request.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PlanQuery {
+    /// A plan from start to goal over the scene's horizon (`plan.receding` is `None`).
+    OneShot {
+        /// What to plan.
+        plan: app::PlanRequest,
+        /// The robot's body radius (`None`: the scene's).
+        robot_radius: Option<f64>,
+    },
+    /// A receding-horizon step (docs/design.md §6.9): `plan.receding` holds the robot's
+    /// state and window.
+    Receding {
+        /// What to plan.
+        plan: app::PlanRequest,
+        /// The robot's body radius (`None`: the scene's).
+        robot_radius: Option<f64>,
+        /// The robot whose last plan the server keeps and continues from.
+        robot_id: Option<String>,
+    },
 }
 
-/// The typed request of a wire plan request; the time limit is capped by `cap`.
-fn plan_request(req: &PlanRequest, cap: Duration) -> Result<app::PlanRequest, ServiceError> {
-    let time_limit = match req.time_limit {
-        Some(s) => app::time_limit(s)?,
-        None => app::DEFAULT_TIME_LIMIT,
-    };
-    let endpoints = match (&req.start, &req.goal) {
-        (Some(_), _) if req.t_now.is_some() => {
-            return Err(invalid("start", "a receding-horizon request starts at its position"))
-        }
-        (None, Some(_)) if req.t_now.is_some() => None,
-        (Some(s), Some(g)) => Some((s.clone(), g.clone())),
-        (None, None) => None,
-        _ => {
-            return Err(invalid(
-                if req.start.is_none() { "start" } else { "goal" },
-                "give both start and goal, or neither",
-            ))
-        }
-    };
-    Ok(app::PlanRequest {
-        planner: match req.planner.as_deref() {
-            Some(p) => p.parse::<PlannerKind>().map_err(|e| invalid("planner", e.to_string()))?,
-            None => PlannerKind::RrtSos,
-        },
-        certifier: method_of(req.certifier.as_deref(), "certifier")?,
-        delta: delta_of(req.delta)?,
-        endpoints,
-        seed: req.seed.unwrap_or(1),
-        pieces: req.pieces.map(|s| usize::try_from(s).map_err(|_| invalid("pieces", "too large"))).transpose()?,
-        improve: req.improve.unwrap_or(false),
-        time_limit: time_limit.min(cap),
-        max_speed: req.max_speed,
-        max_accel: req.max_accel,
-        smooth: req.smooth.unwrap_or(true),
-        risk_mode: match req.risk_mode.as_deref() {
-            Some(m) => m.parse().map_err(|e: app::UnknownName| invalid("risk_mode", e.to_string()))?,
-            None => app::RiskMode::PerObstacle,
-        },
-        bound: req.bound.as_deref().map(bound_of).transpose()?,
-        receding: receding_of(req)?,
-    })
-}
-
-/// The receding-horizon part of a wire plan request (docs/design.md §6.9), if any.
-fn receding_of(req: &PlanRequest) -> Result<Option<app::RecedingRequest>, ServiceError> {
-    let Some(t_now) = req.t_now else {
-        for (field, given) in [
-            ("position", req.position.is_some()),
-            ("velocity", req.velocity.is_some()),
-            ("horizon", req.horizon.is_some()),
-            ("robot_id", req.robot_id.is_some()),
-            ("warm_start", req.warm_start.is_some()),
-        ] {
-            if given {
-                return Err(invalid(field, "belongs to a receding-horizon request: give t_now too"));
+impl PlanQuery {
+    /// The typed query of a wire plan request, its time limit capped by `cap`; every
+    /// error names the field at fault (the checks in the order they have always run:
+    /// the time limit, the endpoints, the planner, certifier, Δ, pieces, risk mode, bound,
+    /// then what a receding request needs and what belongs to one alone).
+    pub fn from_wire(req: &PlanRequest, cap: Duration) -> Result<PlanQuery, ServiceError> {
+        let time_limit = match req.time_limit {
+            Some(s) => app::time_limit(s)?,
+            None => app::DEFAULT_TIME_LIMIT,
+        };
+        let endpoints = match (&req.start, &req.goal) {
+            (Some(_), _) if req.t_now.is_some() => {
+                return Err(invalid("start", "a receding-horizon request starts at its position"))
             }
+            (None, Some(_)) if req.t_now.is_some() => None,
+            (Some(s), Some(g)) => Some((s.clone(), g.clone())),
+            (None, None) => None,
+            _ => {
+                return Err(invalid(
+                    if req.start.is_none() { "start" } else { "goal" },
+                    "give both start and goal, or neither",
+                ))
+            }
+        };
+        let mut plan = app::PlanRequest {
+            planner: named(&req.planner, "planner")?.unwrap_or(PlannerKind::RrtSos),
+            certifier: named(&req.certifier, "certifier")?.unwrap_or(Method::Exact),
+            delta: delta_of(req.delta)?,
+            endpoints,
+            seed: req.seed.unwrap_or(1),
+            pieces: req.pieces.map(|s| usize::try_from(s).map_err(|_| invalid("pieces", "too large"))).transpose()?,
+            improve: req.improve.unwrap_or(false),
+            time_limit: time_limit.min(cap),
+            max_speed: req.max_speed,
+            max_accel: req.max_accel,
+            smooth: req.smooth.unwrap_or(true),
+            risk_mode: named(&req.risk_mode, "risk_mode")?.unwrap_or(app::RiskMode::PerObstacle),
+            bound: named(&req.bound, "bound")?,
+            receding: None,
+        };
+        let robot_radius = req.robot_radius;
+        let Some(t_now) = req.t_now else {
+            for (field, given) in [
+                ("position", req.position.is_some()),
+                ("velocity", req.velocity.is_some()),
+                ("horizon", req.horizon.is_some()),
+                ("robot_id", req.robot_id.is_some()),
+                ("warm_start", req.warm_start.is_some()),
+            ] {
+                if given {
+                    return Err(invalid(field, "belongs to a receding-horizon request: give t_now too"));
+                }
+            }
+            return Ok(PlanQuery::OneShot { plan, robot_radius });
+        };
+        let position =
+            req.position.clone().ok_or_else(|| invalid("position", "a receding-horizon request needs it"))?;
+        let horizon = req.horizon.ok_or_else(|| invalid("horizon", "a receding-horizon request needs it"))?;
+        let goal = req.goal.clone().ok_or_else(|| invalid("goal", "a receding-horizon request needs it"))?;
+        let warm_start = match &req.warm_start {
+            Some(p) if p.is_empty() => return Err(invalid("warm_start", "needs at least one piece")),
+            Some(p) if p.len() > riskplan_scene::MAX_PIECES => {
+                return Err(invalid("warm_start", format!("at most {} pieces", riskplan_scene::MAX_PIECES)))
+            }
+            Some(p) => Some(Arc::new(Trajectory::new(p.clone()))),
+            None => None,
+        };
+        plan.receding =
+            Some(app::RecedingRequest { t_now, position, velocity: req.velocity.clone(), horizon, goal, warm_start });
+        Ok(PlanQuery::Receding { plan, robot_radius, robot_id: req.robot_id.clone() })
+    }
+
+    /// What to plan.
+    pub fn plan(&self) -> &app::PlanRequest {
+        match self {
+            PlanQuery::OneShot { plan, .. } | PlanQuery::Receding { plan, .. } => plan,
         }
-        return Ok(None);
-    };
-    let position = req.position.clone().ok_or_else(|| invalid("position", "a receding-horizon request needs it"))?;
-    let horizon = req.horizon.ok_or_else(|| invalid("horizon", "a receding-horizon request needs it"))?;
-    let goal = req.goal.clone().ok_or_else(|| invalid("goal", "a receding-horizon request needs it"))?;
-    let warm_start = match &req.warm_start {
-        Some(p) if p.is_empty() => return Err(invalid("warm_start", "needs at least one piece")),
-        Some(p) if p.len() > riskplan_scene::MAX_PIECES => {
-            return Err(invalid("warm_start", format!("at most {} pieces", riskplan_scene::MAX_PIECES)))
+    }
+
+    /// The robot's body radius asked for (`None`: the scene's).
+    pub fn robot_radius(&self) -> Option<f64> {
+        match self {
+            PlanQuery::OneShot { robot_radius, .. } | PlanQuery::Receding { robot_radius, .. } => *robot_radius,
         }
-        Some(p) => Some(Arc::new(Trajectory::new(p.clone()))),
-        None => None,
-    };
-    Ok(Some(app::RecedingRequest { t_now, position, velocity: req.velocity.clone(), horizon, goal, warm_start }))
+    }
 }
 
 /// Replaces scene `name` or applies changes to it (an `apply` request); returns the
@@ -121,7 +157,12 @@ pub fn plan(
     arrival: Instant,
     cancel: Arc<AtomicBool>,
 ) -> Result<PlanReply, ServiceError> {
-    let mut request = plan_request(req, cap)?;
+    let query = PlanQuery::from_wire(req, cap)?;
+    let robot_radius = query.robot_radius();
+    let (mut request, robot_id) = match query {
+        PlanQuery::OneShot { plan, .. } => (plan, None),
+        PlanQuery::Receding { plan, robot_id, .. } => (plan, robot_id),
+    };
     // the time limit counts from the request's arrival: queue time is spent from it
     let left = (arrival + request.time_limit).saturating_duration_since(Instant::now());
     if left.is_zero() {
@@ -129,13 +170,13 @@ pub fn plan(
     }
     request.time_limit = left;
     // the robot's kept plan, unless the request sends one
-    if let (Some(r), Some(id)) = (request.receding.as_mut(), req.robot_id.as_deref()) {
+    if let (Some(r), Some(id)) = (request.receding.as_mut(), robot_id.as_deref()) {
         check_robot_id(id)?;
         if r.warm_start.is_none() {
             r.warm_start = registry.robot_plan(&entry.scene.name, id);
         }
     }
-    let kernel = match req.robot_radius {
+    let kernel = match robot_radius {
         Some(rho) => registry.with_body(entry, rho)?,
         None => entry.kernel.clone(),
     };
@@ -147,7 +188,7 @@ pub fn plan(
     registry.kernels.covers(held);
     // the planner that ran (a receding request runs `receding` whatever it named)
     let (problem, ran, out) = (prepared.problem, prepared.kind, solved?);
-    if let (Some(id), Some(t)) = (req.robot_id.as_deref(), out.trajectory.as_ref()) {
+    if let (Some(id), Some(t)) = (robot_id.as_deref(), out.trajectory.as_ref()) {
         registry.keep_robot_plan(&entry.scene.name, id, Arc::new(t.clone()));
     }
     // the final check's internal errors (docs/design.md §5.12): each answered by a re-plan
@@ -176,7 +217,7 @@ pub fn plan(
     Ok(PlanReply {
         format: TRAJECTORY_FORMAT.into(),
         pieces: traj.pieces,
-        planner: ran.as_str().into(),
+        planner: ran,
         certified: out.certified,
         stats: out.stats,
         revision: entry.revision,
@@ -266,8 +307,8 @@ pub fn verify_observed(
         _ => return Err(invalid("trajectory", "give exactly one of trajectory, segment and segments")),
     };
     let delta = delta_of(req.delta)?.unwrap_or_else(|| scene.risk.clone());
-    let method = method_of(req.method.as_deref(), "method")?;
-    let bounds = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
+    let method = named(&req.method, "method")?.unwrap_or(Method::Exact);
+    let bounds = named(&req.bound, "bound")?.unwrap_or_default();
     let detail = if req.summary.unwrap_or(false) { Detail::FirstNotSafe } else { Detail::Every };
     let whole_path = req.whole_path.unwrap_or(false);
     if whole_path && batch {
@@ -295,9 +336,9 @@ pub fn verify_observed(
     let r = out.report;
     Ok(VerifyReply {
         safe: r.safe,
-        method: r.method,
+        method,
         risk: r.risk,
-        bound: bounds.to_string(),
+        bound: bounds,
         pieces: r.pieces,
         revision: entry.revision,
         checked: r.checked as u64,
@@ -359,7 +400,7 @@ pub fn risk(entry: &Entry, req: &RiskRequest, deadline: Instant) -> Result<RiskR
         }
         _ => return Err(invalid("points", "give exactly one of points and grid")),
     };
-    let bound = req.bound.as_deref().map(bound_of).transpose()?.unwrap_or_default();
+    let bound = named(&req.bound, "bound")?.unwrap_or_default();
     let every = req.every_bound.unwrap_or(false);
     let mut per: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     let mut by_bound: BTreeMap<String, BTreeMap<String, Vec<f64>>> = BTreeMap::new();
@@ -398,13 +439,66 @@ pub fn risk(entry: &Entry, req: &RiskRequest, deadline: Instant) -> Result<RiskR
             by_bound.insert(o.id.clone(), all);
         }
     }
-    Ok(RiskReply {
-        revision: entry.revision,
-        time: t,
-        points,
-        bounds,
-        obstacles: per,
-        by_bound,
-        bound: bound.to_string(),
-    })
+    Ok(RiskReply { revision: entry.revision, time: t, points, bounds, obstacles: per, by_bound, bound })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::proto::Codec;
+
+    fn query(json: &str) -> Result<PlanQuery, ServiceError> {
+        let req: PlanRequest = Codec::Json.decode(json.as_bytes()).expect("decodes");
+        PlanQuery::from_wire(&req, Duration::from_secs(60))
+    }
+
+    fn field_and_message(r: Result<PlanQuery, ServiceError>) -> (String, String) {
+        match r {
+            Err(e) if e.code() == crate::proto::ErrorCode::InvalidRequest => {
+                (e.field().unwrap_or_default(), e.to_string())
+            }
+            other => panic!("not invalid_request: {other:?}"),
+        }
+    }
+
+    /// A name outside its set decodes and is `invalid_request` naming the field, with the
+    /// set's own message; a name that is no string is no request (`malformed_payload`).
+    #[test]
+    fn unknown_names_are_invalid_requests_naming_the_field() {
+        let (f, m) = field_and_message(query(r#"{"planner": "astar"}"#));
+        assert_eq!(f, "planner");
+        assert!(m.starts_with("unknown planner 'astar' (rrt-sos, rrt-sos-paper, mc-rrt,"), "{m}");
+        let (f, m) = field_and_message(query(r#"{"certifier": "bogus"}"#));
+        assert_eq!((f.as_str(), m.as_str()), ("certifier", "unknown method 'bogus' (expected sos, exact or both)"));
+        let (f, m) = field_and_message(query(r#"{"risk_mode": "everything"}"#));
+        assert_eq!(f, "risk_mode");
+        assert_eq!(m, "unknown risk_mode 'everything' (per-obstacle, joint, joint-weighted, trajectory)");
+        let (f, m) = field_and_message(query(r#"{"bound": "markov"}"#));
+        assert_eq!((f.as_str(), m.as_str()), ("bound", "unknown bound 'markov' (expected auto or cantelli)"));
+        // the checks keep their order: the time limit before the planner
+        assert_eq!(field_and_message(query(r#"{"planner": "astar", "time_limit": 0}"#)).0, "time_limit");
+        let e = Codec::Json.decode::<PlanRequest>(br#"{"planner": 3}"#).expect_err("not a name");
+        assert_eq!(e.1.as_deref(), Some("planner"));
+    }
+
+    /// One-shot and receding requests are told apart once, with the errors of each kind.
+    #[test]
+    fn a_plan_request_is_one_shot_or_receding() {
+        let one = query(r#"{"planner": "mc-rrt", "start": [0, 0], "goal": [1, 1], "robot_radius": 0.1}"#).unwrap();
+        assert!(matches!(&one, PlanQuery::OneShot { robot_radius: Some(r), .. } if *r == 0.1));
+        assert_eq!(one.plan().planner, PlannerKind::McRrt);
+        assert_eq!(one.plan().endpoints, Some((vec![0.0, 0.0], vec![1.0, 1.0])));
+        let step = r#"{"t_now": 0.5, "position": [0, 0], "horizon": 1, "goal": [1, 1], "robot_id": "r1"}"#;
+        match query(step).unwrap() {
+            PlanQuery::Receding { plan, robot_id, .. } => {
+                assert_eq!(robot_id.as_deref(), Some("r1"));
+                let r = plan.receding.expect("the window");
+                assert_eq!((r.t_now, r.horizon, r.goal), (0.5, 1.0, vec![1.0, 1.0]));
+            }
+            other => panic!("not receding: {other:?}"),
+        }
+        assert_eq!(field_and_message(query(r#"{"horizon": 1}"#)).0, "horizon");
+        assert_eq!(field_and_message(query(r#"{"t_now": 0, "position": [0, 0], "goal": [1, 1]}"#)).0, "horizon");
+        assert_eq!(field_and_message(query(r#"{"t_now": 0, "start": [0, 0], "goal": [1, 1]}"#)).0, "start");
+    }
 }

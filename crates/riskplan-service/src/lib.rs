@@ -34,6 +34,7 @@ pub mod registry;
 mod replication;
 #[cfg(feature = "transport")]
 pub mod routes;
+pub mod schema;
 #[cfg(feature = "transport")]
 pub mod server;
 #[cfg(feature = "transport")]

@@ -13,6 +13,8 @@
 //! this module knows nothing of the server's state but the [`Snapshot`] its sampler
 //! returns (set by `server.rs`).
 
+use super::error::ServiceError;
+use super::proto::{ErrorCode, Role};
 use super::routes::RouteKind;
 use prometheus_client::collector::Collector;
 use prometheus_client::encoding::{DescriptorEncoder, EncodeLabelSet, EncodeMetric, MetricEncoder, NoLabelSet};
@@ -90,30 +92,26 @@ const KINDS: [&str; RouteKind::ALL.len() + 2] = {
     k
 };
 
-/// The outcomes: `ok`, a dropped put, and every error code of `ServiceError::code`.
-/// Their (kind, outcome) counters are made on first use and then reached without a
-/// lock; an outcome not listed here is still counted, through the family's lock.
-const OUTCOMES: [&str; 19] = [
-    OK,
-    DROPPED,
-    "malformed_payload",
-    "unsupported_encoding",
-    "payload_too_large",
-    "limit_exceeded",
-    "invalid_scene_name",
-    "unknown_scene",
-    "invalid_scene",
-    "invalid_request",
-    "invalid_trajectory",
-    "outside_workspace",
-    "unsafe_endpoint",
-    "no_plan",
-    "busy",
-    "deadline_exceeded",
-    "unavailable",
-    "stale_revision",
-    "internal",
-];
+/// The outcomes: `ok`, a dropped put, and every error code ([`ErrorCode::ALL`], the list
+/// `ServiceError::code` returns from, by its wire name). Their (kind, outcome) counters are
+/// made on first use and then reached without a lock; an outcome not listed here is still
+/// counted, through the family's lock.
+const OUTCOMES: [&str; 2 + ErrorCode::ALL.len()] = {
+    let mut o = [""; 2 + ErrorCode::ALL.len()];
+    o[0] = OK;
+    o[1] = DROPPED;
+    let mut i = 0;
+    while i < ErrorCode::ALL.len() {
+        o[2 + i] = ErrorCode::ALL[i].as_str();
+        i += 1;
+    }
+    o
+};
+
+/// The outcome of a request answered with `result`: `ok`, or its error's code.
+pub(crate) fn outcome<T>(result: &Result<T, ServiceError>) -> &'static str {
+    result.as_ref().map_or_else(|e| e.code().as_str(), |_| OK)
+}
 
 /// Upper bounds of the latency buckets, seconds: 100 µs (an echo, a status) to 30 s
 /// (a long plan; the server's caps default to 60 s and land in `+Inf`), about ×2.5 apart.
@@ -332,7 +330,7 @@ pub(crate) struct Metrics {
 
 impl Metrics {
     /// The metrics of a server in `role` (`primary` or `replica`) with id `server_id`.
-    pub(crate) fn new(role: &str, server_id: &str) -> Metrics {
+    pub(crate) fn new(role: Role, server_id: &str) -> Metrics {
         let mut registry = Registry::with_prefix(PREFIX);
         registry.register(
             "build",
@@ -341,7 +339,7 @@ impl Metrics {
             Info::new(vec![
                 ("version", env!("CARGO_PKG_VERSION").to_string()),
                 ("commit", riskplan_app::GIT_COMMIT.to_string()),
-                ("role", role.to_string()),
+                ("role", role.as_str().to_string()),
                 ("server_id", server_id.to_string()),
             ]),
         );
@@ -457,13 +455,14 @@ mod tests {
             E::Internal(String::new()),
         ];
         for e in errors {
-            assert!(OUTCOMES.contains(&e.code()), "{} is not among the pre-made outcomes", e.code());
+            assert!(OUTCOMES.contains(&e.code().as_str()), "{} is not among the pre-made outcomes", e.code());
+            assert_eq!(outcome::<()>(&Err(e.clone())), e.code().as_str());
         }
     }
 
     #[test]
     fn counts_and_histograms_per_kind_and_outcome() {
-        let m = Metrics::new("primary", "t1");
+        let m = Metrics::new(Role::Primary, "t1");
         m.record("plan", OK, Duration::from_millis(3));
         m.record("plan", OK, Duration::from_millis(40));
         m.record("plan", "no_plan", Duration::from_secs(2));
@@ -502,7 +501,7 @@ mod tests {
 
     #[test]
     fn the_state_is_read_at_each_scrape() {
-        let m = Metrics::new("replica", "r-1");
+        let m = Metrics::new(Role::Replica, "r-1");
         let snap = Snapshot {
             ready: true,
             queue_depth: 3,
@@ -560,7 +559,7 @@ mod tests {
     /// A Metrics that recorded every pre-made (kind, outcome), a kind and an outcome
     /// outside the lists, and a full state snapshot: every family the server writes.
     fn everything() -> Metrics {
-        let m = Metrics::new("primary", "every-1");
+        let m = Metrics::new(Role::Primary, "every-1");
         for (i, &kind) in KINDS.iter().enumerate() {
             for (j, &outcome) in OUTCOMES.iter().enumerate() {
                 m.record(kind, outcome, Duration::from_micros(((i * OUTCOMES.len() + j) as u64 * 7919) % 40_000_000));
@@ -715,7 +714,7 @@ mod tests {
 
     #[test]
     fn the_exposition_parses_as_openmetrics_lines() {
-        let m = Metrics::new("primary", "x");
+        let m = Metrics::new(Role::Primary, "x");
         m.record("status", OK, Duration::from_micros(120));
         let text = m.encode(Format::OpenMetrics).unwrap();
         for line in text.lines() {

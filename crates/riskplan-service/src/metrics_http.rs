@@ -452,7 +452,7 @@ mod tests {
 
     #[test]
     fn answers_by_method_and_path() {
-        let m = Metrics::new("primary", "h");
+        let m = Metrics::new(super::super::proto::Role::Primary, "h");
         let get = answer(b"GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n", &m);
         assert_eq!(status_of(&get), 200);
         let text = String::from_utf8_lossy(&get);
@@ -600,7 +600,7 @@ mod tests {
 
     #[test]
     fn text_plain_is_answered_in_the_0_0_4_format() {
-        let m = Metrics::new("primary", "h");
+        let m = Metrics::new(super::super::proto::Role::Primary, "h");
         let get = answer(b"GET /metrics HTTP/1.1\r\nAccept: text/plain; version=0.0.4\r\n\r\n", &m);
         assert_eq!(status_of(&get), 200);
         let text = String::from_utf8_lossy(&get);

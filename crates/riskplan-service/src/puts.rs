@@ -67,8 +67,8 @@ fn handle_put(state: &Arc<State>, key: &str, kind: SampleKind, bytes: &[u8], arr
         }
         Err(e) => {
             state.count("put", false);
-            state.record(metrics::PUT, e.code(), arrived.elapsed());
-            warn!(code = e.code(), "put rejected: {e}");
+            state.record(metrics::PUT, e.code().as_str(), arrived.elapsed());
+            warn!(code = e.code().as_str(), "put rejected: {e}");
         }
     }
 }

@@ -68,7 +68,7 @@ pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<
         let ok = result.is_ok();
         state.count(kind, ok);
         // before the reply: a client that scrapes after its reply finds it counted
-        state.record(kind, result.as_ref().map_or_else(ServiceError::code, |_| metrics::OK), t0.elapsed());
+        state.record(kind, metrics::outcome(&result), t0.elapsed());
         let span = tracing::Span::current();
         span.record("duration_ms", t0.elapsed().as_secs_f64() * 1e3);
         let sent = match result {
@@ -79,7 +79,7 @@ pub(crate) async fn handle_query(state: Arc<State>, query: Query, route: Result<
                 query.reply(query.key_expr().clone(), payload).encoding(encoding_of(codec)).await
             }
             Err(e) => {
-                info!(code = e.code(), "error reply: {e}");
+                info!(code = e.code().as_str(), "error reply: {e}");
                 let mut reply = e.reply();
                 if let ServiceError::UnknownScene(name) = &e {
                     // what this server holds, and the name meant (after the handler: no lock held)
@@ -238,7 +238,7 @@ async fn dispatch(
             // waiting for a revision spends the plan's own time limit
             let limit = req.time_limit.and_then(|t| Duration::try_from_secs_f64(t).ok()).unwrap_or(state.max_plan_seconds);
             let entry = entry_at_least(state, scene, min, arrival, arrival + limit.min(state.max_plan_seconds)).await?;
-            tracing::Span::current().record("planner", req.planner.as_deref().unwrap_or("rrt-sos"));
+            tracing::Span::current().record("planner", req.planner_name());
             let cap = state.max_plan_seconds;
             let guard = state.cancels.register();
             let cancel = guard.flag.clone();

@@ -4,7 +4,7 @@
 //! before they become visible (and before `apply` replies).
 
 use super::error::{invalid, ServiceError};
-use super::proto::{Change, EmbeddedJson, ObstaclePut};
+use super::proto::{Change, ChangeOp, EmbeddedJson, ObstaclePut};
 use super::store::Store;
 use riskplan_certify::checker::SceneKernel;
 use riskplan_scene::{ContourCache, Scene};
@@ -12,9 +12,7 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 
-/// Most changes in one `apply` (a scene holds at most `scene::MAX_OBSTACLES` = 512
-/// obstacles; 28 000 changes took 10 s to refuse).
-pub const MAX_CHANGES: usize = 512;
+pub use super::proto::MAX_CHANGES;
 
 /// A scene at one revision.
 #[derive(Clone, Debug)]
@@ -612,8 +610,8 @@ impl Registry {
         self.update(name, |cur| {
             let mut json = cur.cloned().ok_or_else(|| ServiceError::UnknownScene(name.to_string()))?;
             for (i, c) in changes.iter().enumerate() {
-                match c.op.as_str() {
-                    "put" => match (&c.poly, &c.pedestrian) {
+                match c.op.get() {
+                    Ok(ChangeOp::Put) => match (&c.poly, &c.pedestrian) {
                         (Some(poly), None) => {
                             put_obstacle_json(&mut json, &c.id, poly, c.params.as_ref(), &format!("changes[{i}]"))?
                         }
@@ -630,18 +628,13 @@ impl Registry {
                             ))
                         }
                     },
-                    "delete" => {
+                    Ok(ChangeOp::Delete) => {
                         if c.poly.is_some() || c.params.is_some() || c.pedestrian.is_some() {
                             return Err(invalid(&format!("changes[{i}]"), "a delete takes only 'op' and 'id'"));
                         }
                         delete_obstacle_json(&mut json, &c.id, &format!("changes[{i}].id"))?
                     }
-                    other => {
-                        return Err(invalid(
-                            &format!("changes[{i}].op"),
-                            format!("'{other}' is not an operation (put or delete)"),
-                        ))
-                    }
+                    Err(message) => return Err(invalid(&format!("changes[{i}].op"), message)),
                 }
             }
             Ok(json)

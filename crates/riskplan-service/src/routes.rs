@@ -7,6 +7,7 @@
 //! Names (scenes, obstacle ids) are opaque here: any non-empty chunk. Whether a name
 //! is valid is the registry's to say (`invalid_scene_name`), as before this module.
 
+use super::proto::Role;
 use std::fmt;
 use thiserror::Error;
 
@@ -26,14 +27,14 @@ pub(crate) const REPLICATED_COMMITS: &str = "riskplan/_replication/scenes/**";
 pub(crate) const SERVER_TOKENS: &str = "riskplan/_servers/*/*";
 
 /// The liveliness token of server `id` in `role` (`primary` or `replica`).
-pub(crate) fn server_token(id: &str, role: &str) -> String {
+pub(crate) fn server_token(id: &str, role: Role) -> String {
     format!("{ROOT}/_servers/{id}/{role}")
 }
 
 /// The id and role in a server's liveliness token, if `key` is one.
-pub fn token_server(key: &str) -> Option<(&str, &str)> {
+pub fn token_server(key: &str) -> Option<(&str, Role)> {
     let (id, role) = key.strip_prefix("riskplan/_servers/")?.split_once('/')?;
-    (valid_server_id(id) && matches!(role, "primary" | "replica")).then_some((id, role))
+    valid_server_id(id).then(|| role.parse().ok().map(|r| (id, r))).flatten()
 }
 
 /// A server id: 1 to 64 characters from `0-9 a-z A-Z _ -` (chunk-safe; what

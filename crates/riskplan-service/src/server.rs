@@ -9,6 +9,7 @@
 use super::jobs::{Cancels, Jobs};
 use super::metrics::{Metrics, DROPPED, PUT};
 use super::metrics_http;
+use super::proto::Role;
 use super::puts::{spawn_put_worker, PUT_QUEUE};
 use super::registry::Registry;
 use super::replication::{spawn_publisher, spawn_sync};
@@ -90,7 +91,7 @@ pub async fn serve(cfg: ServerConfig) -> Result<(), String> {
         Some(id) => return Err(format!("--server-id '{id}': use 1 to 64 characters from 0-9 a-z A-Z _ -")),
         None => format!("{:016x}", rand::random::<u64>()),
     };
-    let role = if cfg.replica { "replica" } else { "primary" };
+    let role = if cfg.replica { Role::Replica } else { Role::Primary };
     let metrics = scrapes.as_ref().map(|_| Arc::new(Metrics::new(role, &server_id)));
     let state = Arc::new(State {
         registry: Registry::new(store),

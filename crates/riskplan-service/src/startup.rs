@@ -89,11 +89,7 @@ pub(crate) async fn serve_when_ready(state: Arc<State>, session: zenoh::Session)
         Ok(q) => loops.push(tokio::spawn(serve_own_queries(state.clone(), q))),
         Err(e) => warn!("{e}"),
     }
-    let _token = match session
-        .liveliness()
-        .declare_token(server_token(&state.server_id, if state.replica { "replica" } else { "primary" }))
-        .await
-    {
+    let _token = match session.liveliness().declare_token(server_token(&state.server_id, state.role())).await {
         Ok(t) => Some(t),
         Err(e) => {
             warn!("cannot declare the liveliness token: {e}");

@@ -90,12 +90,21 @@ impl State {
         }
     }
 
+    /// This server's role.
+    pub(crate) fn role(&self) -> Role {
+        if self.replica {
+            Role::Replica
+        } else {
+            Role::Primary
+        }
+    }
+
     /// The `status` reply.
     pub(crate) fn status(&self) -> StatusReply {
         let (entries, hits, misses) = self.registry.cache.stats();
         StatusReply {
-            state: if self.ready.load(Ordering::SeqCst) { "ready" } else { "loading" }.into(),
-            role: if self.replica { "replica" } else { "primary" }.into(),
+            state: if self.ready.load(Ordering::SeqCst) { ServerState::Ready } else { ServerState::Loading },
+            role: self.role(),
             server_id: self.server_id.clone(),
             uptime_s: self.started.elapsed().as_secs_f64(),
             scenes: self

@@ -30,7 +30,7 @@ pub use riskplan_certify::checker::{
 };
 
 /// One method's verdict on one constraint.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct MethodReport {
     /// Status.
     pub status: Status,
@@ -44,15 +44,17 @@ pub struct MethodReport {
 }
 
 /// The verdict on one constraint of one obstacle over one piece.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct ConstraintReport {
     /// `mean` (−E\[P\] > 0) or `cantelli` (E\[P\]² − (1−Δ)E\[P²\] > 0).
+    #[schemars(extend("enum" = ["mean", "cantelli"]))]
     pub name: String,
     /// Combined status.
     pub status: Status,
-    /// See [`MethodReport::margin`].
+    /// Proven lower bound on the constraint's minimum over the piece (safe), or the
+    /// witness value (unsafe), combined over the methods.
     pub margin: Option<f64>,
-    /// See [`MethodReport::witness`].
+    /// Witness (unsafe), combined over the methods.
     pub witness: Option<WitnessReport>,
     /// The method(s) used.
     pub method: String,
@@ -63,7 +65,7 @@ pub struct ConstraintReport {
 }
 
 /// One obstacle over one piece.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct ObstacleReport {
     /// Obstacle id.
     pub id: String,
@@ -85,7 +87,7 @@ pub struct ObstacleReport {
 }
 
 /// One part of a piece proven by one bound.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct BoundPartReport {
     /// Start (absolute time).
     pub t0: f64,
@@ -96,7 +98,7 @@ pub struct BoundPartReport {
 }
 
 /// One piece.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct PieceReport {
     /// Start time.
     pub t0: f64,
@@ -142,7 +144,7 @@ pub struct VerifyReport {
 /// The whole-path bound of a trajectory (docs/design.md §5.14): with ω drawn once,
 /// P(∃ t, ∃ obstacle : x(t) in it) ≤ `bound` — beyond the per-instant risk the other
 /// fields certify.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct WholePathRisk {
     /// The sum over the obstacles (Boole) of their bounds, at most 1 (a float at or above
     /// the exact sum).
@@ -152,7 +154,7 @@ pub struct WholePathRisk {
 }
 
 /// One obstacle's part of a [`WholePathRisk`].
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct ObstacleWholePath {
     /// The obstacle's id.
     pub id: String,
@@ -161,7 +163,7 @@ pub struct ObstacleWholePath {
     /// `partition`: the parameter space partitioned over every piece at once; `pooled`:
     /// one moment envelope over every piece's coefficients; `sum`: the pieces' moment
     /// bounds added up.
-    pub how: String,
+    pub how: riskplan_certify::whole_path::PathRiskHow,
     /// Each piece's own bound, in order.
     pub pieces: Vec<f64>,
 }
@@ -190,12 +192,7 @@ pub fn whole_path_risk(
         let r = trajectory_path_risk(o.contour.get(), &refs, frame, stop).ok_or(Interrupted)?;
         // the sum rounded up: a float at or above the exact sum of the obstacles' bounds
         total = riskplan_certify::whole_path::add_up(total, r.bound);
-        obstacles.push(ObstacleWholePath {
-            id: o.id.clone(),
-            bound: r.bound,
-            how: r.how.as_str().to_string(),
-            pieces: r.pieces,
-        });
+        obstacles.push(ObstacleWholePath { id: o.id.clone(), bound: r.bound, how: r.how, pieces: r.pieces });
     }
     Ok(WholePathRisk { bound: total.min(1.0), obstacles })
 }

@@ -9,6 +9,7 @@
 use crate::common::{scene, size};
 use riskplan_app::verify::{audit_whole_path, verify_with, AuditOptions, Detail, SceneKernel, VerifyOptions};
 use riskplan_app::PlanRequest;
+use riskplan_certify::whole_path::PathRiskHow;
 use riskplan_scene::Piece;
 use std::sync::Arc;
 
@@ -51,7 +52,7 @@ fn whole_path_bounds_cover_the_closed_form_and_pool_nested_pieces() {
     println!("whole path: truth {whole:.3}, bound {:.3} ({}), pieces {:?} (sum {sum:.3})", o.bound, o.how, o.pieces);
     // the disk's radius is uniform: the partition bounds the trajectory at once, within a
     // few hundredths of the closed form, far below the sum over the pieces
-    assert_eq!(o.how, "partition", "every parameter has a distribution function");
+    assert_eq!(o.how, PathRiskHow::Partition, "every parameter has a distribution function");
     assert!(o.bound <= whole + 0.02, "the partition is tight: {} vs the closed form {whole}", o.bound);
     assert!(o.bound < sum, "one partition beats Boole over the pieces: {} vs {sum}", o.bound);
     assert!(w.bound <= 1.0);

@@ -11,9 +11,9 @@ use riskplan_math::poly::{Interval, UPoly};
 use riskplan_scene::{Obstacle, Scene};
 use serde::{Deserialize, Serialize};
 
-/// Which method decides positivity.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
-#[serde(rename_all = "lowercase")]
+/// Which method decides positivity: `exact`, `sos` or `both` (serde and JSON Schema by
+/// [`riskplan_scene::closed_set!`]: its `as_str` names, read through `FromStr`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Method {
     /// The SOS certificate of eq. (15) on Clarabel, re-checked rigorously.
     Sos,
@@ -36,8 +36,13 @@ impl std::str::FromStr for Method {
     }
 }
 
+riskplan_scene::closed_set!(Method, "Method");
+
 impl Method {
-    /// The name used in reports.
+    /// Every method, in the order help texts and schemas list them.
+    pub const ALL: [Method; 3] = [Method::Exact, Method::Sos, Method::Both];
+
+    /// The name used in requests and reports.
     pub fn as_str(&self) -> &'static str {
         match self {
             Method::Sos => "sos",
@@ -48,7 +53,8 @@ impl Method {
 }
 
 /// `safe`, `unsafe` or `undecided`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[schemars(inline)]
 #[serde(rename_all = "lowercase")]
 pub enum Status {
     /// Proven safe.
@@ -59,8 +65,8 @@ pub enum Status {
     Undecided,
 }
 
-/// A time at which a constraint is ≤ 0, in absolute time.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// A time at which a constraint is ≤ 0 (absolute time) and the constraint's value there.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct WitnessReport {
     /// Absolute time.
     pub t: f64,

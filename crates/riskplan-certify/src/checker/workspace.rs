@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 pub const WORKSPACE_WITNESS_GRID: usize = 64;
 
 /// The workspace verdict of one piece.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct WorkspaceStatus {
     /// Safe (inside), unsafe (leaves the box, with witness) or undecided.
     pub status: Status,

@@ -363,7 +363,12 @@ pub enum PathRiskHow {
     Sum,
 }
 
+riskplan_scene::closed_set!(PathRiskHow, "PathRiskHow");
+
 impl PathRiskHow {
+    /// Every way, in the order reports and schemas list them.
+    pub const ALL: [PathRiskHow; 3] = [PathRiskHow::Partition, PathRiskHow::Pooled, PathRiskHow::Sum];
+
     /// `partition`, `pooled`, `sum` (reports).
     pub fn as_str(self) -> &'static str {
         match self {
@@ -371,6 +376,22 @@ impl PathRiskHow {
             PathRiskHow::Pooled => "pooled",
             PathRiskHow::Sum => "sum",
         }
+    }
+}
+
+impl std::fmt::Display for PathRiskHow {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl std::str::FromStr for PathRiskHow {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        PathRiskHow::ALL
+            .into_iter()
+            .find(|h| h.as_str() == s)
+            .ok_or_else(|| format!("unknown way '{s}' (expected partition, pooled or sum)"))
     }
 }
 

@@ -46,9 +46,12 @@ pub const MOMENT_ORDERS: [u32; 3] = [4, 6, 8];
 /// obstacle then has fewer moment bounds, stated in `risk` and in [`HigherMoments::limit`]).
 pub const MAX_HIGHER_MOMENT_WORK: usize = 250_000;
 
-/// Which bounds may prove a piece or a point safe.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+/// Which bounds may prove a piece or a point safe: `auto` or `cantelli`.
+// Its serde names are its `as_str` names (a test holds them equal); a scene file's unknown
+// name is serde's error, a request's `UnknownBound`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
+#[schemars(inline)]
 pub enum BoundChoice {
     /// The tightest sound one (the default): Cantelli first (cheapest), then zero risk
     /// from bounded support and the shifted moment bounds of orders 4, 6 and 8, on
@@ -135,18 +138,40 @@ impl Serialize for BoundKind {
     }
 }
 
+impl BoundKind {
+    /// The kinds a report names (what [`BoundKind`]'s `Deserialize` reads).
+    pub const NAMED: [BoundKind; 6] = [
+        BoundKind::Cantelli,
+        BoundKind::Support,
+        BoundKind::Moment(4),
+        BoundKind::Moment(6),
+        BoundKind::Moment(8),
+        BoundKind::Tail,
+    ];
+}
+
+impl schemars::JsonSchema for BoundKind {
+    fn inline_schema() -> bool {
+        true
+    }
+
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "BoundKind".into()
+    }
+
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        let names: Vec<&str> = BoundKind::NAMED.iter().map(BoundKind::as_str).collect();
+        schemars::json_schema!({ "type": "string", "enum": names })
+    }
+}
+
 impl<'de> Deserialize<'de> for BoundKind {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let s = String::deserialize(d)?;
-        match s.as_str() {
-            "cantelli" => Ok(BoundKind::Cantelli),
-            "support" => Ok(BoundKind::Support),
-            "moment4" => Ok(BoundKind::Moment(4)),
-            "moment6" => Ok(BoundKind::Moment(6)),
-            "moment8" => Ok(BoundKind::Moment(8)),
-            "tail" => Ok(BoundKind::Tail),
-            other => Err(serde::de::Error::custom(format!("unknown bound kind '{other}'"))),
-        }
+        BoundKind::NAMED
+            .into_iter()
+            .find(|k| k.as_str() == s)
+            .ok_or_else(|| serde::de::Error::custom(format!("unknown bound kind '{s}'")))
     }
 }
 
@@ -830,6 +855,23 @@ pub fn exceedance_bound(c: &RiskContour, r: &QPoly) -> Option<(BoundKind, BigRat
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The names serde (and so the scene files and the JSON Schemas) use for a bound
+    /// choice are its `as_str` names, in `ALL`'s order.
+    #[test]
+    fn bound_choice_serde_names_are_its_names() {
+        // documented variants: one `const` per variant under `oneOf` (else an `enum`)
+        let schema = schemars::schema_for!(BoundChoice);
+        let names: Vec<&str> = match (schema.get("enum"), schema.get("oneOf")) {
+            (Some(e), _) => e.as_array().expect("a list").iter().filter_map(|v| v.as_str()).collect(),
+            (None, Some(o)) => o.as_array().expect("a list").iter().filter_map(|v| v.get("const")?.as_str()).collect(),
+            _ => panic!("no names in {schema:?}"),
+        };
+        assert_eq!(names, BoundChoice::ALL.map(|b| b.as_str()));
+        for b in BoundChoice::ALL {
+            assert_eq!(b.as_str().parse::<BoundChoice>(), Ok(b));
+        }
+    }
 
     /// Central moments by independent parameter groups equal the expansion of the powers of
     /// Z, exactly (rationals), for Gaussian, uniform and discrete parameters in two to three

@@ -83,7 +83,7 @@ impl WorkBudget {
 pub type Waypoint = (f64, Vec<f64>);
 
 /// What post-processing did.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct SmoothStats {
     /// Waypoints before and after shortcutting.
     pub waypoints_before: usize,
