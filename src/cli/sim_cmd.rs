@@ -134,192 +134,256 @@ fn run_crowd(a: CrowdArgs) -> Result<i32, CliError> {
 }
 
 async fn episodes(client: &Client, a: &CrowdArgs, accel: f64) -> Result<i32, CliError> {
+    let mut tally = Tally::default();
+    for ep in 0..a.episodes {
+        episode(client, a, accel, ep, &mut tally).await?;
+    }
+    if let Some(path) = &a.animate {
+        std::fs::write(path, animation(&tally.frames, a.pedestrians, a.delta, a.robot_radius))
+            .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    }
+    println!("{}", tally.summary(a));
+    Ok(0)
+}
+
+/// What the episodes of a crowd simulation found, added up.
+#[derive(Default)]
+struct Tally {
+    reached: usize,
+    collisions: usize,
+    no_plan: usize,
+    /// Times to the goal (s).
+    times: Vec<f64>,
+    /// Replan round trips, update and plan (ms).
+    lat: Vec<f64>,
+    /// Update round trips (ms).
+    upd: Vec<f64>,
+    /// Failed replans by error code.
+    reasons: std::collections::BTreeMap<String, usize>,
+    /// The first episode's frames (`--animate`).
+    frames: Vec<Frame>,
+}
+
+impl Tally {
+    /// The summary line (JSON): outcomes, medians and 99th percentiles.
+    fn summary(&mut self, a: &CrowdArgs) -> serde_json::Value {
+        let pct = |v: &mut Vec<f64>, q: f64| -> Option<f64> {
+            v.sort_by(f64::total_cmp);
+            (!v.is_empty()).then(|| v[((v.len() - 1) as f64 * q).round() as usize])
+        };
+        serde_json::json!({
+            "episodes": a.episodes, "reached_goal": self.reached, "collisions": self.collisions,
+            "time_to_goal_s_median": pct(&mut self.times, 0.5), "replan_ms_p50": pct(&mut self.lat, 0.5),
+            "replan_ms_p99": pct(&mut self.lat, 0.99), "no_plan": self.no_plan, "no_plan_reasons": self.reasons,
+            "replans": self.lat.len(),
+            "update_ms_p50": pct(&mut self.upd, 0.5), "update_ms_p99": pct(&mut self.upd, 0.99),
+            "pedestrians": a.pedestrians, "delta": a.delta, "robot_radius": a.robot_radius,
+        })
+    }
+}
+
+/// The scene of episode `name`: the corridor, each pedestrian's prediction at time 0, the
+/// horizon `t_max` and a window beyond it.
+fn episode_scene(world: &mut Crowd, name: &str, a: &CrowdArgs, accel: f64, t_max: f64) -> serde_json::Value {
+    let (lo, hi) = crowd::bounds();
+    let obstacles: Vec<serde_json::Value> = (0..world.walkers.len())
+        .map(|i| serde_json::json!({"id": world.walkers[i].id.clone(), "pedestrian": world.prediction(i, 0.0)}))
+        .collect();
+    serde_json::json!({"format": "riskplan-scene/1", "name": name, "dim": 2,
+        "workspace": {"lower": lo, "upper": hi}, "horizon": [0.0, t_max + a.window], "risk": a.delta,
+        "robot_radius": a.robot_radius, "obstacles": obstacles,
+        "planner": {"max_speed": a.max_speed, "max_accel": accel}})
+}
+
+/// The update at time `t`: the pedestrians that left deleted, every other one's prediction
+/// put; and where each is predicted [`CONTOUR_AHEAD`] later (for the animation).
+fn predictions(world: &mut Crowd, t: f64, removed: &mut Vec<String>) -> (Vec<Change>, Vec<[f64; 2]>) {
+    let mut changes: Vec<Change> = removed
+        .drain(..)
+        .map(|id| Change { op: ChangeOp::Delete.into(), id, poly: None, params: None, pedestrian: None })
+        .collect();
+    let mut ahead: Vec<[f64; 2]> = Vec::with_capacity(world.walkers.len());
+    for i in 0..world.walkers.len() {
+        let p = world.prediction(i, t);
+        let (m, n) = (&p["position"], world.walkers[i].nominal);
+        let at = |d: usize| m[d].as_f64().unwrap_or(world.walkers[i].x[d]) + n[d] * CONTOUR_AHEAD;
+        ahead.push([at(0), at(1)]);
+        changes.push(Change {
+            op: ChangeOp::Put.into(),
+            id: world.walkers[i].id.clone(),
+            poly: None,
+            params: None,
+            pedestrian: Some(EmbeddedJson(p)),
+        });
+    }
+    (changes, ahead)
+}
+
+/// One frame of the animation: the robot at `x`, its plan from `t`, the pedestrians and
+/// their contours `ahead`.
+fn frame(world: &Crowd, plan: Option<&Trajectory>, x: [f64; 2], t: f64, ahead: &[[f64; 2]], radius: f64) -> Frame {
+    let plan_pts = plan
+        .map(|p| {
+            let (t0, t1) = (t, p.pieces.last().map_or(t, |q| q.t1));
+            (0..=20).map(|k| crowd::follow(p, t0 + (t1 - t0) * k as f64 / 20.0).0).collect()
+        })
+        .unwrap_or_default();
+    let walkers = world
+        .walkers
+        .iter()
+        .zip(ahead)
+        .map(|(w, c)| FrameWalker { x: w.x, radius: w.radius, ahead: *c, delta_radius: radius })
+        .collect();
+    Frame { robot: x, plan: plan_pts, walkers }
+}
+
+/// One episode: the scene put, then every [`STEP`] the pedestrians' update, a replan
+/// from the robot's state, a step along the plan (at rest where none is left), until the
+/// goal, a contact or the time limit.
+async fn episode(client: &Client, a: &CrowdArgs, accel: f64, ep: usize, tally: &mut Tally) -> Result<(), CliError> {
     let (start, goal) = crowd::start_goal();
     let straight = (goal[0] - start[0]).hypot(goal[1] - start[1]);
     // an episode lasts at most four times the straight crossing at full speed
     let t_max = 4.0 * straight / a.max_speed;
-    let (lo, hi) = crowd::bounds();
-    let (mut reached, mut collisions, mut no_plan) = (0usize, 0usize, 0usize);
-    let mut times = Vec::new();
-    let mut lat = Vec::new();
-    let mut upd = Vec::new();
-    let mut reasons: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
-    let mut frames: Vec<Frame> = Vec::new();
-    for ep in 0..a.episodes {
-        let params = CrowdParams::default();
-        let clear = 2.0 * (params.radius.1 + a.robot_radius) + 1.0;
-        let mut world = Crowd::new(a.pedestrians, a.seed.wrapping_add(ep as u64), params, start, clear);
-        let name = format!("sim-crowd-{}", a.seed.wrapping_add(ep as u64));
-        let obstacles: Vec<serde_json::Value> = (0..world.walkers.len())
-            .map(|i| serde_json::json!({"id": world.walkers[i].id.clone(), "pedestrian": world.prediction(i, 0.0)}))
-            .collect();
-        let scene = serde_json::json!({"format": "riskplan-scene/1", "name": name, "dim": 2,
-            "workspace": {"lower": lo, "upper": hi}, "horizon": [0.0, t_max + a.window], "risk": a.delta,
-            "robot_radius": a.robot_radius, "obstacles": obstacles,
-            "planner": {"max_speed": a.max_speed, "max_accel": accel}});
-        client
-            .apply(&name, &ApplyRequest { scene: Some(EmbeddedJson(scene)), ..Default::default() })
-            .await
-            .map_err(|e| CliError(format!("episode {ep}: cannot put the scene: {e}")))?;
-        let (mut x, mut v) = (start, [0.0, 0.0]);
-        let mut plan: Option<Trajectory> = None;
-        let mut t = 0.0;
-        let mut outcome = "timeout";
-        let mut removed: Vec<String> = Vec::new();
-        while t < t_max {
-            // the predictions (and the pedestrians that left)
-            let mut changes: Vec<Change> = removed
-                .drain(..)
-                .map(|id| Change { op: ChangeOp::Delete.into(), id, poly: None, params: None, pedestrian: None })
-                .collect();
-            let mut ahead: Vec<[f64; 2]> = Vec::with_capacity(world.walkers.len());
-            for i in 0..world.walkers.len() {
-                let p = world.prediction(i, t);
-                let (m, n) = (&p["position"], world.walkers[i].nominal);
-                let at = |d: usize| m[d].as_f64().unwrap_or(world.walkers[i].x[d]) + n[d] * CONTOUR_AHEAD;
-                ahead.push([at(0), at(1)]);
-                changes.push(Change {
-                    op: ChangeOp::Put.into(),
-                    id: world.walkers[i].id.clone(),
-                    poly: None,
-                    params: None,
-                    pedestrian: Some(EmbeddedJson(p)),
-                });
-            }
-            let began = Instant::now();
-            let applied = client.apply(&name, &ApplyRequest { changes: Some(changes), ..Default::default() }).await;
-            upd.push(began.elapsed().as_secs_f64() * 1e3);
-            if let Err(e) = applied {
-                return Err(CliError(format!("episode {ep} at t = {t:.1}: the update failed: {e}")));
-            }
-            let req = PlanRequest {
-                goal: Some(goal.to_vec()),
-                time_limit: Some(a.plan_time),
-                seed: Some(1 + (t / STEP).round() as u64),
-                t_now: Some(t),
-                position: Some(x.to_vec()),
-                velocity: Some(v.to_vec()),
-                horizon: Some(a.window),
-                robot_id: Some("sim-robot".into()),
-                ..Default::default()
-            };
-            let reply = client.plan(&name, &req).await;
-            lat.push(began.elapsed().as_secs_f64() * 1e3);
-            let failed_last = match reply {
-                Ok(r) => {
-                    if a.verbose {
-                        let p = r.stats.progress.as_ref();
-                        eprintln!(
-                            "episode {ep} t = {t:.1}: {:.1} ms (plan {:.1} ms, {} of {} edges accepted), plan to {:.2} s, {}",
-                            began.elapsed().as_secs_f64() * 1e3,
-                            r.stats.planning_time_s * 1e3,
-                            r.stats.edges_accepted,
-                            r.stats.edges_checked,
-                            r.pieces.last().map_or(t, |p| p.t1),
-                            match p {
-                                Some(p) if p.reached_goal => "reaches the goal".to_string(),
-                                Some(p) => format!("{:.2} from the goal at its end", p.remaining_distance),
-                                None => String::new(),
-                            }
-                        );
-                    }
-                    plan = Some(Trajectory { format: TRAJECTORY_FORMAT.into(), pieces: r.pieces });
-                    false
-                }
-                Err(e) => {
-                    no_plan += 1;
-                    if a.verbose {
-                        eprintln!("episode {ep} t = {t:.1}: no plan: {e}");
-                    }
-                    let code = match &e {
-                        riskplan_service::ClientError::Server(r) => r.code.as_str().to_string(),
-                        other => other.to_string(),
-                    };
-                    *reasons.entry(code).or_insert(0usize) += 1;
-                    true
-                }
-            };
-            // move along the plan (at rest where none is left)
-            let follow = |s: f64| -> [f64; 2] {
-                match &plan {
-                    Some(p) => crowd::follow(p, s).0,
-                    None => x,
-                }
-            };
-            if ep == 0 && a.animate.is_some() {
-                let plan_pts = plan
-                    .as_ref()
-                    .map(|p| {
-                        let (t0, t1) = (t, p.pieces.last().map_or(t, |q| q.t1));
-                        (0..=20).map(|k| crowd::follow(p, t0 + (t1 - t0) * k as f64 / 20.0).0).collect()
-                    })
-                    .unwrap_or_default();
-                frames.push(Frame {
-                    robot: x,
-                    plan: plan_pts,
-                    walkers: world
-                        .walkers
-                        .iter()
-                        .zip(&ahead)
-                        .map(|(w, c)| FrameWalker {
-                            x: w.x,
-                            radius: w.radius,
-                            ahead: *c,
-                            delta_radius: delta_radius(&params, a, CONTOUR_AHEAD),
-                        })
-                        .collect(),
-                });
-            }
-            if let Some(id) = world.contact(&follow, t, STEP, a.robot_radius) {
-                collisions += 1;
-                outcome = "collision";
-                let end = plan.as_ref().and_then(|p| p.pieces.last()).map_or(t, |p| p.t1);
-                eprintln!(
-                    "episode {ep}: contact with {id} at t = {t:.1} (robot at {x:?}, speed {:.2}; its plan ends at {end:.2}; last replan {})",
-                    v[0].hypot(v[1]),
-                    if failed_last { "failed" } else { "succeeded" }
-                );
-                break;
-            }
-            let next = t + STEP;
-            let (nx, nv) = match &plan {
-                Some(p) => crowd::follow(p, next),
-                None => (x, [0.0, 0.0]),
-            };
-            x = nx;
-            v = nv;
-            t = next;
-            removed = world.step(STEP, x, clear);
-            if (x[0] - goal[0]).hypot(x[1] - goal[1]) <= 1e-6 * straight {
-                reached += 1;
-                times.push(t);
-                outcome = "goal";
-                break;
-            }
+    let params = CrowdParams::default();
+    let clear = 2.0 * (params.radius.1 + a.robot_radius) + 1.0;
+    let mut world = Crowd::new(a.pedestrians, a.seed.wrapping_add(ep as u64), params, start, clear);
+    let name = format!("sim-crowd-{}", a.seed.wrapping_add(ep as u64));
+    let scene = episode_scene(&mut world, &name, a, accel, t_max);
+    client
+        .apply(&name, &ApplyRequest { scene: Some(EmbeddedJson(scene)), ..Default::default() })
+        .await
+        .map_err(|e| CliError(format!("episode {ep}: cannot put the scene: {e}")))?;
+    let (mut x, mut v) = (start, [0.0, 0.0]);
+    let mut plan: Option<Trajectory> = None;
+    let mut t = 0.0;
+    let mut outcome = "timeout";
+    let mut removed: Vec<String> = Vec::new();
+    while t < t_max {
+        let (changes, ahead) = predictions(&mut world, t, &mut removed);
+        let began = Instant::now();
+        let applied = client.apply(&name, &ApplyRequest { changes: Some(changes), ..Default::default() }).await;
+        tally.upd.push(began.elapsed().as_secs_f64() * 1e3);
+        if let Err(e) = applied {
+            return Err(CliError(format!("episode {ep} at t = {t:.1}: the update failed: {e}")));
         }
-        let left = (x[0] - goal[0]).hypot(x[1] - goal[1]);
-        println!(
-            "episode {ep}: {outcome} at t = {t:.1} s (robot at [{:.2}, {:.2}], {left:.2} from the goal)",
-            x[0], x[1]
-        );
+        let state = Robot { t, x, v, goal, began };
+        let failed_last = !replan(client, a, &name, ep, &state, &mut plan, tally).await;
+        // move along the plan (at rest where none is left)
+        let follow = |s: f64| -> [f64; 2] {
+            match &plan {
+                Some(p) => crowd::follow(p, s).0,
+                None => x,
+            }
+        };
+        if ep == 0 && a.animate.is_some() {
+            let radius = delta_radius(&params, a, CONTOUR_AHEAD);
+            tally.frames.push(frame(&world, plan.as_ref(), x, t, &ahead, radius));
+        }
+        if let Some(id) = world.contact(&follow, t, STEP, a.robot_radius) {
+            tally.collisions += 1;
+            outcome = "collision";
+            let end = plan.as_ref().and_then(|p| p.pieces.last()).map_or(t, |p| p.t1);
+            eprintln!(
+                "episode {ep}: contact with {id} at t = {t:.1} (robot at {x:?}, speed {:.2}; its plan ends at {end:.2}; last replan {})",
+                v[0].hypot(v[1]),
+                if failed_last { "failed" } else { "succeeded" }
+            );
+            break;
+        }
+        let next = t + STEP;
+        (x, v) = match &plan {
+            Some(p) => crowd::follow(p, next),
+            None => (x, [0.0, 0.0]),
+        };
+        t = next;
+        removed = world.step(STEP, x, clear);
+        if (x[0] - goal[0]).hypot(x[1] - goal[1]) <= 1e-6 * straight {
+            tally.reached += 1;
+            tally.times.push(t);
+            outcome = "goal";
+            break;
+        }
     }
-    if let Some(path) = &a.animate {
-        std::fs::write(path, animation(&frames, a.pedestrians, a.delta, a.robot_radius))
-            .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
-    }
-    let pct = |v: &mut Vec<f64>, q: f64| -> Option<f64> {
-        v.sort_by(f64::total_cmp);
-        (!v.is_empty()).then(|| v[((v.len() - 1) as f64 * q).round() as usize])
+    let left = (x[0] - goal[0]).hypot(x[1] - goal[1]);
+    println!("episode {ep}: {outcome} at t = {t:.1} s (robot at [{:.2}, {:.2}], {left:.2} from the goal)", x[0], x[1]);
+    Ok(())
+}
+
+/// The robot's state at a replan: the time, position, velocity and goal, and when the
+/// cycle's round trip began.
+struct Robot {
+    t: f64,
+    x: [f64; 2],
+    v: [f64; 2],
+    goal: [f64; 2],
+    began: Instant,
+}
+
+/// A receding-horizon replan from the robot's state (the round trip counted from the
+/// cycle's start): `plan` becomes the reply's pieces; on a failure the last plan stays,
+/// and its error code is counted. Whether it succeeded.
+async fn replan(
+    client: &Client,
+    a: &CrowdArgs,
+    name: &str,
+    ep: usize,
+    r: &Robot,
+    plan: &mut Option<Trajectory>,
+    tally: &mut Tally,
+) -> bool {
+    let req = PlanRequest {
+        goal: Some(r.goal.to_vec()),
+        time_limit: Some(a.plan_time),
+        seed: Some(1 + (r.t / STEP).round() as u64),
+        t_now: Some(r.t),
+        position: Some(r.x.to_vec()),
+        velocity: Some(r.v.to_vec()),
+        horizon: Some(a.window),
+        robot_id: Some("sim-robot".into()),
+        ..Default::default()
     };
-    let summary = serde_json::json!({
-        "episodes": a.episodes, "reached_goal": reached, "collisions": collisions,
-        "time_to_goal_s_median": pct(&mut times, 0.5), "replan_ms_p50": pct(&mut lat, 0.5),
-        "replan_ms_p99": pct(&mut lat, 0.99), "no_plan": no_plan, "no_plan_reasons": reasons, "replans": lat.len(),
-        "update_ms_p50": pct(&mut upd, 0.5), "update_ms_p99": pct(&mut upd, 0.99),
-        "pedestrians": a.pedestrians, "delta": a.delta, "robot_radius": a.robot_radius,
-    });
-    println!("{summary}");
-    Ok(0)
+    let reply = client.plan(name, &req).await;
+    tally.lat.push(r.began.elapsed().as_secs_f64() * 1e3);
+    match reply {
+        Ok(reply) => {
+            if a.verbose {
+                log_reply(ep, r.t, r.began, &reply);
+            }
+            *plan = Some(Trajectory { format: TRAJECTORY_FORMAT.into(), pieces: reply.pieces });
+            true
+        }
+        Err(e) => {
+            tally.no_plan += 1;
+            if a.verbose {
+                eprintln!("episode {ep} t = {:.1}: no plan: {e}", r.t);
+            }
+            let code = match &e {
+                riskplan_service::ClientError::Server(r) => r.code.as_str().to_string(),
+                other => other.to_string(),
+            };
+            *tally.reasons.entry(code).or_insert(0usize) += 1;
+            false
+        }
+    }
+}
+
+/// `--verbose`: one replan's round trip, planner time, edges and where its plan ends.
+fn log_reply(ep: usize, t: f64, began: Instant, r: &riskplan_service::proto::PlanReply) {
+    let p = r.stats.progress.as_ref();
+    eprintln!(
+        "episode {ep} t = {t:.1}: {:.1} ms (plan {:.1} ms, {} of {} edges accepted), plan to {:.2} s, {}",
+        began.elapsed().as_secs_f64() * 1e3,
+        r.stats.planning_time_s * 1e3,
+        r.stats.edges_accepted,
+        r.stats.edges_checked,
+        r.pieces.last().map_or(t, |p| p.t1),
+        match p {
+            Some(p) if p.reached_goal => "reaches the goal".to_string(),
+            Some(p) => format!("{:.2} from the goal at its end", p.remaining_distance),
+            None => String::new(),
+        }
+    );
 }
 
 /// The radius of a pedestrian's Δ-contour `tau` seconds after its prediction, for the
